@@ -1,0 +1,277 @@
+//! Loading FMI 2.0 FMUs: [`archive`] unpacks the zip safely, [`schema`] reads
+//! `modelDescription.xml`, [`ffi`] loads the platform binary and holds every `unsafe` call, and
+//! [`instance`] wraps one live FMU instance with `Drop` and `reset()`.
+
+pub mod archive;
+pub mod ffi;
+pub mod instance;
+pub mod schema;
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+pub use archive::{ArchiveError, ArchiveLimits};
+pub use ffi::{FfiError, Status};
+pub use instance::Instance;
+pub use schema::{ModelDescription, SchemaError};
+
+/// FMI interface of an instance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum Interface {
+    ModelExchange,
+    CoSimulation,
+}
+
+impl std::fmt::Display for Interface {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Interface::ModelExchange => "Model Exchange",
+            Interface::CoSimulation => "Co-Simulation",
+        })
+    }
+}
+
+/// Everything that can go wrong while loading or driving an FMU.
+#[derive(Debug, thiserror::Error)]
+pub enum FmuError {
+    #[error(transparent)]
+    Archive(#[from] ArchiveError),
+    #[error(transparent)]
+    Schema(#[from] SchemaError),
+    #[error(transparent)]
+    Ffi(#[from] FfiError),
+    #[error("cannot read {path}: {message}")]
+    Read { path: PathBuf, message: String },
+    #[error("FMU has no {platform} binary {expected} (platforms present: {present})")]
+    NoPlatformBinary {
+        platform: &'static str,
+        expected: String,
+        present: String,
+    },
+    #[error("FMU does not offer {0}")]
+    NoInterface(Interface),
+    #[error(
+        "FMU {model} needs its execution tool (needsExecutionTool=true), which fmucal cannot provide"
+    )]
+    NeedsExecutionTool { model: String },
+    #[error(
+        "FMU {model} can be instantiated only once per process and an instance is already live"
+    )]
+    OnlyOncePerProcess { model: String },
+    #[error("fmi2Instantiate of {model} failed{}", fmt_messages(.messages))]
+    Instantiate {
+        model: String,
+        messages: Vec<String>,
+    },
+    #[error("{function} returned {status:?} at t={time}{}", fmt_messages(.messages))]
+    Call {
+        function: &'static str,
+        status: Status,
+        time: f64,
+        messages: Vec<String>,
+    },
+}
+
+fn fmt_messages(m: &[String]) -> String {
+    if m.is_empty() {
+        String::new()
+    } else {
+        format!(": {}", m.join("; "))
+    }
+}
+
+/// The platform folder name of this build under `binaries/`.
+pub const PLATFORM: &str = if cfg!(all(target_os = "linux", target_pointer_width = "64")) {
+    "linux64"
+} else if cfg!(target_os = "linux") {
+    "linux32"
+} else if cfg!(target_os = "macos") {
+    "darwin64"
+} else if cfg!(target_pointer_width = "64") {
+    "win64"
+} else {
+    "win32"
+};
+
+const LIB_EXT: &str = if cfg!(target_os = "macos") {
+    "dylib"
+} else if cfg!(windows) {
+    "dll"
+} else {
+    "so"
+};
+
+/// Options for [`Fmu::load_with`].
+#[derive(Debug, Clone)]
+pub struct LoadOptions {
+    /// Where archives are unpacked. Default: [`archive::default_cache_dir`].
+    pub cache_dir: PathBuf,
+    /// Unpacking limits. Default: [`ArchiveLimits::default`].
+    pub limits: ArchiveLimits,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        Self {
+            cache_dir: archive::default_cache_dir(),
+            limits: ArchiveLimits::default(),
+        }
+    }
+}
+
+/// A loaded FMU: its description, unpacked files and resolved binaries.
+pub struct Fmu {
+    pub description: Arc<ModelDescription>,
+    /// SHA-256 of the archive, hex.
+    pub sha256: String,
+    /// Directory the archive was unpacked into.
+    pub dir: PathBuf,
+    me: Option<Arc<ffi::Api>>,
+    cs: Option<Arc<ffi::Api>>,
+}
+
+impl std::fmt::Debug for Fmu {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Fmu")
+            .field("model", &self.description.model_name)
+            .field("dir", &self.dir)
+            .finish()
+    }
+}
+
+impl Fmu {
+    /// Loads an `.fmu` with default options.
+    ///
+    /// # Errors
+    /// See [`Fmu::load_with`].
+    pub fn load(path: &Path) -> Result<Self, FmuError> {
+        Self::load_with(path, &LoadOptions::default())
+    }
+
+    /// Unpacks (or reuses the cached copy of) the archive, parses its model description and
+    /// loads the binaries of every interface it declares.
+    ///
+    /// # Errors
+    /// [`FmuError::Archive`] for unsafe or corrupt archives, [`FmuError::Schema`] for bad or
+    /// unsupported descriptions, [`FmuError::NoPlatformBinary`] when no binary for this platform
+    /// exists, [`FmuError::Ffi`] when the binary cannot be loaded or misses a function.
+    pub fn load_with(path: &Path, opts: &LoadOptions) -> Result<Self, FmuError> {
+        let unpacked = archive::unpack(path, &opts.cache_dir, &opts.limits)?;
+        let md_path = unpacked.dir.join("modelDescription.xml");
+        let xml = std::fs::read(&md_path).map_err(|e| FmuError::Read {
+            path: md_path.clone(),
+            message: e.to_string(),
+        })?;
+        let xml = String::from_utf8(xml).map_err(|_| FmuError::Read {
+            path: md_path.clone(),
+            message: "not UTF-8".into(),
+        })?;
+        let description = Arc::new(ModelDescription::parse(&xml)?);
+        for info in [&description.model_exchange, &description.co_simulation]
+            .into_iter()
+            .flatten()
+        {
+            if info.needs_execution_tool {
+                return Err(FmuError::NeedsExecutionTool {
+                    model: description.model_name.clone(),
+                });
+            }
+        }
+        let me_id = description
+            .model_exchange
+            .as_ref()
+            .map(|i| i.model_identifier.clone());
+        let cs_id = description
+            .co_simulation
+            .as_ref()
+            .map(|i| i.model_identifier.clone());
+        let load = |id: &str, me: bool, cs: bool| -> Result<Arc<ffi::Api>, FmuError> {
+            let bin = binary_path(&unpacked.dir, id)?;
+            Ok(ffi::Api::load(&bin, id, me, cs)?)
+        };
+        let (me, cs) = match (&me_id, &cs_id) {
+            (Some(a), Some(b)) if a == b => {
+                let api = load(a, true, true)?;
+                (Some(api.clone()), Some(api))
+            }
+            _ => (
+                me_id
+                    .as_deref()
+                    .map(|id| load(id, true, false))
+                    .transpose()?,
+                cs_id
+                    .as_deref()
+                    .map(|id| load(id, false, true))
+                    .transpose()?,
+            ),
+        };
+        Ok(Fmu {
+            description,
+            sha256: unpacked.sha256,
+            dir: unpacked.dir,
+            me,
+            cs,
+        })
+    }
+
+    /// Interfaces this FMU offers, Model Exchange first.
+    pub fn interfaces(&self) -> Vec<Interface> {
+        let mut v = vec![];
+        if self.me.is_some() {
+            v.push(Interface::ModelExchange);
+        }
+        if self.cs.is_some() {
+            v.push(Interface::CoSimulation);
+        }
+        v
+    }
+
+    pub(crate) fn api(&self, interface: Interface) -> Result<Arc<ffi::Api>, FmuError> {
+        match interface {
+            Interface::ModelExchange => self.me.clone(),
+            Interface::CoSimulation => self.cs.clone(),
+        }
+        .ok_or(FmuError::NoInterface(interface))
+    }
+
+    /// `file://` URI of the unpacked `resources/` folder, as `fmi2Instantiate` expects.
+    pub fn resource_uri(&self) -> String {
+        let mut uri = String::from("file://");
+        for b in self.dir.join("resources").to_string_lossy().bytes() {
+            match b {
+                b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'/' | b'-' | b'_' | b'.' | b'~' => {
+                    uri.push(b as char)
+                }
+                _ => uri.push_str(&format!("%{b:02X}")),
+            }
+        }
+        uri
+    }
+}
+
+fn binary_path(dir: &Path, identifier: &str) -> Result<PathBuf, FmuError> {
+    let expected = format!("binaries/{PLATFORM}/{identifier}.{LIB_EXT}");
+    let path = dir.join(&expected);
+    if path.is_file() {
+        return Ok(path);
+    }
+    let mut present: Vec<String> = std::fs::read_dir(dir.join("binaries"))
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .filter(|e| e.path().is_dir())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    present.sort();
+    let present = if present.is_empty() {
+        "none".to_owned()
+    } else {
+        present.join(", ")
+    };
+    Err(FmuError::NoPlatformBinary {
+        platform: PLATFORM,
+        expected,
+        present,
+    })
+}

@@ -1,0 +1,874 @@
+//! Parses an FMI 2.0 `modelDescription.xml` into plain structs (FMI 2.0 specification, section
+//! 2.2). Pure code with no `unsafe`: attributes, capability flags, units, type definitions,
+//! scalar variables (with declared types resolved), model structure and default experiment.
+//! FMI 1.0 and 3.0 descriptions are recognised and rejected with [`SchemaError::UnsupportedVersion`].
+#![deny(unsafe_code)]
+
+use quick_xml::Reader;
+use quick_xml::events::{BytesStart, Event};
+use serde::Serialize;
+
+/// Why a model description could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum SchemaError {
+    /// The XML is not well formed (or ends early).
+    #[error("malformed modelDescription.xml at byte {position}: {message}")]
+    Xml { position: u64, message: String },
+    /// The description is valid XML but breaks an FMI 2.0 rule.
+    #[error("invalid modelDescription.xml: {0}")]
+    Invalid(String),
+    /// `fmiVersion` is not 2.0.
+    #[error("FMI {0} FMUs are not supported yet (fmucal reads FMI 2.0)")]
+    UnsupportedVersion(String),
+}
+
+/// Where a variable's value comes from (FMI 2.0 section 2.2.7, `causality`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub enum Causality {
+    Parameter,
+    CalculatedParameter,
+    Input,
+    Output,
+    Local,
+    Independent,
+}
+
+/// When a variable may change (`variability`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub enum Variability {
+    Constant,
+    Fixed,
+    Tunable,
+    Discrete,
+    Continuous,
+}
+
+/// How a variable is initialised (`initial`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub enum Initial {
+    Exact,
+    Approx,
+    Calculated,
+}
+
+/// The base type of a scalar variable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum VarType {
+    Real,
+    Integer,
+    Boolean,
+    String,
+    Enumeration,
+}
+
+/// A start value, typed by the variable's base type.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum Value {
+    Real(f64),
+    Integer(i64),
+    Boolean(bool),
+    String(String),
+}
+
+impl std::fmt::Display for Value {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Value::Real(v) => write!(f, "{v}"),
+            Value::Integer(v) => write!(f, "{v}"),
+            Value::Boolean(v) => write!(f, "{v}"),
+            Value::String(v) => write!(f, "{v:?}"),
+        }
+    }
+}
+
+/// One `ScalarVariable`. Attributes missing on the variable are taken from its declared type.
+#[derive(Debug, Clone, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct ScalarVariable {
+    pub name: String,
+    pub value_reference: u32,
+    pub description: Option<String>,
+    pub causality: Causality,
+    pub variability: Variability,
+    /// `initial` as written in the file; see [`ScalarVariable::effective_initial`].
+    pub initial: Option<Initial>,
+    pub var_type: VarType,
+    pub declared_type: Option<String>,
+    pub start: Option<Value>,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    pub nominal: Option<f64>,
+    pub unit: Option<String>,
+    /// 1-based index of the state this variable is the derivative of.
+    pub derivative: Option<usize>,
+    pub reinit: bool,
+}
+
+impl ScalarVariable {
+    /// `initial`, with the default of FMI 2.0 Table 2.2.7 applied when the file omits it.
+    pub fn effective_initial(&self) -> Option<Initial> {
+        if self.initial.is_some() {
+            return self.initial;
+        }
+        match (self.causality, self.variability) {
+            (_, Variability::Constant) => Some(Initial::Exact),
+            (Causality::Parameter, _) => Some(Initial::Exact),
+            (Causality::CalculatedParameter, _) => Some(Initial::Calculated),
+            (Causality::Output | Causality::Local, _) => Some(Initial::Calculated),
+            (Causality::Input | Causality::Independent, _) => None,
+        }
+    }
+
+    /// Whether the environment may set this variable before initialisation (FMI 2.0 section
+    /// 4.2.4/3.2.3: variables with a start value that are not constants or calculated).
+    pub fn settable_before_init(&self) -> bool {
+        self.variability != Variability::Constant
+            && (self.causality == Causality::Input
+                || matches!(
+                    self.effective_initial(),
+                    Some(Initial::Exact | Initial::Approx)
+                ))
+    }
+}
+
+/// Capability flags of the `ModelExchange` or `CoSimulation` element.
+#[derive(Debug, Clone, Default, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct InterfaceInfo {
+    pub model_identifier: String,
+    pub needs_execution_tool: bool,
+    pub can_be_instantiated_only_once_per_process: bool,
+    pub can_not_use_memory_management_functions: bool,
+    pub can_get_and_set_fmu_state: bool,
+    pub can_serialize_fmu_state: bool,
+    pub provides_directional_derivative: bool,
+    /// Model Exchange only.
+    pub completed_integrator_step_not_needed: bool,
+    /// Co-Simulation only.
+    pub can_handle_variable_communication_step_size: bool,
+    pub can_interpolate_inputs: bool,
+    pub max_output_derivative_order: u32,
+    pub can_run_asynchronuously: bool,
+}
+
+/// A `BaseUnit`: exponents of the SI base units plus factor and offset.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct BaseUnit {
+    pub kg: i32,
+    pub m: i32,
+    pub s: i32,
+    #[serde(rename = "A")]
+    pub a: i32,
+    #[serde(rename = "K")]
+    pub k: i32,
+    pub mol: i32,
+    pub cd: i32,
+    pub rad: i32,
+    pub factor: f64,
+    pub offset: f64,
+}
+
+/// A `DisplayUnit` of a unit.
+#[derive(Debug, Clone, Serialize)]
+pub struct DisplayUnit {
+    pub name: String,
+    pub factor: f64,
+    pub offset: f64,
+}
+
+/// A `Unit` of `UnitDefinitions`.
+#[derive(Debug, Clone, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Unit {
+    pub name: String,
+    pub base_unit: Option<BaseUnit>,
+    pub display_units: Vec<DisplayUnit>,
+}
+
+/// An `Item` of an enumeration type.
+#[derive(Debug, Clone, Serialize)]
+pub struct EnumItem {
+    pub name: String,
+    pub value: i64,
+    pub description: Option<String>,
+}
+
+/// A `SimpleType` of `TypeDefinitions`.
+#[derive(Debug, Clone, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct SimpleType {
+    pub name: String,
+    pub description: Option<String>,
+    pub base_type: VarType,
+    pub quantity: Option<String>,
+    pub unit: Option<String>,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    pub nominal: Option<f64>,
+    pub items: Vec<EnumItem>,
+}
+
+/// `DefaultExperiment`.
+#[derive(Debug, Clone, Default, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct DefaultExperiment {
+    pub start_time: Option<f64>,
+    pub stop_time: Option<f64>,
+    pub tolerance: Option<f64>,
+    pub step_size: Option<f64>,
+}
+
+/// An `Unknown` of `ModelStructure`: 1-based variable index and its dependencies.
+#[derive(Debug, Clone, Serialize)]
+pub struct Unknown {
+    pub index: usize,
+    pub dependencies: Option<Vec<usize>>,
+}
+
+/// `ModelStructure`.
+#[derive(Debug, Clone, Default, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct ModelStructure {
+    pub outputs: Vec<Unknown>,
+    pub derivatives: Vec<Unknown>,
+    pub initial_unknowns: Vec<Unknown>,
+}
+
+/// The parsed `fmiModelDescription`.
+#[derive(Debug, Clone, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct ModelDescription {
+    pub fmi_version: String,
+    pub model_name: String,
+    pub guid: String,
+    pub description: Option<String>,
+    pub generation_tool: Option<String>,
+    pub generation_date_and_time: Option<String>,
+    pub variable_naming_convention: Option<String>,
+    pub number_of_event_indicators: usize,
+    pub model_exchange: Option<InterfaceInfo>,
+    pub co_simulation: Option<InterfaceInfo>,
+    pub unit_definitions: Vec<Unit>,
+    pub type_definitions: Vec<SimpleType>,
+    pub log_categories: Vec<String>,
+    pub default_experiment: Option<DefaultExperiment>,
+    pub variables: Vec<ScalarVariable>,
+    pub model_structure: ModelStructure,
+}
+
+impl ModelDescription {
+    /// Parses the text of a `modelDescription.xml`.
+    ///
+    /// # Errors
+    /// [`SchemaError::Xml`] for malformed XML, [`SchemaError::UnsupportedVersion`] for FMI 1.0/3.0,
+    /// [`SchemaError::Invalid`] for a description that breaks FMI 2.0's rules.
+    pub fn parse(xml: &str) -> Result<Self, SchemaError> {
+        Parser::default().run(xml)
+    }
+
+    /// The variable with this name.
+    pub fn variable(&self, name: &str) -> Option<&ScalarVariable> {
+        self.variables.iter().find(|v| v.name == name)
+    }
+
+    /// Continuous states in the order of `ModelStructure/Derivatives` (the order of the state
+    /// vector in `fmi2GetContinuousStates`), as (state, derivative) pairs.
+    pub fn states(&self) -> Vec<(&ScalarVariable, &ScalarVariable)> {
+        self.model_structure
+            .derivatives
+            .iter()
+            .filter_map(|u| {
+                let der = &self.variables[u.index - 1];
+                der.derivative.map(|s| (&self.variables[s - 1], der))
+            })
+            .collect()
+    }
+
+    /// Variables with causality output, in `ModelStructure/Outputs` order.
+    pub fn outputs(&self) -> Vec<&ScalarVariable> {
+        self.model_structure
+            .outputs
+            .iter()
+            .map(|u| &self.variables[u.index - 1])
+            .collect()
+    }
+}
+
+#[derive(Default)]
+struct Parser {
+    md: Option<ModelDescription>,
+    path: Vec<String>,
+}
+
+fn err_invalid(msg: impl Into<String>) -> SchemaError {
+    SchemaError::Invalid(msg.into())
+}
+
+/// Attributes of one element as (name, unescaped value) pairs.
+struct Attrs(Vec<(String, String)>);
+
+impl Attrs {
+    fn read(e: &BytesStart<'_>, position: u64) -> Result<Self, SchemaError> {
+        let mut out = Vec::new();
+        for attr in e.attributes() {
+            let attr = attr.map_err(|err| SchemaError::Xml {
+                position,
+                message: err.to_string(),
+            })?;
+            let key = attr.key.as_ref().to_string();
+            let value = attr
+                .normalized_value(quick_xml::XmlVersion::Implicit1_0)
+                .map_err(|err| SchemaError::Xml {
+                    position,
+                    message: err.to_string(),
+                })?
+                .into_owned();
+            out.push((key, value));
+        }
+        Ok(Attrs(out))
+    }
+
+    fn get(&self, key: &str) -> Option<&str> {
+        self.0
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+    }
+
+    fn string(&self, key: &str) -> Option<String> {
+        self.get(key).map(str::to_owned)
+    }
+
+    fn required(&self, elem: &str, key: &str) -> Result<String, SchemaError> {
+        self.string(key)
+            .ok_or_else(|| err_invalid(format!("<{elem}> has no {key} attribute")))
+    }
+
+    fn f64(&self, elem: &str, key: &str) -> Result<Option<f64>, SchemaError> {
+        self.get(key)
+            .map(|v| {
+                v.trim()
+                    .parse::<f64>()
+                    .map_err(|_| err_invalid(format!("<{elem}> {key}=\"{v}\" is not a number")))
+            })
+            .transpose()
+    }
+
+    fn int<T: std::str::FromStr>(&self, elem: &str, key: &str) -> Result<Option<T>, SchemaError> {
+        self.get(key)
+            .map(|v| {
+                v.trim()
+                    .parse::<T>()
+                    .map_err(|_| err_invalid(format!("<{elem}> {key}=\"{v}\" is not an integer")))
+            })
+            .transpose()
+    }
+
+    fn bool(&self, elem: &str, key: &str) -> Result<bool, SchemaError> {
+        match self.get(key).map(str::trim) {
+            None | Some("false") | Some("0") => Ok(false),
+            Some("true") | Some("1") => Ok(true),
+            Some(v) => Err(err_invalid(format!(
+                "<{elem}> {key}=\"{v}\" is not a boolean"
+            ))),
+        }
+    }
+}
+
+impl Parser {
+    fn run(mut self, xml: &str) -> Result<ModelDescription, SchemaError> {
+        let mut reader = Reader::from_str(xml);
+        reader.config_mut().trim_text(true);
+        loop {
+            let position = reader.buffer_position();
+            let event = reader.read_event().map_err(|e| SchemaError::Xml {
+                position,
+                message: e.to_string(),
+            })?;
+            match event {
+                Event::Start(e) => {
+                    let name = e.name().as_ref().to_string();
+                    let attrs = Attrs::read(&e, position)?;
+                    self.open(&name, &attrs)?;
+                    self.path.push(name);
+                }
+                Event::Empty(e) => {
+                    let name = e.name().as_ref().to_string();
+                    let attrs = Attrs::read(&e, position)?;
+                    self.open(&name, &attrs)?;
+                }
+                Event::End(_) => {
+                    self.path.pop();
+                }
+                Event::Eof => break,
+                _ => {}
+            }
+        }
+        if !self.path.is_empty() {
+            return Err(SchemaError::Xml {
+                position: xml.len() as u64,
+                message: format!("document ends inside <{}>", self.path.join("/")),
+            });
+        }
+        let mut md = self
+            .md
+            .ok_or_else(|| err_invalid("no <fmiModelDescription> root element"))?;
+        finish(&mut md)?;
+        Ok(md)
+    }
+
+    fn md(&mut self, elem: &str) -> Result<&mut ModelDescription, SchemaError> {
+        self.md
+            .as_mut()
+            .ok_or_else(|| err_invalid(format!("<{elem}> outside <fmiModelDescription>")))
+    }
+
+    fn parent(&self) -> Option<&str> {
+        self.path.last().map(String::as_str)
+    }
+
+    fn open(&mut self, name: &str, a: &Attrs) -> Result<(), SchemaError> {
+        match (self.parent(), name) {
+            (None, "fmiModelDescription") => {
+                let version = a.required(name, "fmiVersion")?;
+                if !version.starts_with("2.") {
+                    let major = version.split('.').next().unwrap_or(&version);
+                    return Err(SchemaError::UnsupportedVersion(format!("{major}.0")));
+                }
+                self.md = Some(ModelDescription {
+                    fmi_version: version,
+                    model_name: a.required(name, "modelName")?,
+                    guid: a.required(name, "guid")?,
+                    description: a.string("description"),
+                    generation_tool: a.string("generationTool"),
+                    generation_date_and_time: a.string("generationDateAndTime"),
+                    variable_naming_convention: a.string("variableNamingConvention"),
+                    number_of_event_indicators: a
+                        .int(name, "numberOfEventIndicators")?
+                        .unwrap_or(0),
+                    model_exchange: None,
+                    co_simulation: None,
+                    unit_definitions: vec![],
+                    type_definitions: vec![],
+                    log_categories: vec![],
+                    default_experiment: None,
+                    variables: vec![],
+                    model_structure: ModelStructure::default(),
+                });
+            }
+            (None, other) => {
+                // FMI 1.0 also uses fmiModelDescription; FMI 3.0 too. Anything else is not an FMU.
+                return Err(err_invalid(format!(
+                    "root element is <{other}>, expected <fmiModelDescription>"
+                )));
+            }
+            (Some("fmiModelDescription"), "ModelExchange" | "CoSimulation") => {
+                let info = interface_info(name, a)?;
+                let md = self.md(name)?;
+                if name == "ModelExchange" {
+                    md.model_exchange = Some(info);
+                } else {
+                    md.co_simulation = Some(info);
+                }
+            }
+            (Some("UnitDefinitions"), "Unit") => {
+                let unit = Unit {
+                    name: a.required(name, "name")?,
+                    base_unit: None,
+                    display_units: vec![],
+                };
+                self.md(name)?.unit_definitions.push(unit);
+            }
+            (Some("Unit"), "BaseUnit") => {
+                let base = BaseUnit {
+                    kg: a.int(name, "kg")?.unwrap_or(0),
+                    m: a.int(name, "m")?.unwrap_or(0),
+                    s: a.int(name, "s")?.unwrap_or(0),
+                    a: a.int(name, "A")?.unwrap_or(0),
+                    k: a.int(name, "K")?.unwrap_or(0),
+                    mol: a.int(name, "mol")?.unwrap_or(0),
+                    cd: a.int(name, "cd")?.unwrap_or(0),
+                    rad: a.int(name, "rad")?.unwrap_or(0),
+                    factor: a.f64(name, "factor")?.unwrap_or(1.0),
+                    offset: a.f64(name, "offset")?.unwrap_or(0.0),
+                };
+                if let Some(unit) = self.md(name)?.unit_definitions.last_mut() {
+                    unit.base_unit = Some(base);
+                }
+            }
+            (Some("Unit"), "DisplayUnit") => {
+                let du = DisplayUnit {
+                    name: a.required(name, "name")?,
+                    factor: a.f64(name, "factor")?.unwrap_or(1.0),
+                    offset: a.f64(name, "offset")?.unwrap_or(0.0),
+                };
+                if let Some(unit) = self.md(name)?.unit_definitions.last_mut() {
+                    unit.display_units.push(du);
+                }
+            }
+            (Some("TypeDefinitions"), "SimpleType") => {
+                let st = SimpleType {
+                    name: a.required(name, "name")?,
+                    description: a.string("description"),
+                    base_type: VarType::Real,
+                    quantity: None,
+                    unit: None,
+                    min: None,
+                    max: None,
+                    nominal: None,
+                    items: vec![],
+                };
+                self.md(name)?.type_definitions.push(st);
+            }
+            (Some("SimpleType"), "Real" | "Integer" | "Boolean" | "String" | "Enumeration") => {
+                let base_type = var_type(name);
+                let (quantity, unit, min, max, nominal) = (
+                    a.string("quantity"),
+                    a.string("unit"),
+                    a.f64(name, "min")?,
+                    a.f64(name, "max")?,
+                    a.f64(name, "nominal")?,
+                );
+                if let Some(st) = self.md(name)?.type_definitions.last_mut() {
+                    st.base_type = base_type;
+                    st.quantity = quantity;
+                    st.unit = unit;
+                    st.min = min;
+                    st.max = max;
+                    st.nominal = nominal;
+                }
+            }
+            (Some("Enumeration"), "Item") => {
+                let item = EnumItem {
+                    name: a.required(name, "name")?,
+                    value: a
+                        .int(name, "value")?
+                        .ok_or_else(|| err_invalid("<Item> has no value attribute"))?,
+                    description: a.string("description"),
+                };
+                if let Some(st) = self.md(name)?.type_definitions.last_mut() {
+                    st.items.push(item);
+                }
+            }
+            (Some("LogCategories"), "Category") => {
+                let cat = a.required(name, "name")?;
+                self.md(name)?.log_categories.push(cat);
+            }
+            (Some("fmiModelDescription"), "DefaultExperiment") => {
+                let de = DefaultExperiment {
+                    start_time: a.f64(name, "startTime")?,
+                    stop_time: a.f64(name, "stopTime")?,
+                    tolerance: a.f64(name, "tolerance")?,
+                    step_size: a.f64(name, "stepSize")?,
+                };
+                self.md(name)?.default_experiment = Some(de);
+            }
+            (Some("ModelVariables"), "ScalarVariable") => {
+                let var = scalar_variable(a)?;
+                self.md(name)?.variables.push(var);
+            }
+            (Some("ScalarVariable"), "Real" | "Integer" | "Boolean" | "String" | "Enumeration") => {
+                let md = self.md(name)?;
+                let var = md
+                    .variables
+                    .last_mut()
+                    .ok_or_else(|| err_invalid("type element outside a variable"))?;
+                apply_type_element(var, name, a)?;
+            }
+            (Some("Outputs" | "Derivatives" | "InitialUnknowns"), "Unknown") => {
+                let list = self.parent().unwrap_or_default().to_owned();
+                let unknown = Unknown {
+                    index: a
+                        .int(name, "index")?
+                        .ok_or_else(|| err_invalid("<Unknown> has no index attribute"))?,
+                    dependencies: a
+                        .get("dependencies")
+                        .map(|d| {
+                            d.split_whitespace()
+                                .map(|x| {
+                                    x.parse().map_err(|_| {
+                                        err_invalid(format!("bad dependency index {x:?}"))
+                                    })
+                                })
+                                .collect::<Result<Vec<usize>, _>>()
+                        })
+                        .transpose()?,
+                };
+                let ms = &mut self.md(name)?.model_structure;
+                match list.as_str() {
+                    "Outputs" => ms.outputs.push(unknown),
+                    "Derivatives" => ms.derivatives.push(unknown),
+                    _ => ms.initial_unknowns.push(unknown),
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+}
+
+fn var_type(elem: &str) -> VarType {
+    match elem {
+        "Real" => VarType::Real,
+        "Integer" => VarType::Integer,
+        "Boolean" => VarType::Boolean,
+        "String" => VarType::String,
+        _ => VarType::Enumeration,
+    }
+}
+
+fn interface_info(elem: &str, a: &Attrs) -> Result<InterfaceInfo, SchemaError> {
+    Ok(InterfaceInfo {
+        model_identifier: a.required(elem, "modelIdentifier")?,
+        needs_execution_tool: a.bool(elem, "needsExecutionTool")?,
+        can_be_instantiated_only_once_per_process: a
+            .bool(elem, "canBeInstantiatedOnlyOncePerProcess")?,
+        can_not_use_memory_management_functions: a
+            .bool(elem, "canNotUseMemoryManagementFunctions")?,
+        can_get_and_set_fmu_state: a.bool(elem, "canGetAndSetFMUstate")?,
+        can_serialize_fmu_state: a.bool(elem, "canSerializeFMUstate")?,
+        provides_directional_derivative: a.bool(elem, "providesDirectionalDerivative")?,
+        completed_integrator_step_not_needed: a.bool(elem, "completedIntegratorStepNotNeeded")?,
+        can_handle_variable_communication_step_size: a
+            .bool(elem, "canHandleVariableCommunicationStepSize")?,
+        can_interpolate_inputs: a.bool(elem, "canInterpolateInputs")?,
+        max_output_derivative_order: a.int(elem, "maxOutputDerivativeOrder")?.unwrap_or(0),
+        can_run_asynchronuously: a.bool(elem, "canRunAsynchronuously")?,
+    })
+}
+
+fn scalar_variable(a: &Attrs) -> Result<ScalarVariable, SchemaError> {
+    let name = a.required("ScalarVariable", "name")?;
+    let ctx = |msg: String| err_invalid(format!("variable {name:?}: {msg}"));
+    let value_reference = a
+        .get("valueReference")
+        .ok_or_else(|| ctx("no valueReference".into()))?
+        .trim()
+        .parse::<u32>()
+        .map_err(|_| ctx("valueReference is not an unsigned integer".into()))?;
+    let causality = match a.get("causality").unwrap_or("local") {
+        "parameter" => Causality::Parameter,
+        "calculatedParameter" => Causality::CalculatedParameter,
+        "input" => Causality::Input,
+        "output" => Causality::Output,
+        "local" => Causality::Local,
+        "independent" => Causality::Independent,
+        other => return Err(ctx(format!("unknown causality {other:?}"))),
+    };
+    let variability = match a.get("variability").unwrap_or("continuous") {
+        "constant" => Variability::Constant,
+        "fixed" => Variability::Fixed,
+        "tunable" => Variability::Tunable,
+        "discrete" => Variability::Discrete,
+        "continuous" => Variability::Continuous,
+        other => return Err(ctx(format!("unknown variability {other:?}"))),
+    };
+    let initial = match a.get("initial") {
+        None => None,
+        Some("exact") => Some(Initial::Exact),
+        Some("approx") => Some(Initial::Approx),
+        Some("calculated") => Some(Initial::Calculated),
+        Some(other) => return Err(ctx(format!("unknown initial {other:?}"))),
+    };
+    Ok(ScalarVariable {
+        name: name.clone(),
+        value_reference,
+        description: a.string("description"),
+        causality,
+        variability,
+        initial,
+        var_type: VarType::Real,
+        declared_type: None,
+        start: None,
+        min: None,
+        max: None,
+        nominal: None,
+        unit: None,
+        derivative: None,
+        reinit: false,
+    })
+}
+
+fn apply_type_element(var: &mut ScalarVariable, elem: &str, a: &Attrs) -> Result<(), SchemaError> {
+    let name = var.name.clone();
+    let ctx = |e: SchemaError| match e {
+        SchemaError::Invalid(msg) => err_invalid(format!("variable {name:?}: {msg}")),
+        other => other,
+    };
+    var.var_type = var_type(elem);
+    var.declared_type = a.string("declaredType");
+    var.unit = a.string("unit");
+    var.min = a.f64(elem, "min").map_err(ctx)?;
+    var.max = a.f64(elem, "max").map_err(ctx)?;
+    var.nominal = a.f64(elem, "nominal").map_err(ctx)?;
+    var.derivative = a.int(elem, "derivative").map_err(ctx)?;
+    var.reinit = a.bool(elem, "reinit").map_err(ctx)?;
+    var.start = match a.get("start") {
+        None => None,
+        Some(s) => Some(match var.var_type {
+            VarType::Real => Value::Real(s.trim().parse().map_err(|_| {
+                err_invalid(format!("variable {name:?}: start {s:?} is not a number"))
+            })?),
+            VarType::Integer | VarType::Enumeration => {
+                Value::Integer(s.trim().parse().map_err(|_| {
+                    err_invalid(format!("variable {name:?}: start {s:?} is not an integer"))
+                })?)
+            }
+            VarType::Boolean => Value::Boolean(match s.trim() {
+                "true" | "1" => true,
+                "false" | "0" => false,
+                _ => {
+                    return Err(err_invalid(format!(
+                        "variable {name:?}: start {s:?} is not a boolean"
+                    )));
+                }
+            }),
+            VarType::String => Value::String(s.to_owned()),
+        }),
+    };
+    Ok(())
+}
+
+/// Resolves declared types and checks cross references once the whole document is read.
+fn finish(md: &mut ModelDescription) -> Result<(), SchemaError> {
+    if md.model_exchange.is_none() && md.co_simulation.is_none() {
+        return Err(err_invalid(
+            "neither <ModelExchange> nor <CoSimulation> is present",
+        ));
+    }
+    let n = md.variables.len();
+    for var in &mut md.variables {
+        if let Some(tname) = &var.declared_type {
+            let st = md
+                .type_definitions
+                .iter()
+                .find(|t| &t.name == tname)
+                .ok_or_else(|| {
+                    err_invalid(format!(
+                        "variable {:?}: unknown declaredType {tname:?}",
+                        var.name
+                    ))
+                })?;
+            if st.base_type != var.var_type {
+                return Err(err_invalid(format!(
+                    "variable {:?}: declaredType {tname:?} is a {:?}, not a {:?}",
+                    var.name, st.base_type, var.var_type
+                )));
+            }
+            var.unit = var.unit.take().or_else(|| st.unit.clone());
+            var.min = var.min.or(st.min);
+            var.max = var.max.or(st.max);
+            var.nominal = var.nominal.or(st.nominal);
+        }
+        if let Some(d) = var.derivative
+            && (d == 0 || d > n)
+        {
+            return Err(err_invalid(format!(
+                "variable {:?}: derivative index {d} out of range 1..={n}",
+                var.name
+            )));
+        }
+        if matches!(var.causality, Causality::Input) && var.start.is_none() {
+            return Err(err_invalid(format!(
+                "input {:?} has no start value",
+                var.name
+            )));
+        }
+    }
+    let ms = &md.model_structure;
+    for (list, unknowns) in [
+        ("Outputs", &ms.outputs),
+        ("Derivatives", &ms.derivatives),
+        ("InitialUnknowns", &ms.initial_unknowns),
+    ] {
+        for u in unknowns {
+            if u.index == 0 || u.index > n {
+                return Err(err_invalid(format!(
+                    "ModelStructure/{list}: index {} out of range 1..={n}",
+                    u.index
+                )));
+            }
+        }
+    }
+    for u in &ms.derivatives {
+        if md.variables[u.index - 1].derivative.is_none() {
+            return Err(err_invalid(format!(
+                "ModelStructure/Derivatives: variable {:?} has no derivative attribute",
+                md.variables[u.index - 1].name
+            )));
+        }
+    }
+    if ms.derivatives.len()
+        != md
+            .variables
+            .iter()
+            .filter(|v| v.derivative.is_some())
+            .count()
+    {
+        return Err(err_invalid(
+            "ModelStructure/Derivatives does not list every variable with a derivative attribute",
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"<?xml version="1.0"?>
+<fmiModelDescription fmiVersion="2.0" modelName="M" guid="{g}" generationTool="t">
+  <ModelExchange modelIdentifier="M"/>
+  <ModelVariables>
+    <ScalarVariable name="x" valueReference="0" causality="output" variability="continuous" initial="exact"><Real start="2"/></ScalarVariable>
+    <ScalarVariable name="der(x)" valueReference="1"><Real derivative="1"/></ScalarVariable>
+  </ModelVariables>
+  <ModelStructure><Outputs><Unknown index="1"/></Outputs><Derivatives><Unknown index="2"/></Derivatives></ModelStructure>
+</fmiModelDescription>"#;
+
+    #[test]
+    fn minimal_description_yields_state_derivative_pair() {
+        let md = ModelDescription::parse(MINIMAL).unwrap();
+        let states = md.states();
+        assert_eq!(states.len(), 1);
+        assert_eq!(states[0].0.name, "x");
+        assert_eq!(states[0].1.name, "der(x)");
+        assert_eq!(md.variable("x").unwrap().start, Some(Value::Real(2.0)));
+        assert_eq!(
+            md.variable("der(x)").unwrap().effective_initial(),
+            Some(Initial::Calculated)
+        );
+    }
+
+    #[test]
+    fn fmi1_and_fmi3_are_rejected_as_unsupported() {
+        for (v, want) in [("1.0", "1.0"), ("3.0", "3.0"), ("3.0-beta", "3.0")] {
+            let xml = MINIMAL.replace("fmiVersion=\"2.0\"", &format!("fmiVersion=\"{v}\""));
+            match ModelDescription::parse(&xml) {
+                Err(SchemaError::UnsupportedVersion(got)) => assert_eq!(got, want),
+                other => panic!("expected UnsupportedVersion for {v}, got {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn truncated_xml_is_a_malformed_error() {
+        let cut = &MINIMAL[..MINIMAL.len() / 2];
+        assert!(
+            matches!(ModelDescription::parse(cut), Err(SchemaError::Xml { .. })),
+            "{:?}",
+            ModelDescription::parse(cut)
+        );
+    }
+
+    #[test]
+    fn derivative_index_out_of_range_is_invalid() {
+        let xml = MINIMAL.replace("derivative=\"1\"", "derivative=\"7\"");
+        let err = ModelDescription::parse(&xml).unwrap_err().to_string();
+        assert!(err.contains("derivative index 7"), "{err}");
+    }
+}

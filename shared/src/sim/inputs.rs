@@ -1,0 +1,148 @@
+//! Input time series: validated tables of samples, interpolated linearly for continuous Real
+//! inputs and held (right-continuous) for discrete ones, as FMPy does. Repeated time stamps
+//! mark a jump: at exactly that time the later row applies. Before the first and after the
+//! last sample, the end values are held.
+
+use super::spec::SimError;
+
+/// Samples of named input signals.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InputTable {
+    pub time: Vec<f64>,
+    /// (column name, samples aligned with `time`).
+    pub columns: Vec<(String, Vec<f64>)>,
+}
+
+impl InputTable {
+    /// Checks the table: at least one row, finite values, non-decreasing time, equal lengths.
+    ///
+    /// # Errors
+    /// [`SimError::Invalid`] naming the column and row at fault.
+    pub fn validate(&self) -> Result<(), SimError> {
+        if self.time.is_empty() {
+            return Err(SimError::Invalid("input table has no rows".into()));
+        }
+        for (i, t) in self.time.iter().enumerate() {
+            if !t.is_finite() {
+                return Err(SimError::Invalid(format!(
+                    "input time in row {} is not a finite number",
+                    i + 1
+                )));
+            }
+            if i > 0 && *t < self.time[i - 1] {
+                return Err(SimError::Invalid(format!(
+                    "input time is not monotonic: row {} has t={} after t={}",
+                    i + 1,
+                    t,
+                    self.time[i - 1]
+                )));
+            }
+        }
+        for (name, values) in &self.columns {
+            if values.len() != self.time.len() {
+                return Err(SimError::Invalid(format!(
+                    "input column {name:?} has {} values for {} time stamps",
+                    values.len(),
+                    self.time.len()
+                )));
+            }
+            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                return Err(SimError::Invalid(format!(
+                    "input column {name:?} row {} is not a finite number",
+                    i + 1
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Index of the last sample with time <= t (the later one of repeated stamps), if any.
+    fn right_index(&self, t: f64) -> Option<usize> {
+        let n = self.time.partition_point(|&x| x <= t);
+        n.checked_sub(1)
+    }
+
+    /// Value of column `col` at time `t`: linear between samples, or held if `hold`.
+    pub fn value(&self, col: usize, t: f64, hold: bool) -> f64 {
+        let v = &self.columns[col].1;
+        let Some(i) = self.right_index(t) else {
+            return v[0];
+        };
+        if hold || i + 1 >= self.time.len() {
+            return v[i];
+        }
+        let (t0, t1) = (self.time[i], self.time[i + 1]);
+        if t1 <= t0 {
+            return v[i + 1];
+        }
+        let w = (t - t0) / (t1 - t0);
+        v[i] + w * (v[i + 1] - v[i])
+    }
+
+    /// Sample times strictly after `t` where a held value may change or a jump occurs; the
+    /// Model Exchange driver stops the integrator there.
+    pub fn next_breakpoint(&self, t: f64, discrete_columns: &[usize]) -> Option<f64> {
+        let start = self.time.partition_point(|&x| x <= t);
+        (start..self.time.len()).find_map(|i| {
+            let ti = self.time[i];
+            let jump = i + 1 < self.time.len() && self.time[i + 1] == ti;
+            let held_change = i > 0
+                && discrete_columns
+                    .iter()
+                    .any(|&c| self.columns[c].1[i] != self.columns[c].1[i - 1]);
+            (jump || held_change).then_some(ti)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table() -> InputTable {
+        InputTable {
+            time: vec![0.0, 1.0, 1.0, 3.0],
+            columns: vec![("u".into(), vec![0.0, 2.0, 5.0, 9.0])],
+        }
+    }
+
+    #[test]
+    fn linear_interpolation_takes_the_right_value_at_a_jump() {
+        let t = table();
+        assert_eq!(t.value(0, 0.5, false), 1.0);
+        assert_eq!(t.value(0, 1.0, false), 5.0);
+        assert_eq!(t.value(0, 2.0, false), 7.0);
+        assert_eq!(t.value(0, -1.0, false), 0.0);
+        assert_eq!(t.value(0, 10.0, false), 9.0);
+    }
+
+    #[test]
+    fn hold_keeps_the_last_sample() {
+        let t = table();
+        assert_eq!(t.value(0, 0.99, true), 0.0);
+        assert_eq!(t.value(0, 2.5, true), 5.0);
+    }
+
+    #[test]
+    fn decreasing_time_and_nan_are_rejected() {
+        let mut t = table();
+        t.time[3] = 0.5;
+        assert!(
+            t.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("not monotonic")
+        );
+        let mut t = table();
+        t.columns[0].1[1] = f64::NAN;
+        assert!(t.validate().unwrap_err().to_string().contains("row 2"));
+    }
+
+    #[test]
+    fn breakpoints_are_jumps_and_held_changes() {
+        let t = table();
+        assert_eq!(t.next_breakpoint(0.0, &[]), Some(1.0));
+        assert_eq!(t.next_breakpoint(1.0, &[]), None);
+        assert_eq!(t.next_breakpoint(1.0, &[0]), Some(3.0));
+    }
+}

@@ -1,0 +1,436 @@
+//! Resolves a [`SimSpec`] against a model description before any FMU call: defaults from
+//! `DefaultExperiment`, the output grid, typed and range-checked parameter values, input and
+//! output variables. Every bad request is rejected here with a message naming the culprit.
+
+use std::time::Instant;
+
+use super::inputs::InputTable;
+use super::spec::{OutputTimes, SimError, SimSpec, Solver};
+use crate::fmu::schema::{Causality, ScalarVariable, VarType, Variability};
+use crate::fmu::{FmuError, Instance, Interface, ModelDescription};
+
+/// A typed value to set on the FMU.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Setting {
+    Real(u32, f64),
+    Integer(u32, i32),
+    Boolean(u32, bool),
+}
+
+/// A variable read back or written, with its value reference and base type.
+#[derive(Debug, Clone)]
+pub struct VarRef {
+    pub name: String,
+    pub vr: u32,
+    pub var_type: VarType,
+}
+
+/// An input column bound to an FMU input.
+#[derive(Debug, Clone)]
+pub struct InputBinding {
+    pub var: VarRef,
+    pub column: usize,
+    /// Held (discrete or non-Real) rather than interpolated.
+    pub hold: bool,
+}
+
+/// The resolved request.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    pub interface: Interface,
+    pub start: f64,
+    pub stop: f64,
+    pub grid: Vec<f64>,
+    pub tolerance: f64,
+    pub solver: Solver,
+    pub max_step: Option<f64>,
+    pub max_steps: u64,
+    pub deadline: Option<Instant>,
+    pub settings: Vec<Setting>,
+    pub inputs: Option<InputTable>,
+    pub input_bindings: Vec<InputBinding>,
+    pub outputs: Vec<VarRef>,
+}
+
+fn invalid(msg: impl Into<String>) -> SimError {
+    SimError::Invalid(msg.into())
+}
+
+fn var_ref(v: &ScalarVariable) -> VarRef {
+    VarRef {
+        name: v.name.clone(),
+        vr: v.value_reference,
+        var_type: v.var_type,
+    }
+}
+
+impl Plan {
+    /// Resolves `spec` for an FMU offering `interfaces`.
+    ///
+    /// # Errors
+    /// [`SimError::Invalid`] naming the bad field, variable or value.
+    pub fn new(
+        md: &ModelDescription,
+        interfaces: &[Interface],
+        spec: &SimSpec,
+    ) -> Result<Plan, SimError> {
+        let interface = match spec.interface {
+            Some(i) if interfaces.contains(&i) => i,
+            Some(i) => return Err(invalid(format!("the FMU does not offer {i}"))),
+            None => *interfaces
+                .first()
+                .ok_or_else(|| invalid("the FMU offers no interface"))?,
+        };
+        let de = md.default_experiment.clone().unwrap_or_default();
+        let start = spec.start_time.or(de.start_time).unwrap_or(0.0);
+        let stop = spec.stop_time.or(de.stop_time).unwrap_or(start + 1.0);
+        if !start.is_finite() || !stop.is_finite() || stop <= start {
+            return Err(invalid(format!(
+                "stop time {stop} must be a finite number after start time {start}"
+            )));
+        }
+        let tolerance = spec.tolerance.or(de.tolerance).unwrap_or(1e-6);
+        if !(tolerance > 0.0 && tolerance < 1.0) {
+            return Err(invalid(format!("tolerance {tolerance} must be in (0, 1)")));
+        }
+        if let Some(h) = spec.max_step
+            && !(h > 0.0 && h.is_finite())
+        {
+            return Err(invalid(format!("max step {h} must be a positive number")));
+        }
+        let output_times = spec.output_times.clone().unwrap_or_else(|| {
+            OutputTimes::Interval(
+                de.step_size
+                    .filter(|h| *h > 0.0)
+                    .unwrap_or((stop - start) / 500.0),
+            )
+        });
+        let grid = build_grid(start, stop, &output_times)?;
+
+        let settings = spec
+            .parameters
+            .iter()
+            .map(|(name, text)| setting(md, name, text))
+            .collect::<Result<Vec<_>, _>>()?;
+
+        let (inputs, input_bindings) = match &spec.inputs {
+            None => (None, vec![]),
+            Some(table) => {
+                table.validate()?;
+                let bindings = table
+                    .columns
+                    .iter()
+                    .enumerate()
+                    .map(|(column, (name, _))| {
+                        let v = md.variable(name).ok_or_else(|| invalid(format!("input column {name:?} is not a variable of the model")))?;
+                        if v.causality != Causality::Input {
+                            return Err(invalid(format!("input column {name:?} is not an input of the model (causality {:?})", v.causality)));
+                        }
+                        if v.var_type == VarType::String {
+                            return Err(invalid(format!("String input {name:?} is not supported")));
+                        }
+                        Ok(InputBinding {
+                            var: var_ref(v),
+                            column,
+                            hold: v.var_type != VarType::Real || v.variability == Variability::Discrete,
+                        })
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
+                (Some(table.clone()), bindings)
+            }
+        };
+
+        let outputs = if spec.outputs.is_empty() {
+            let outs: Vec<VarRef> = md
+                .outputs()
+                .into_iter()
+                .filter(|v| v.var_type != VarType::String)
+                .map(var_ref)
+                .collect();
+            if outs.is_empty() {
+                md.states().into_iter().map(|(s, _)| var_ref(s)).collect()
+            } else {
+                outs
+            }
+        } else {
+            spec.outputs
+                .iter()
+                .map(|name| {
+                    let v = md
+                        .variable(name)
+                        .ok_or_else(|| invalid(format!("unknown output variable {name:?}")))?;
+                    if v.var_type == VarType::String {
+                        return Err(invalid(format!(
+                            "String variable {name:?} cannot be recorded"
+                        )));
+                    }
+                    Ok(var_ref(v))
+                })
+                .collect::<Result<Vec<_>, _>>()?
+        };
+
+        Ok(Plan {
+            interface,
+            start,
+            stop,
+            grid,
+            tolerance,
+            solver: spec.solver,
+            max_step: spec.max_step,
+            max_steps: spec.max_steps.unwrap_or(10_000_000),
+            deadline: spec.timeout.map(|d| Instant::now() + d),
+            settings,
+            inputs,
+            input_bindings,
+            outputs,
+        })
+    }
+
+    /// Sets parameters and start values (before `fmi2EnterInitializationMode`).
+    ///
+    /// # Errors
+    /// [`FmuError::Call`] if the FMU rejects a value.
+    pub fn apply_settings(&self, inst: &mut Instance) -> Result<(), FmuError> {
+        for s in &self.settings {
+            match *s {
+                Setting::Real(vr, v) => inst.call("fmi2SetReal", |c| c.set_real(&[vr], &[v]))?,
+                Setting::Integer(vr, v) => {
+                    inst.call("fmi2SetInteger", |c| c.set_integer(&[vr], &[v]))?
+                }
+                Setting::Boolean(vr, v) => {
+                    inst.call("fmi2SetBoolean", |c| c.set_boolean(&[vr], &[v as i32]))?
+                }
+            };
+        }
+        Ok(())
+    }
+
+    /// Sets the inputs' values at time `t`; with `continuous_only`, held inputs are skipped
+    /// (in Model Exchange they may change only at events).
+    ///
+    /// # Errors
+    /// [`FmuError::Call`] if the FMU rejects a value.
+    pub fn set_inputs(
+        &self,
+        inst: &mut Instance,
+        t: f64,
+        continuous_only: bool,
+    ) -> Result<(), FmuError> {
+        let Some(table) = &self.inputs else {
+            return Ok(());
+        };
+        for b in &self.input_bindings {
+            if continuous_only && b.hold {
+                continue;
+            }
+            let v = table.value(b.column, t, b.hold);
+            let vr = b.var.vr;
+            match b.var.var_type {
+                VarType::Real => inst.call("fmi2SetReal", |c| c.set_real(&[vr], &[v]))?,
+                VarType::Boolean => inst.call("fmi2SetBoolean", |c| {
+                    c.set_boolean(&[vr], &[(v != 0.0) as i32])
+                })?,
+                _ => inst.call("fmi2SetInteger", |c| {
+                    c.set_integer(&[vr], &[v.round() as i32])
+                })?,
+            };
+        }
+        Ok(())
+    }
+
+    /// Table columns of held inputs (their sample times are events in Model Exchange).
+    pub fn held_columns(&self) -> Vec<usize> {
+        self.input_bindings
+            .iter()
+            .filter(|b| b.hold)
+            .map(|b| b.column)
+            .collect()
+    }
+
+    /// Reads the recorded variables into `row`.
+    ///
+    /// # Errors
+    /// [`FmuError::Call`] if a get function fails.
+    pub fn read_outputs(&self, inst: &mut Instance, row: &mut [f64]) -> Result<(), FmuError> {
+        for (out, slot) in self.outputs.iter().zip(row.iter_mut()) {
+            let vr = out.vr;
+            *slot = match out.var_type {
+                VarType::Real => {
+                    let mut v = [0.0];
+                    inst.call("fmi2GetReal", |c| c.get_real(&[vr], &mut v))?;
+                    v[0]
+                }
+                VarType::Boolean => {
+                    let mut v = [0];
+                    inst.call("fmi2GetBoolean", |c| c.get_boolean(&[vr], &mut v))?;
+                    v[0] as f64
+                }
+                _ => {
+                    let mut v = [0];
+                    inst.call("fmi2GetInteger", |c| c.get_integer(&[vr], &mut v))?;
+                    v[0] as f64
+                }
+            };
+        }
+        Ok(())
+    }
+
+    /// Fails if the step budget or the wall-clock deadline is exhausted.
+    ///
+    /// # Errors
+    /// [`SimError::Budget`].
+    pub fn check_budget(&self, steps: u64, t: f64) -> Result<(), SimError> {
+        if steps > self.max_steps {
+            return Err(SimError::Budget {
+                time: t,
+                what: format!("more than {} steps", self.max_steps),
+            });
+        }
+        if let Some(d) = self.deadline
+            && Instant::now() > d
+        {
+            return Err(SimError::Budget {
+                time: t,
+                what: "wall-clock timeout".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+fn build_grid(start: f64, stop: f64, times: &OutputTimes) -> Result<Vec<f64>, SimError> {
+    match times {
+        OutputTimes::Interval(dt) => {
+            if !(*dt > 0.0 && dt.is_finite()) {
+                return Err(invalid(format!(
+                    "output interval {dt} must be a positive number"
+                )));
+            }
+            let n = ((stop - start) / dt + 1e-9).floor();
+            if n > 1e8 {
+                return Err(invalid(format!(
+                    "output interval {dt} gives more than 1e8 output times"
+                )));
+            }
+            let n = n as usize;
+            let mut grid: Vec<f64> = (0..=n).map(|i| start + i as f64 * dt).collect();
+            if stop - grid[n] > 1e-9 * dt {
+                grid.push(stop);
+            }
+            Ok(grid)
+        }
+        OutputTimes::Times(list) => {
+            if list.is_empty() {
+                return Err(invalid("the list of output times is empty"));
+            }
+            let tol = 1e-12 * (stop - start).abs().max(1.0);
+            for (i, t) in list.iter().enumerate() {
+                if !t.is_finite() || *t < start - tol || *t > stop + tol {
+                    return Err(invalid(format!(
+                        "output time {t} (entry {}) is outside [{start}, {stop}]",
+                        i + 1
+                    )));
+                }
+                if i > 0 && *t <= list[i - 1] {
+                    return Err(invalid(format!(
+                        "output times must increase: entry {} ({t}) follows {}",
+                        i + 1,
+                        list[i - 1]
+                    )));
+                }
+            }
+            Ok(list.clone())
+        }
+    }
+}
+
+/// Parses `text` for variable `name` and checks that it may be set and lies within min/max.
+fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, SimError> {
+    let v = md
+        .variable(name)
+        .ok_or_else(|| invalid(format!("unknown variable {name:?}")))?;
+    if !v.settable_before_init() {
+        return Err(invalid(format!(
+            "variable {name:?} may not be set (causality {:?}, variability {:?}, initial {:?})",
+            v.causality,
+            v.variability,
+            v.effective_initial()
+        )));
+    }
+    let text = text.trim();
+    let range = |x: f64| -> Result<(), SimError> {
+        if let Some(min) = v.min
+            && x < min
+        {
+            return Err(invalid(format!(
+                "{name} = {text} is below its minimum {min}"
+            )));
+        }
+        if let Some(max) = v.max
+            && x > max
+        {
+            return Err(invalid(format!(
+                "{name} = {text} is above its maximum {max}"
+            )));
+        }
+        Ok(())
+    };
+    match v.var_type {
+        VarType::Real => {
+            let x: f64 = text
+                .parse()
+                .map_err(|_| invalid(format!("{name} = {text:?} is not a number")))?;
+            if !x.is_finite() {
+                return Err(invalid(format!("{name} = {text} is not a finite number")));
+            }
+            range(x)?;
+            Ok(Setting::Real(v.value_reference, x))
+        }
+        VarType::Integer => {
+            let x: i32 = text
+                .parse()
+                .map_err(|_| invalid(format!("{name} = {text:?} is not an integer")))?;
+            range(x as f64)?;
+            Ok(Setting::Integer(v.value_reference, x))
+        }
+        VarType::Enumeration => {
+            let items = v
+                .declared_type
+                .as_ref()
+                .and_then(|t| md.type_definitions.iter().find(|st| &st.name == t))
+                .map(|st| st.items.clone())
+                .unwrap_or_default();
+            let x = match text.parse::<i32>() {
+                Ok(x) => x,
+                Err(_) => items
+                    .iter()
+                    .find(|i| i.name == text)
+                    .map(|i| i.value as i32)
+                    .ok_or_else(|| {
+                        let names: Vec<_> = items.iter().map(|i| i.name.as_str()).collect();
+                        invalid(format!(
+                            "{name} = {text:?} is not one of {}",
+                            names.join(", ")
+                        ))
+                    })?,
+            };
+            if !items.is_empty() && !items.iter().any(|i| i.value == x as i64) {
+                return Err(invalid(format!(
+                    "{name} = {x} is not a value of its enumeration"
+                )));
+            }
+            range(x as f64)?;
+            Ok(Setting::Integer(v.value_reference, x))
+        }
+        VarType::Boolean => match text {
+            "true" | "1" => Ok(Setting::Boolean(v.value_reference, true)),
+            "false" | "0" => Ok(Setting::Boolean(v.value_reference, false)),
+            _ => Err(invalid(format!(
+                "{name} = {text:?} is not a boolean (true/false)"
+            ))),
+        },
+        VarType::String => Err(invalid(format!(
+            "setting String variable {name:?} is not supported"
+        ))),
+    }
+}

@@ -1,0 +1,113 @@
+//! `fmucal inspect`: version, interfaces, generation tool, default experiment, and a table of
+//! parameters, inputs, outputs and states with start values and units.
+
+use anyhow::{Context, Result};
+use fmucal_shared::fmu::Fmu;
+use fmucal_shared::fmu::schema::{Causality, ModelDescription, ScalarVariable};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The FMU: a path, or the name of a built-in example.
+    model: String,
+    /// Print the full model description as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let path = super::model_arg::resolve(&args.model)?;
+    let fmu = Fmu::load(&path).with_context(|| format!("cannot load {}", path.display()))?;
+    let md = &fmu.description;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(md.as_ref())?);
+        return Ok(());
+    }
+    print!("{}", render(md));
+    Ok(())
+}
+
+fn render(md: &ModelDescription) -> String {
+    let mut s = String::new();
+    let mut line = |k: &str, v: String| s.push_str(&format!("{k:<18} {v}\n"));
+    line("Model", md.model_name.clone());
+    line("FMI version", md.fmi_version.clone());
+    line("GUID", md.guid.clone());
+    line(
+        "Generation tool",
+        md.generation_tool.clone().unwrap_or_else(|| "-".into()),
+    );
+    let mut interfaces = vec![];
+    if let Some(me) = &md.model_exchange {
+        interfaces.push(format!("Model Exchange ({})", me.model_identifier));
+    }
+    if let Some(cs) = &md.co_simulation {
+        interfaces.push(format!("Co-Simulation ({})", cs.model_identifier));
+    }
+    line("Interfaces", interfaces.join(", "));
+    line(
+        "Event indicators",
+        md.number_of_event_indicators.to_string(),
+    );
+    if let Some(de) = &md.default_experiment {
+        let f = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_else(|| "-".into());
+        line(
+            "Default experiment",
+            format!(
+                "start {}, stop {}, tolerance {}, step {}",
+                f(de.start_time),
+                f(de.stop_time),
+                f(de.tolerance),
+                f(de.step_size)
+            ),
+        );
+    }
+    let states: Vec<&ScalarVariable> = md.states().into_iter().map(|(s, _)| s).collect();
+    let groups: [(&str, Vec<&ScalarVariable>); 4] = [
+        (
+            "Parameters",
+            md.variables
+                .iter()
+                .filter(|v| v.causality == Causality::Parameter)
+                .collect(),
+        ),
+        (
+            "Inputs",
+            md.variables
+                .iter()
+                .filter(|v| v.causality == Causality::Input)
+                .collect(),
+        ),
+        (
+            "Outputs",
+            md.variables
+                .iter()
+                .filter(|v| v.causality == Causality::Output)
+                .collect(),
+        ),
+        ("States", states),
+    ];
+    for (title, vars) in groups {
+        s.push_str(&format!("\n{title} ({})\n", vars.len()));
+        if vars.is_empty() {
+            continue;
+        }
+        s.push_str(&format!(
+            "  {:<28} {:<12} {:<12} {:<10} {}\n",
+            "name", "type", "start", "unit", "description"
+        ));
+        for v in vars {
+            s.push_str(&format!(
+                "  {:<28} {:<12} {:<12} {:<10} {}\n",
+                v.name,
+                format!("{:?}", v.var_type),
+                v.start
+                    .as_ref()
+                    .map(|x| x.to_string())
+                    .unwrap_or_else(|| "-".into()),
+                v.unit.clone().unwrap_or_else(|| "-".into()),
+                v.description.clone().unwrap_or_default()
+            ));
+        }
+    }
+    s
+}

@@ -1,0 +1,60 @@
+//! Command-line parsing (clap) and dispatch. Each subcommand lives in its own module; errors
+//! are printed as one line and give exit code 1 (clap's usage errors give 2).
+
+mod inspect;
+mod model_arg;
+mod simulate;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "fmucal",
+    version,
+    about = "Calibrate FMU parameters against measurements"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Show an FMU's interfaces, default experiment and variables.
+    Inspect(inspect::Args),
+    /// Simulate an FMU and write the results as CSV.
+    Simulate(simulate::Args),
+    /// List the built-in example FMUs and where they are.
+    Examples,
+}
+
+/// Runs the CLI with the process arguments.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("FMUCAL_LOG")
+                .unwrap_or_else(|_| "warn".into()),
+        )
+        .init();
+    let result = match cli.command {
+        Command::Inspect(args) => inspect::run(args),
+        Command::Simulate(args) => simulate::run(args),
+        Command::Examples => {
+            for (name, path) in fmucal_models::examples() {
+                println!("{name:<14} {}", path.display());
+            }
+            Ok(())
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            ExitCode::FAILURE
+        }
+    }
+}
