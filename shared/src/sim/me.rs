@@ -461,10 +461,10 @@ where
                 return Ok(SegmentEnd::Event);
             }
             OdeSolverStopReason::TstopReached => {
+                record_due(model, rec, p, sub_stop, Some(&interp))?;
                 p.t = sub_stop;
                 p.x = solver.state().y.clone_as_vec();
                 check_finite(md_state_names(model), &p.x, p.t)?;
-                record_due(model, rec, p, p.t, None)?;
                 if sub_stop >= stop {
                     return Ok(SegmentEnd::Stop);
                 }

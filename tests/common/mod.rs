@@ -1,0 +1,77 @@
+//! Helpers shared by the integration tests: example FMUs, a per-test unpack cache, and
+//! repacking an example with edited entries (to build hostile or unusual archives).
+#![allow(dead_code)]
+
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+use fmucal_shared::fmu::{ArchiveLimits, Fmu, LoadOptions};
+
+pub fn example(name: &str) -> PathBuf {
+    fmucal_models::example(name).unwrap_or_else(|| panic!("no example {name}"))
+}
+
+/// Loads with a private cache directory so tests do not share unpacked files.
+pub fn load(path: &Path, cache: &Path) -> Fmu {
+    Fmu::load_with(path, &LoadOptions { cache_dir: cache.to_owned(), limits: ArchiveLimits::default() })
+        .unwrap_or_else(|e| panic!("loading {}: {e}", path.display()))
+}
+
+pub fn load_example(name: &str, cache: &Path) -> Fmu {
+    load(&example(name), cache)
+}
+
+/// Reads every entry of a zip archive as (name, bytes).
+pub fn entries(path: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut zip = zip::ZipArchive::new(std::fs::File::open(path).unwrap()).unwrap();
+    (0..zip.len())
+        .map(|i| {
+            let mut f = zip.by_index(i).unwrap();
+            let name = f.name().unwrap().to_string();
+            let mut bytes = vec![];
+            f.read_to_end(&mut bytes).unwrap();
+            (name, bytes)
+        })
+        .collect()
+}
+
+/// Writes a zip with the given entries.
+pub fn write_zip(path: &Path, entries: &[(String, Vec<u8>)]) {
+    let mut zip = zip::ZipWriter::new(std::fs::File::create(path).unwrap());
+    let opts = zip::write::SimpleFileOptions::default();
+    for (name, bytes) in entries {
+        zip.start_file(name.as_str(), opts).unwrap();
+        zip.write_all(bytes).unwrap();
+    }
+    zip.finish().unwrap();
+}
+
+/// Copies example `name` to `dir/file`, passing each entry through `edit` (None drops it).
+pub fn repack(
+    name: &str,
+    dir: &Path,
+    file: &str,
+    edit: impl Fn(&str, Vec<u8>) -> Option<Vec<u8>>,
+) -> PathBuf {
+    let out = dir.join(file);
+    let kept: Vec<_> = entries(&example(name))
+        .into_iter()
+        .filter_map(|(n, b)| edit(&n, b).map(|b| (n, b)))
+        .collect();
+    write_zip(&out, &kept);
+    out
+}
+
+/// Copies example `name` with its modelDescription.xml text edited by `f`.
+pub fn with_xml(name: &str, dir: &Path, file: &str, f: impl Fn(String) -> String) -> PathBuf {
+    repack(name, dir, file, |n, b| {
+        if n == "modelDescription.xml" { Some(f(String::from_utf8(b).unwrap()).into_bytes()) } else { Some(b) }
+    })
+}
+
+/// Largest |a - b| over all points, relative to the largest |b|.
+pub fn rel_max_diff(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len(), "series lengths differ");
+    let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
+    a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+}
