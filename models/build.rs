@@ -17,36 +17,11 @@ struct Model {
 }
 
 const MODELS: &[Model] = &[
-    Model {
-        identifier: "Furuta",
-        source: "furuta.c",
-        resources: &[],
-        extra_platforms: false,
-    },
-    Model {
-        identifier: "BouncingBall",
-        source: "bouncing_ball.c",
-        resources: &[],
-        extra_platforms: false,
-    },
-    Model {
-        identifier: "Decay",
-        source: "decay.c",
-        resources: &["decay.txt"],
-        extra_platforms: true,
-    },
-    Model {
-        identifier: "Robertson",
-        source: "robertson.c",
-        resources: &[],
-        extra_platforms: false,
-    },
-    Model {
-        identifier: "ExhaustPipe",
-        source: "exhaust_pipe.c",
-        resources: &[],
-        extra_platforms: false,
-    },
+    Model { identifier: "Furuta", source: "furuta.c", resources: &[], extra_platforms: false },
+    Model { identifier: "BouncingBall", source: "bouncing_ball.c", resources: &[], extra_platforms: false },
+    Model { identifier: "Decay", source: "decay.c", resources: &["decay.txt"], extra_platforms: true },
+    Model { identifier: "Robertson", source: "robertson.c", resources: &[], extra_platforms: false },
+    Model { identifier: "ExhaustPipe", source: "exhaust_pipe.c", resources: &[], extra_platforms: false },
 ];
 
 const FRAMEWORK: &[&str] = &["fmi2.h", "fmu_framework.h", "fmu_framework.c"];
@@ -63,23 +38,13 @@ fn main() {
         let so = out.join(format!("{}.so", model.identifier));
         compile(&root.join("c").join(model.source), &so, &[]);
         let xml = fs::read(root.join("xml").join(format!("{}.xml", model.identifier))).unwrap();
-        package(
-            &root,
-            model,
-            &xml,
-            &so,
-            &out.join(format!("{}.fmu", model.identifier)),
-        );
+        package(&root, model, &xml, &so, &out.join(format!("{}.fmu", model.identifier)));
     }
 
     // Fixture: Decay built without the fmi2GetReal export (renamed by the preprocessor).
     let decay = &MODELS[2];
     let so = out.join("MissingSymbol.so");
-    compile(
-        &root.join("c").join(decay.source),
-        &so,
-        &["-Dfmi2GetReal=fmucal_hidden_fmi2GetReal"],
-    );
+    compile(&root.join("c").join(decay.source), &so, &["-Dfmi2GetReal=fmucal_hidden_fmi2GetReal"]);
     let xml = fs::read(root.join("xml").join("Decay.xml")).unwrap();
     package(&root, decay, &xml, &so, &out.join("MissingSymbol.fmu"));
 }
@@ -87,22 +52,13 @@ fn main() {
 fn compile(source: &Path, output: &Path, defines: &[&str]) {
     let compiler = cc::Build::new().opt_level(2).get_compiler();
     let mut cmd: Command = compiler.to_command();
-    cmd.args([
-        "-std=c99",
-        "-shared",
-        "-fPIC",
-        "-fvisibility=hidden",
-        "-O2",
-        "-Wall",
-    ])
-    .args(defines)
-    .arg("-o")
-    .arg(output)
-    .arg(source)
-    .arg("-lm");
-    let status = cmd
-        .status()
-        .unwrap_or_else(|e| panic!("cannot run the C compiler: {e}"));
+    cmd.args(["-std=c99", "-shared", "-fPIC", "-fvisibility=hidden", "-O2", "-Wall"])
+        .args(defines)
+        .arg("-o")
+        .arg(output)
+        .arg(source)
+        .arg("-lm");
+    let status = cmd.status().unwrap_or_else(|e| panic!("cannot run the C compiler: {e}"));
     assert!(status.success(), "compiling {} failed", source.display());
 }
 
@@ -114,34 +70,19 @@ fn package(root: &Path, model: &Model, xml: &[u8], so: &Path, fmu: &Path) {
         zip.write_all(bytes).unwrap();
     };
     add("modelDescription.xml".into(), xml);
-    add(
-        format!("binaries/linux64/{}.so", model.identifier),
-        &fs::read(so).unwrap(),
-    );
+    add(format!("binaries/linux64/{}.so", model.identifier), &fs::read(so).unwrap());
     if model.extra_platforms {
         let note = b"placeholder: fmucal's examples ship only a linux64 binary";
         add(format!("binaries/win64/{}.dll", model.identifier), note);
         add(format!("binaries/win32/{}.dll", model.identifier), note);
-        add(
-            format!("binaries/darwin64/{}.dylib", model.identifier),
-            note,
-        );
+        add(format!("binaries/darwin64/{}.dylib", model.identifier), note);
     }
-    add(
-        format!("sources/{}", model.source),
-        &fs::read(root.join("c").join(model.source)).unwrap(),
-    );
+    add(format!("sources/{}", model.source), &fs::read(root.join("c").join(model.source)).unwrap());
     for file in FRAMEWORK {
-        add(
-            format!("sources/{file}"),
-            &fs::read(root.join("c").join(file)).unwrap(),
-        );
+        add(format!("sources/{file}"), &fs::read(root.join("c").join(file)).unwrap());
     }
     for res in model.resources {
-        add(
-            format!("resources/{res}"),
-            &fs::read(root.join("resources").join(res)).unwrap(),
-        );
+        add(format!("resources/{res}"), &fs::read(root.join("resources").join(res)).unwrap());
     }
     zip.finish().unwrap();
 }

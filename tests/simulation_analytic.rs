@@ -126,7 +126,9 @@ fn stiff_model_needs_far_fewer_steps_with_bdf_than_explicit() {
 #[test]
 fn co_simulation_and_model_exchange_agree() {
     let cache = tempfile::tempdir().unwrap();
-    for (name, bound) in [("furuta", 1e-5), ("decay", 1e-7), ("bouncing-ball", 1e-5), ("exhaust-pipe", 1e-5), ("robertson", 1e-4)] {
+    for (name, bound) in
+        [("furuta", 1e-5), ("decay", 1e-7), ("bouncing-ball", 1e-5), ("exhaust-pipe", 1e-5), ("robertson", 1e-4)]
+    {
         let fmu = common::load_example(name, cache.path());
         let mut me = spec(Interface::ModelExchange);
         me.tolerance = Some(1e-10);

@@ -26,10 +26,7 @@ pub fn examples() -> Vec<(&'static str, PathBuf)> {
 
 /// Path of an example by its short name (`furuta`, `bouncing-ball`, ...), if it exists.
 pub fn example(name: &str) -> Option<PathBuf> {
-    examples()
-        .into_iter()
-        .find(|(n, _)| *n == name)
-        .map(|(_, p)| p)
+    examples().into_iter().find(|(n, _)| *n == name).map(|(_, p)| p)
 }
 
 /// Test fixture: the Decay FMU with `fmi2GetReal` missing from its binary.

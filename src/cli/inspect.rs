@@ -32,10 +32,7 @@ fn render(md: &ModelDescription) -> String {
     line("Model", md.model_name.clone());
     line("FMI version", md.fmi_version.clone());
     line("GUID", md.guid.clone());
-    line(
-        "Generation tool",
-        md.generation_tool.clone().unwrap_or_else(|| "-".into()),
-    );
+    line("Generation tool", md.generation_tool.clone().unwrap_or_else(|| "-".into()));
     let mut interfaces = vec![];
     if let Some(me) = &md.model_exchange {
         interfaces.push(format!("Model Exchange ({})", me.model_identifier));
@@ -44,10 +41,7 @@ fn render(md: &ModelDescription) -> String {
         interfaces.push(format!("Co-Simulation ({})", cs.model_identifier));
     }
     line("Interfaces", interfaces.join(", "));
-    line(
-        "Event indicators",
-        md.number_of_event_indicators.to_string(),
-    );
+    line("Event indicators", md.number_of_event_indicators.to_string());
     if let Some(de) = &md.default_experiment {
         let f = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_else(|| "-".into());
         line(
@@ -63,27 +57,9 @@ fn render(md: &ModelDescription) -> String {
     }
     let states: Vec<&ScalarVariable> = md.states().into_iter().map(|(s, _)| s).collect();
     let groups: [(&str, Vec<&ScalarVariable>); 4] = [
-        (
-            "Parameters",
-            md.variables
-                .iter()
-                .filter(|v| v.causality == Causality::Parameter)
-                .collect(),
-        ),
-        (
-            "Inputs",
-            md.variables
-                .iter()
-                .filter(|v| v.causality == Causality::Input)
-                .collect(),
-        ),
-        (
-            "Outputs",
-            md.variables
-                .iter()
-                .filter(|v| v.causality == Causality::Output)
-                .collect(),
-        ),
+        ("Parameters", md.variables.iter().filter(|v| v.causality == Causality::Parameter).collect()),
+        ("Inputs", md.variables.iter().filter(|v| v.causality == Causality::Input).collect()),
+        ("Outputs", md.variables.iter().filter(|v| v.causality == Causality::Output).collect()),
         ("States", states),
     ];
     for (title, vars) in groups {
@@ -91,19 +67,13 @@ fn render(md: &ModelDescription) -> String {
         if vars.is_empty() {
             continue;
         }
-        s.push_str(&format!(
-            "  {:<28} {:<12} {:<12} {:<10} {}\n",
-            "name", "type", "start", "unit", "description"
-        ));
+        s.push_str(&format!("  {:<28} {:<12} {:<12} {:<10} {}\n", "name", "type", "start", "unit", "description"));
         for v in vars {
             s.push_str(&format!(
                 "  {:<28} {:<12} {:<12} {:<10} {}\n",
                 v.name,
                 format!("{:?}", v.var_type),
-                v.start
-                    .as_ref()
-                    .map(|x| x.to_string())
-                    .unwrap_or_else(|| "-".into()),
+                v.start.as_ref().map(|x| x.to_string()).unwrap_or_else(|| "-".into()),
                 v.unit.clone().unwrap_or_else(|| "-".into()),
                 v.description.clone().unwrap_or_default()
             ));

@@ -10,11 +10,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(
-    name = "fmucal",
-    version,
-    about = "Calibrate FMU parameters against measurements"
-)]
+#[command(name = "fmucal", version, about = "Calibrate FMU parameters against measurements")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -35,10 +31,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_env("FMUCAL_LOG")
-                .unwrap_or_else(|_| "warn".into()),
-        )
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_env("FMUCAL_LOG").unwrap_or_else(|_| "warn".into()))
         .init();
     let result = match cli.command {
         Command::Inspect(args) => inspect::run(args),

@@ -15,12 +15,6 @@ pub fn resolve(arg: &str) -> Result<PathBuf> {
     if let Some(p) = fmucal_models::example(name) {
         return Ok(p);
     }
-    let names: Vec<_> = fmucal_models::examples()
-        .into_iter()
-        .map(|(n, _)| n)
-        .collect();
-    bail!(
-        "no such file {arg:?}, and no built-in example of that name (examples: {})",
-        names.join(", ")
-    )
+    let names: Vec<_> = fmucal_models::examples().into_iter().map(|(n, _)| n).collect();
+    bail!("no such file {arg:?}, and no built-in example of that name (examples: {})", names.join(", "))
 }

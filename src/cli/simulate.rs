@@ -105,8 +105,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     match &args.out {
         Some(out) => {
-            let file = std::fs::File::create(out)
-                .with_context(|| format!("cannot create {}", out.display()))?;
+            let file = std::fs::File::create(out).with_context(|| format!("cannot create {}", out.display()))?;
             csv_io::write_result(&result, std::io::BufWriter::new(file), out)?;
             eprintln!(
                 "wrote {} rows x {} variables to {} ({} steps, {} events)",
@@ -117,11 +116,7 @@ pub fn run(args: Args) -> Result<()> {
                 result.stats.events
             );
         }
-        None => csv_io::write_result(
-            &result,
-            std::io::stdout().lock(),
-            std::path::Path::new("<stdout>"),
-        )?,
+        None => csv_io::write_result(&result, std::io::stdout().lock(), std::path::Path::new("<stdout>"))?,
     }
     Ok(())
 }

@@ -47,17 +47,9 @@ pub fn write_zip(path: &Path, entries: &[(String, Vec<u8>)]) {
 }
 
 /// Copies example `name` to `dir/file`, passing each entry through `edit` (None drops it).
-pub fn repack(
-    name: &str,
-    dir: &Path,
-    file: &str,
-    edit: impl Fn(&str, Vec<u8>) -> Option<Vec<u8>>,
-) -> PathBuf {
+pub fn repack(name: &str, dir: &Path, file: &str, edit: impl Fn(&str, Vec<u8>) -> Option<Vec<u8>>) -> PathBuf {
     let out = dir.join(file);
-    let kept: Vec<_> = entries(&example(name))
-        .into_iter()
-        .filter_map(|(n, b)| edit(&n, b).map(|b| (n, b)))
-        .collect();
+    let kept: Vec<_> = entries(&example(name)).into_iter().filter_map(|(n, b)| edit(&n, b).map(|b| (n, b))).collect();
     write_zip(&out, &kept);
     out
 }

@@ -24,11 +24,32 @@ pub struct ArchiveLimits {
 
 impl Default for ArchiveLimits {
     fn default() -> Self {
-        Self {
-            max_total_bytes: 2 << 30,
-            max_entries: 20_000,
-            max_archive_bytes: 1 << 30,
+        Self { max_total_bytes: 2 << 30, max_entries: 20_000, max_archive_bytes: 1 << 30 }
+    }
+}
+
+impl ArchiveLimits {
+    /// The defaults, overridden by `FMUCAL_MAX_UNPACK_BYTES` and `FMUCAL_MAX_UNPACK_ENTRIES`
+    /// when those hold whole numbers (other values are ignored with a warning).
+    pub fn from_env() -> Self {
+        let mut limits = Self::default();
+        let read = |key: &str| -> Option<u64> {
+            let v = std::env::var(key).ok()?;
+            match v.trim().parse() {
+                Ok(n) => Some(n),
+                Err(_) => {
+                    tracing::warn!("ignoring {key}={v:?}: not a whole number");
+                    None
+                }
+            }
+        };
+        if let Some(n) = read("FMUCAL_MAX_UNPACK_BYTES") {
+            limits.max_total_bytes = n;
         }
+        if let Some(n) = read("FMUCAL_MAX_UNPACK_ENTRIES") {
+            limits.max_entries = n as usize;
+        }
+        limits
     }
 }
 
@@ -36,18 +57,11 @@ impl Default for ArchiveLimits {
 #[derive(Debug, thiserror::Error)]
 pub enum ArchiveError {
     #[error("cannot read {path}: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Io { path: PathBuf, source: std::io::Error },
     #[error("{path} is not a valid zip archive: {message}")]
     Corrupt { path: PathBuf, message: String },
     #[error("unsafe entry {entry:?} in {path}: {reason}")]
-    UnsafeEntry {
-        path: PathBuf,
-        entry: String,
-        reason: &'static str,
-    },
+    UnsafeEntry { path: PathBuf, entry: String, reason: &'static str },
     #[error("{path} exceeds the unpacking limit: {what}")]
     TooLarge { path: PathBuf, what: String },
     #[error("{path} has no modelDescription.xml at its top level")]
@@ -73,35 +87,22 @@ pub fn default_cache_dir() -> PathBuf {
         return PathBuf::from(dir).join("fmucal").join("fmus");
     }
     if let Some(home) = std::env::var_os("HOME") {
-        return PathBuf::from(home)
-            .join(".cache")
-            .join("fmucal")
-            .join("fmus");
+        return PathBuf::from(home).join(".cache").join("fmucal").join("fmus");
     }
     std::env::temp_dir().join("fmucal-fmus")
 }
 
 /// Hex SHA-256 of some bytes.
 pub fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
+    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// Unpacks `path` into `cache_dir/<sha256>` unless that directory already exists.
 ///
 /// # Errors
 /// [`ArchiveError`] for unreadable or corrupt archives, unsafe entries, and archives over the limits.
-pub fn unpack(
-    path: &Path,
-    cache_dir: &Path,
-    limits: &ArchiveLimits,
-) -> Result<Unpacked, ArchiveError> {
-    let io = |source| ArchiveError::Io {
-        path: path.to_owned(),
-        source,
-    };
+pub fn unpack(path: &Path, cache_dir: &Path, limits: &ArchiveLimits) -> Result<Unpacked, ArchiveError> {
+    let io = |source| ArchiveError::Io { path: path.to_owned(), source };
     let len = fs::metadata(path).map_err(io)?.len();
     if len > limits.max_archive_bytes {
         return Err(ArchiveError::TooLarge {
@@ -116,10 +117,7 @@ pub fn unpack(
         tracing::debug!(fmu = %path.display(), dir = %dir.display(), "reusing unpacked FMU");
         return Ok(Unpacked { sha256, dir });
     }
-    fs::create_dir_all(cache_dir).map_err(|source| ArchiveError::Io {
-        path: cache_dir.to_owned(),
-        source,
-    })?;
+    fs::create_dir_all(cache_dir).map_err(|source| ArchiveError::Io { path: cache_dir.to_owned(), source })?;
     let staging = staging_dir(cache_dir, &sha256);
     let result = extract(path, &bytes, &staging, limits);
     if let Err(e) = result {
@@ -128,9 +126,7 @@ pub fn unpack(
     }
     if !staging.join("modelDescription.xml").is_file() {
         let _ = fs::remove_dir_all(&staging);
-        return Err(ArchiveError::NoModelDescription {
-            path: path.to_owned(),
-        });
+        return Err(ArchiveError::NoModelDescription { path: path.to_owned() });
     }
     // Another process may have won the race; either copy is identical.
     if fs::rename(&staging, &dir).is_err() {
@@ -173,16 +169,8 @@ fn safe_relative_path(name: &str) -> Result<PathBuf, &'static str> {
     Ok(out)
 }
 
-fn extract(
-    path: &Path,
-    bytes: &[u8],
-    target: &Path,
-    limits: &ArchiveLimits,
-) -> Result<(), ArchiveError> {
-    let corrupt = |e: zip::result::ZipError| ArchiveError::Corrupt {
-        path: path.to_owned(),
-        message: e.to_string(),
-    };
+fn extract(path: &Path, bytes: &[u8], target: &Path, limits: &ArchiveLimits) -> Result<(), ArchiveError> {
+    let corrupt = |e: zip::result::ZipError| ArchiveError::Corrupt { path: path.to_owned(), message: e.to_string() };
     let mut zip = zip::ZipArchive::new(std::io::Cursor::new(bytes)).map_err(corrupt)?;
     if zip.len() > limits.max_entries {
         return Err(ArchiveError::TooLarge {
@@ -201,20 +189,13 @@ fn extract(
             reason,
         })?;
         if entry.is_symlink() {
-            return Err(ArchiveError::UnsafeEntry {
-                path: path.to_owned(),
-                entry: name,
-                reason: "symbolic link",
-            });
+            return Err(ArchiveError::UnsafeEntry { path: path.to_owned(), entry: name, reason: "symbolic link" });
         }
         declared = declared.saturating_add(entry.size());
         if declared > limits.max_total_bytes {
             return Err(ArchiveError::TooLarge {
                 path: path.to_owned(),
-                what: format!(
-                    "declared uncompressed size over {} bytes",
-                    limits.max_total_bytes
-                ),
+                what: format!("declared uncompressed size over {} bytes", limits.max_total_bytes),
             });
         }
     }
@@ -274,13 +255,7 @@ mod tests {
         for bad in ["../evil.so", "a/../../b", "/etc/passwd", "C:/x", "..\\x"] {
             assert!(safe_relative_path(bad).is_err(), "{bad} accepted");
         }
-        assert_eq!(
-            safe_relative_path("binaries/linux64/M.so").unwrap(),
-            PathBuf::from("binaries/linux64/M.so")
-        );
-        assert_eq!(
-            safe_relative_path("./resources/a.txt").unwrap(),
-            PathBuf::from("resources/a.txt")
-        );
+        assert_eq!(safe_relative_path("binaries/linux64/M.so").unwrap(), PathBuf::from("binaries/linux64/M.so"));
+        assert_eq!(safe_relative_path("./resources/a.txt").unwrap(), PathBuf::from("resources/a.txt"));
     }
 }

@@ -95,11 +95,7 @@ impl LogBuffer {
 
     /// Takes the messages logged since the last call.
     pub fn drain(&self) -> Vec<String> {
-        self.messages
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .drain(..)
-            .collect()
+        self.messages.lock().unwrap_or_else(|p| p.into_inner()).drain(..).collect()
     }
 }
 
@@ -185,20 +181,16 @@ type Fmi2Instantiate = unsafe extern "C" fn(
 type Fmi2Component = unsafe extern "C" fn(*mut c_void) -> c_int;
 type Fmi2Free = unsafe extern "C" fn(*mut c_void);
 type Fmi2Str = unsafe extern "C" fn() -> *const c_char;
-type Fmi2SetDebugLogging =
-    unsafe extern "C" fn(*mut c_void, c_int, usize, *const *const c_char) -> c_int;
+type Fmi2SetDebugLogging = unsafe extern "C" fn(*mut c_void, c_int, usize, *const *const c_char) -> c_int;
 type Fmi2SetupExperiment = unsafe extern "C" fn(*mut c_void, c_int, f64, f64, c_int, f64) -> c_int;
 type Fmi2GetReal = unsafe extern "C" fn(*mut c_void, *const c_uint, usize, *mut f64) -> c_int;
 type Fmi2SetReal = unsafe extern "C" fn(*mut c_void, *const c_uint, usize, *const f64) -> c_int;
 type Fmi2GetInt = unsafe extern "C" fn(*mut c_void, *const c_uint, usize, *mut c_int) -> c_int;
 type Fmi2SetInt = unsafe extern "C" fn(*mut c_void, *const c_uint, usize, *const c_int) -> c_int;
-type Fmi2GetStr =
-    unsafe extern "C" fn(*mut c_void, *const c_uint, usize, *mut *const c_char) -> c_int;
-type Fmi2SetStr =
-    unsafe extern "C" fn(*mut c_void, *const c_uint, usize, *const *const c_char) -> c_int;
+type Fmi2GetStr = unsafe extern "C" fn(*mut c_void, *const c_uint, usize, *mut *const c_char) -> c_int;
+type Fmi2SetStr = unsafe extern "C" fn(*mut c_void, *const c_uint, usize, *const *const c_char) -> c_int;
 type Fmi2NewDiscreteStates = unsafe extern "C" fn(*mut c_void, *mut EventInfo) -> c_int;
-type Fmi2CompletedIntegratorStep =
-    unsafe extern "C" fn(*mut c_void, c_int, *mut c_int, *mut c_int) -> c_int;
+type Fmi2CompletedIntegratorStep = unsafe extern "C" fn(*mut c_void, c_int, *mut c_int, *mut c_int) -> c_int;
 type Fmi2SetTime = unsafe extern "C" fn(*mut c_void, f64) -> c_int;
 type Fmi2SetStates = unsafe extern "C" fn(*mut c_void, *const f64, usize) -> c_int;
 type Fmi2GetArray = unsafe extern "C" fn(*mut c_void, *mut f64, usize) -> c_int;
@@ -273,19 +265,12 @@ impl Api {
     /// # Errors
     /// [`FfiError::Load`] if the library cannot be opened, [`FfiError::MissingSymbol`] naming the
     /// first required function that is not exported.
-    pub fn load(
-        path: &Path,
-        model_identifier: &str,
-        me: bool,
-        cs: bool,
-    ) -> Result<Arc<Api>, FfiError> {
+    pub fn load(path: &Path, model_identifier: &str, me: bool, cs: bool) -> Result<Arc<Api>, FfiError> {
         install_log_sink();
         // SAFETY: loading a library runs its initialisers. The caller has chosen to trust this
         // FMU's binary; the archive layer has already rejected path tricks.
-        let lib = unsafe { libloading::Library::new(path) }.map_err(|e| FfiError::Load {
-            path: path.to_owned(),
-            message: e.to_string(),
-        })?;
+        let lib = unsafe { libloading::Library::new(path) }
+            .map_err(|e| FfiError::Load { path: path.to_owned(), message: e.to_string() })?;
         Ok(Arc::new(Api::resolve(lib, path, model_identifier, me, cs)?))
     }
 
@@ -303,9 +288,7 @@ impl Api {
             Need::CoSimulation => cs,
             Need::Optional => false,
         };
-        if matches!(need(symbol), Need::ModelExchange) && !me
-            || matches!(need(symbol), Need::CoSimulation) && !cs
-        {
+        if matches!(need(symbol), Need::ModelExchange) && !me || matches!(need(symbol), Need::CoSimulation) && !cs {
             return Ok(None);
         }
         for name in [symbol.to_owned(), format!("{prefix}_{symbol}")] {
@@ -315,10 +298,7 @@ impl Api {
             }
         }
         if required {
-            Err(FfiError::MissingSymbol {
-                path: path.to_owned(),
-                symbol: symbol.to_owned(),
-            })
+            Err(FfiError::MissingSymbol { path: path.to_owned(), symbol: symbol.to_owned() })
         } else {
             Ok(None)
         }
@@ -327,17 +307,13 @@ impl Api {
     /// `fmi2GetVersion()`, e.g. "2.0".
     pub fn version(&self) -> String {
         // SAFETY: resolved at load; returns a static string.
-        self.get_version
-            .map(|f| lossy(unsafe { f() }))
-            .unwrap_or_default()
+        self.get_version.map(|f| lossy(unsafe { f() })).unwrap_or_default()
     }
 
     /// `fmi2GetTypesPlatform()`, "default" for standard builds.
     pub fn types_platform(&self) -> String {
         // SAFETY: as above.
-        self.get_types_platform
-            .map(|f| lossy(unsafe { f() }))
-            .unwrap_or_default()
+        self.get_types_platform.map(|f| lossy(unsafe { f() })).unwrap_or_default()
     }
 
     /// Path of the loaded binary.
@@ -397,25 +373,12 @@ impl Component {
         // SAFETY: all strings are NUL-terminated and outlive the call; callbacks and log are
         // boxed so their addresses stay valid for the component's lifetime.
         let raw = unsafe {
-            f(
-                name.as_ptr(),
-                kind as c_int,
-                guid.as_ptr(),
-                uri.as_ptr(),
-                &*callbacks,
-                0,
-                logging_on as c_int,
-            )
+            f(name.as_ptr(), kind as c_int, guid.as_ptr(), uri.as_ptr(), &*callbacks, 0, logging_on as c_int)
         };
         if raw.is_null() {
             return Err(log.drain());
         }
-        Ok(Component {
-            api,
-            raw,
-            log,
-            _callbacks: callbacks,
-        })
+        Ok(Component { api, raw, log, _callbacks: callbacks })
     }
 
     /// Messages the FMU logged at warning level or worse since the last call.
@@ -427,12 +390,7 @@ impl Component {
         call!(self, set_debug_logging, on as c_int, 0, std::ptr::null())
     }
 
-    pub fn setup_experiment(
-        &mut self,
-        tolerance: Option<f64>,
-        start: f64,
-        stop: Option<f64>,
-    ) -> Status {
+    pub fn setup_experiment(&mut self, tolerance: Option<f64>, start: f64, stop: Option<f64>) -> Status {
         call!(
             self,
             setup_experiment,
@@ -513,12 +471,7 @@ impl Component {
         call!(self, get_continuous_states, x.as_mut_ptr(), x.len())
     }
     pub fn get_nominals_of_continuous_states(&mut self, x: &mut [f64]) -> Status {
-        call!(
-            self,
-            get_nominals_of_continuous_states,
-            x.as_mut_ptr(),
-            x.len()
-        )
+        call!(self, get_nominals_of_continuous_states, x.as_mut_ptr(), x.len())
     }
 
     pub fn do_step(&mut self, t: f64, h: f64) -> Status {

@@ -20,9 +20,7 @@ impl OnceGuard {
     fn claim(binary: PathBuf, model: &str) -> Result<Self, FmuError> {
         let mut live = ONCE_PER_PROCESS.lock().unwrap_or_else(|p| p.into_inner());
         if !live.get_or_insert_with(HashSet::new).insert(binary.clone()) {
-            return Err(FmuError::OnlyOncePerProcess {
-                model: model.to_owned(),
-            });
+            return Err(FmuError::OnlyOncePerProcess { model: model.to_owned() });
         }
         Ok(OnceGuard(binary))
     }
@@ -147,12 +145,7 @@ impl Instance {
         let status = f(c);
         match status {
             Status::Ok | Status::Warning | Status::Discard => Ok(status),
-            _ => Err(FmuError::Call {
-                function,
-                status,
-                time,
-                messages: c.take_log(),
-            }),
+            _ => Err(FmuError::Call { function, status, time, messages: c.take_log() }),
         }
     }
 
@@ -162,12 +155,10 @@ impl Instance {
     /// [`FmuError::Instantiate`] if a failed re-instantiation left no component.
     pub fn component(&mut self) -> Result<&mut Component, FmuError> {
         let model = &self.description.model_name;
-        self.component
-            .as_mut()
-            .ok_or_else(|| FmuError::Instantiate {
-                model: model.clone(),
-                messages: vec!["the instance was lost after a failed re-instantiation".into()],
-            })
+        self.component.as_mut().ok_or_else(|| FmuError::Instantiate {
+            model: model.clone(),
+            messages: vec!["the instance was lost after a failed re-instantiation".into()],
+        })
     }
 
     fn instantiate(&self) -> Result<Component, FmuError> {
@@ -175,17 +166,7 @@ impl Instance {
             Interface::ModelExchange => FmuType::ModelExchange,
             Interface::CoSimulation => FmuType::CoSimulation,
         };
-        Component::instantiate(
-            self.api.clone(),
-            &self.name,
-            kind,
-            &self.description.guid,
-            &self.resource_uri,
-            false,
-        )
-        .map_err(|messages| FmuError::Instantiate {
-            model: self.description.model_name.clone(),
-            messages,
-        })
+        Component::instantiate(self.api.clone(), &self.name, kind, &self.description.guid, &self.resource_uri, false)
+            .map_err(|messages| FmuError::Instantiate { model: self.description.model_name.clone(), messages })
     }
 }

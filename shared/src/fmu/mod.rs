@@ -43,41 +43,21 @@ pub enum FmuError {
     #[error("cannot read {path}: {message}")]
     Read { path: PathBuf, message: String },
     #[error("FMU has no {platform} binary {expected} (platforms present: {present})")]
-    NoPlatformBinary {
-        platform: &'static str,
-        expected: String,
-        present: String,
-    },
+    NoPlatformBinary { platform: &'static str, expected: String, present: String },
     #[error("FMU does not offer {0}")]
     NoInterface(Interface),
-    #[error(
-        "FMU {model} needs its execution tool (needsExecutionTool=true), which fmucal cannot provide"
-    )]
+    #[error("FMU {model} needs its execution tool (needsExecutionTool=true), which fmucal cannot provide")]
     NeedsExecutionTool { model: String },
-    #[error(
-        "FMU {model} can be instantiated only once per process and an instance is already live"
-    )]
+    #[error("FMU {model} can be instantiated only once per process and an instance is already live")]
     OnlyOncePerProcess { model: String },
     #[error("fmi2Instantiate of {model} failed{}", fmt_messages(.messages))]
-    Instantiate {
-        model: String,
-        messages: Vec<String>,
-    },
+    Instantiate { model: String, messages: Vec<String> },
     #[error("{function} returned {status:?} at t={time}{}", fmt_messages(.messages))]
-    Call {
-        function: &'static str,
-        status: Status,
-        time: f64,
-        messages: Vec<String>,
-    },
+    Call { function: &'static str, status: Status, time: f64, messages: Vec<String> },
 }
 
 fn fmt_messages(m: &[String]) -> String {
-    if m.is_empty() {
-        String::new()
-    } else {
-        format!(": {}", m.join("; "))
-    }
+    if m.is_empty() { String::new() } else { format!(": {}", m.join("; ")) }
 }
 
 /// The platform folder name of this build under `binaries/`.
@@ -106,16 +86,13 @@ const LIB_EXT: &str = if cfg!(target_os = "macos") {
 pub struct LoadOptions {
     /// Where archives are unpacked. Default: [`archive::default_cache_dir`].
     pub cache_dir: PathBuf,
-    /// Unpacking limits. Default: [`ArchiveLimits::default`].
+    /// Unpacking limits. Default: [`ArchiveLimits::from_env`].
     pub limits: ArchiveLimits,
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
-        Self {
-            cache_dir: archive::default_cache_dir(),
-            limits: ArchiveLimits::default(),
-        }
+        Self { cache_dir: archive::default_cache_dir(), limits: ArchiveLimits::from_env() }
     }
 }
 
@@ -132,10 +109,7 @@ pub struct Fmu {
 
 impl std::fmt::Debug for Fmu {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Fmu")
-            .field("model", &self.description.model_name)
-            .field("dir", &self.dir)
-            .finish()
+        f.debug_struct("Fmu").field("model", &self.description.model_name).field("dir", &self.dir).finish()
     }
 }
 
@@ -158,33 +132,18 @@ impl Fmu {
     pub fn load_with(path: &Path, opts: &LoadOptions) -> Result<Self, FmuError> {
         let unpacked = archive::unpack(path, &opts.cache_dir, &opts.limits)?;
         let md_path = unpacked.dir.join("modelDescription.xml");
-        let xml = std::fs::read(&md_path).map_err(|e| FmuError::Read {
-            path: md_path.clone(),
-            message: e.to_string(),
-        })?;
-        let xml = String::from_utf8(xml).map_err(|_| FmuError::Read {
-            path: md_path.clone(),
-            message: "not UTF-8".into(),
-        })?;
+        let xml =
+            std::fs::read(&md_path).map_err(|e| FmuError::Read { path: md_path.clone(), message: e.to_string() })?;
+        let xml = String::from_utf8(xml)
+            .map_err(|_| FmuError::Read { path: md_path.clone(), message: "not UTF-8".into() })?;
         let description = Arc::new(ModelDescription::parse(&xml)?);
-        for info in [&description.model_exchange, &description.co_simulation]
-            .into_iter()
-            .flatten()
-        {
+        for info in [&description.model_exchange, &description.co_simulation].into_iter().flatten() {
             if info.needs_execution_tool {
-                return Err(FmuError::NeedsExecutionTool {
-                    model: description.model_name.clone(),
-                });
+                return Err(FmuError::NeedsExecutionTool { model: description.model_name.clone() });
             }
         }
-        let me_id = description
-            .model_exchange
-            .as_ref()
-            .map(|i| i.model_identifier.clone());
-        let cs_id = description
-            .co_simulation
-            .as_ref()
-            .map(|i| i.model_identifier.clone());
+        let me_id = description.model_exchange.as_ref().map(|i| i.model_identifier.clone());
+        let cs_id = description.co_simulation.as_ref().map(|i| i.model_identifier.clone());
         let load = |id: &str, me: bool, cs: bool| -> Result<Arc<ffi::Api>, FmuError> {
             let bin = binary_path(&unpacked.dir, id)?;
             Ok(ffi::Api::load(&bin, id, me, cs)?)
@@ -195,23 +154,11 @@ impl Fmu {
                 (Some(api.clone()), Some(api))
             }
             _ => (
-                me_id
-                    .as_deref()
-                    .map(|id| load(id, true, false))
-                    .transpose()?,
-                cs_id
-                    .as_deref()
-                    .map(|id| load(id, false, true))
-                    .transpose()?,
+                me_id.as_deref().map(|id| load(id, true, false)).transpose()?,
+                cs_id.as_deref().map(|id| load(id, false, true)).transpose()?,
             ),
         };
-        Ok(Fmu {
-            description,
-            sha256: unpacked.sha256,
-            dir: unpacked.dir,
-            me,
-            cs,
-        })
+        Ok(Fmu { description, sha256: unpacked.sha256, dir: unpacked.dir, me, cs })
     }
 
     /// Interfaces this FMU offers, Model Exchange first.
@@ -239,9 +186,7 @@ impl Fmu {
         let mut uri = String::from("file://");
         for b in self.dir.join("resources").to_string_lossy().bytes() {
             match b {
-                b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'/' | b'-' | b'_' | b'.' | b'~' => {
-                    uri.push(b as char)
-                }
+                b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'/' | b'-' | b'_' | b'.' | b'~' => uri.push(b as char),
                 _ => uri.push_str(&format!("%{b:02X}")),
             }
         }
@@ -264,14 +209,6 @@ fn binary_path(dir: &Path, identifier: &str) -> Result<PathBuf, FmuError> {
         })
         .unwrap_or_default();
     present.sort();
-    let present = if present.is_empty() {
-        "none".to_owned()
-    } else {
-        present.join(", ")
-    };
-    Err(FmuError::NoPlatformBinary {
-        platform: PLATFORM,
-        expected,
-        present,
-    })
+    let present = if present.is_empty() { "none".to_owned() } else { present.join(", ") };
+    Err(FmuError::NoPlatformBinary { platform: PLATFORM, expected, present })
 }

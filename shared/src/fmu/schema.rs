@@ -128,10 +128,7 @@ impl ScalarVariable {
     pub fn settable_before_init(&self) -> bool {
         self.variability != Variability::Constant
             && (self.causality == Causality::Input
-                || matches!(
-                    self.effective_initial(),
-                    Some(Initial::Exact | Initial::Approx)
-                ))
+                || matches!(self.effective_initial(), Some(Initial::Exact | Initial::Approx)))
     }
 }
 
@@ -290,11 +287,7 @@ impl ModelDescription {
 
     /// Variables with causality output, in `ModelStructure/Outputs` order.
     pub fn outputs(&self) -> Vec<&ScalarVariable> {
-        self.model_structure
-            .outputs
-            .iter()
-            .map(|u| &self.variables[u.index - 1])
-            .collect()
+        self.model_structure.outputs.iter().map(|u| &self.variables[u.index - 1]).collect()
     }
 }
 
@@ -315,17 +308,11 @@ impl Attrs {
     fn read(e: &BytesStart<'_>, position: u64) -> Result<Self, SchemaError> {
         let mut out = Vec::new();
         for attr in e.attributes() {
-            let attr = attr.map_err(|err| SchemaError::Xml {
-                position,
-                message: err.to_string(),
-            })?;
+            let attr = attr.map_err(|err| SchemaError::Xml { position, message: err.to_string() })?;
             let key = attr.key.as_ref().to_string();
             let value = attr
                 .normalized_value(quick_xml::XmlVersion::Implicit1_0)
-                .map_err(|err| SchemaError::Xml {
-                    position,
-                    message: err.to_string(),
-                })?
+                .map_err(|err| SchemaError::Xml { position, message: err.to_string() })?
                 .into_owned();
             out.push((key, value));
         }
@@ -333,10 +320,7 @@ impl Attrs {
     }
 
     fn get(&self, key: &str) -> Option<&str> {
-        self.0
-            .iter()
-            .find(|(k, _)| k == key)
-            .map(|(_, v)| v.as_str())
+        self.0.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
     }
 
     fn string(&self, key: &str) -> Option<String> {
@@ -344,16 +328,13 @@ impl Attrs {
     }
 
     fn required(&self, elem: &str, key: &str) -> Result<String, SchemaError> {
-        self.string(key)
-            .ok_or_else(|| err_invalid(format!("<{elem}> has no {key} attribute")))
+        self.string(key).ok_or_else(|| err_invalid(format!("<{elem}> has no {key} attribute")))
     }
 
     fn f64(&self, elem: &str, key: &str) -> Result<Option<f64>, SchemaError> {
         self.get(key)
             .map(|v| {
-                v.trim()
-                    .parse::<f64>()
-                    .map_err(|_| err_invalid(format!("<{elem}> {key}=\"{v}\" is not a number")))
+                v.trim().parse::<f64>().map_err(|_| err_invalid(format!("<{elem}> {key}=\"{v}\" is not a number")))
             })
             .transpose()
     }
@@ -361,9 +342,7 @@ impl Attrs {
     fn int<T: std::str::FromStr>(&self, elem: &str, key: &str) -> Result<Option<T>, SchemaError> {
         self.get(key)
             .map(|v| {
-                v.trim()
-                    .parse::<T>()
-                    .map_err(|_| err_invalid(format!("<{elem}> {key}=\"{v}\" is not an integer")))
+                v.trim().parse::<T>().map_err(|_| err_invalid(format!("<{elem}> {key}=\"{v}\" is not an integer")))
             })
             .transpose()
     }
@@ -372,9 +351,7 @@ impl Attrs {
         match self.get(key).map(str::trim) {
             None | Some("false") | Some("0") => Ok(false),
             Some("true") | Some("1") => Ok(true),
-            Some(v) => Err(err_invalid(format!(
-                "<{elem}> {key}=\"{v}\" is not a boolean"
-            ))),
+            Some(v) => Err(err_invalid(format!("<{elem}> {key}=\"{v}\" is not a boolean"))),
         }
     }
 }
@@ -385,10 +362,7 @@ impl Parser {
         reader.config_mut().trim_text(true);
         loop {
             let position = reader.buffer_position();
-            let event = reader.read_event().map_err(|e| SchemaError::Xml {
-                position,
-                message: e.to_string(),
-            })?;
+            let event = reader.read_event().map_err(|e| SchemaError::Xml { position, message: e.to_string() })?;
             match event {
                 Event::Start(e) => {
                     let name = e.name().as_ref().to_string();
@@ -414,17 +388,13 @@ impl Parser {
                 message: format!("document ends inside <{}>", self.path.join("/")),
             });
         }
-        let mut md = self
-            .md
-            .ok_or_else(|| err_invalid("no <fmiModelDescription> root element"))?;
+        let mut md = self.md.ok_or_else(|| err_invalid("no <fmiModelDescription> root element"))?;
         finish(&mut md)?;
         Ok(md)
     }
 
     fn md(&mut self, elem: &str) -> Result<&mut ModelDescription, SchemaError> {
-        self.md
-            .as_mut()
-            .ok_or_else(|| err_invalid(format!("<{elem}> outside <fmiModelDescription>")))
+        self.md.as_mut().ok_or_else(|| err_invalid(format!("<{elem}> outside <fmiModelDescription>")))
     }
 
     fn parent(&self) -> Option<&str> {
@@ -447,9 +417,7 @@ impl Parser {
                     generation_tool: a.string("generationTool"),
                     generation_date_and_time: a.string("generationDateAndTime"),
                     variable_naming_convention: a.string("variableNamingConvention"),
-                    number_of_event_indicators: a
-                        .int(name, "numberOfEventIndicators")?
-                        .unwrap_or(0),
+                    number_of_event_indicators: a.int(name, "numberOfEventIndicators")?.unwrap_or(0),
                     model_exchange: None,
                     co_simulation: None,
                     unit_definitions: vec![],
@@ -462,9 +430,7 @@ impl Parser {
             }
             (None, other) => {
                 // FMI 1.0 also uses fmiModelDescription; FMI 3.0 too. Anything else is not an FMU.
-                return Err(err_invalid(format!(
-                    "root element is <{other}>, expected <fmiModelDescription>"
-                )));
+                return Err(err_invalid(format!("root element is <{other}>, expected <fmiModelDescription>")));
             }
             (Some("fmiModelDescription"), "ModelExchange" | "CoSimulation") => {
                 let info = interface_info(name, a)?;
@@ -476,11 +442,7 @@ impl Parser {
                 }
             }
             (Some("UnitDefinitions"), "Unit") => {
-                let unit = Unit {
-                    name: a.required(name, "name")?,
-                    base_unit: None,
-                    display_units: vec![],
-                };
+                let unit = Unit { name: a.required(name, "name")?, base_unit: None, display_units: vec![] };
                 self.md(name)?.unit_definitions.push(unit);
             }
             (Some("Unit"), "BaseUnit") => {
@@ -545,9 +507,7 @@ impl Parser {
             (Some("Enumeration"), "Item") => {
                 let item = EnumItem {
                     name: a.required(name, "name")?,
-                    value: a
-                        .int(name, "value")?
-                        .ok_or_else(|| err_invalid("<Item> has no value attribute"))?,
+                    value: a.int(name, "value")?.ok_or_else(|| err_invalid("<Item> has no value attribute"))?,
                     description: a.string("description"),
                 };
                 if let Some(st) = self.md(name)?.type_definitions.last_mut() {
@@ -573,27 +533,18 @@ impl Parser {
             }
             (Some("ScalarVariable"), "Real" | "Integer" | "Boolean" | "String" | "Enumeration") => {
                 let md = self.md(name)?;
-                let var = md
-                    .variables
-                    .last_mut()
-                    .ok_or_else(|| err_invalid("type element outside a variable"))?;
+                let var = md.variables.last_mut().ok_or_else(|| err_invalid("type element outside a variable"))?;
                 apply_type_element(var, name, a)?;
             }
             (Some("Outputs" | "Derivatives" | "InitialUnknowns"), "Unknown") => {
                 let list = self.parent().unwrap_or_default().to_owned();
                 let unknown = Unknown {
-                    index: a
-                        .int(name, "index")?
-                        .ok_or_else(|| err_invalid("<Unknown> has no index attribute"))?,
+                    index: a.int(name, "index")?.ok_or_else(|| err_invalid("<Unknown> has no index attribute"))?,
                     dependencies: a
                         .get("dependencies")
                         .map(|d| {
                             d.split_whitespace()
-                                .map(|x| {
-                                    x.parse().map_err(|_| {
-                                        err_invalid(format!("bad dependency index {x:?}"))
-                                    })
-                                })
+                                .map(|x| x.parse().map_err(|_| err_invalid(format!("bad dependency index {x:?}"))))
                                 .collect::<Result<Vec<usize>, _>>()
                         })
                         .transpose()?,
@@ -625,16 +576,13 @@ fn interface_info(elem: &str, a: &Attrs) -> Result<InterfaceInfo, SchemaError> {
     Ok(InterfaceInfo {
         model_identifier: a.required(elem, "modelIdentifier")?,
         needs_execution_tool: a.bool(elem, "needsExecutionTool")?,
-        can_be_instantiated_only_once_per_process: a
-            .bool(elem, "canBeInstantiatedOnlyOncePerProcess")?,
-        can_not_use_memory_management_functions: a
-            .bool(elem, "canNotUseMemoryManagementFunctions")?,
+        can_be_instantiated_only_once_per_process: a.bool(elem, "canBeInstantiatedOnlyOncePerProcess")?,
+        can_not_use_memory_management_functions: a.bool(elem, "canNotUseMemoryManagementFunctions")?,
         can_get_and_set_fmu_state: a.bool(elem, "canGetAndSetFMUstate")?,
         can_serialize_fmu_state: a.bool(elem, "canSerializeFMUstate")?,
         provides_directional_derivative: a.bool(elem, "providesDirectionalDerivative")?,
         completed_integrator_step_not_needed: a.bool(elem, "completedIntegratorStepNotNeeded")?,
-        can_handle_variable_communication_step_size: a
-            .bool(elem, "canHandleVariableCommunicationStepSize")?,
+        can_handle_variable_communication_step_size: a.bool(elem, "canHandleVariableCommunicationStepSize")?,
         can_interpolate_inputs: a.bool(elem, "canInterpolateInputs")?,
         max_output_derivative_order: a.int(elem, "maxOutputDerivativeOrder")?.unwrap_or(0),
         can_run_asynchronuously: a.bool(elem, "canRunAsynchronuously")?,
@@ -710,21 +658,19 @@ fn apply_type_element(var: &mut ScalarVariable, elem: &str, a: &Attrs) -> Result
     var.start = match a.get("start") {
         None => None,
         Some(s) => Some(match var.var_type {
-            VarType::Real => Value::Real(s.trim().parse().map_err(|_| {
-                err_invalid(format!("variable {name:?}: start {s:?} is not a number"))
-            })?),
-            VarType::Integer | VarType::Enumeration => {
-                Value::Integer(s.trim().parse().map_err(|_| {
-                    err_invalid(format!("variable {name:?}: start {s:?} is not an integer"))
-                })?)
-            }
+            VarType::Real => Value::Real(
+                s.trim().parse().map_err(|_| err_invalid(format!("variable {name:?}: start {s:?} is not a number")))?,
+            ),
+            VarType::Integer | VarType::Enumeration => Value::Integer(
+                s.trim()
+                    .parse()
+                    .map_err(|_| err_invalid(format!("variable {name:?}: start {s:?} is not an integer")))?,
+            ),
             VarType::Boolean => Value::Boolean(match s.trim() {
                 "true" | "1" => true,
                 "false" | "0" => false,
                 _ => {
-                    return Err(err_invalid(format!(
-                        "variable {name:?}: start {s:?} is not a boolean"
-                    )));
+                    return Err(err_invalid(format!("variable {name:?}: start {s:?} is not a boolean")));
                 }
             }),
             VarType::String => Value::String(s.to_owned()),
@@ -736,9 +682,7 @@ fn apply_type_element(var: &mut ScalarVariable, elem: &str, a: &Attrs) -> Result
 /// Resolves declared types and checks cross references once the whole document is read.
 fn finish(md: &mut ModelDescription) -> Result<(), SchemaError> {
     if md.model_exchange.is_none() && md.co_simulation.is_none() {
-        return Err(err_invalid(
-            "neither <ModelExchange> nor <CoSimulation> is present",
-        ));
+        return Err(err_invalid("neither <ModelExchange> nor <CoSimulation> is present"));
     }
     let n = md.variables.len();
     for var in &mut md.variables {
@@ -747,12 +691,7 @@ fn finish(md: &mut ModelDescription) -> Result<(), SchemaError> {
                 .type_definitions
                 .iter()
                 .find(|t| &t.name == tname)
-                .ok_or_else(|| {
-                    err_invalid(format!(
-                        "variable {:?}: unknown declaredType {tname:?}",
-                        var.name
-                    ))
-                })?;
+                .ok_or_else(|| err_invalid(format!("variable {:?}: unknown declaredType {tname:?}", var.name)))?;
             if st.base_type != var.var_type {
                 return Err(err_invalid(format!(
                     "variable {:?}: declaredType {tname:?} is a {:?}, not a {:?}",
@@ -767,30 +706,19 @@ fn finish(md: &mut ModelDescription) -> Result<(), SchemaError> {
         if let Some(d) = var.derivative
             && (d == 0 || d > n)
         {
-            return Err(err_invalid(format!(
-                "variable {:?}: derivative index {d} out of range 1..={n}",
-                var.name
-            )));
+            return Err(err_invalid(format!("variable {:?}: derivative index {d} out of range 1..={n}", var.name)));
         }
         if matches!(var.causality, Causality::Input) && var.start.is_none() {
-            return Err(err_invalid(format!(
-                "input {:?} has no start value",
-                var.name
-            )));
+            return Err(err_invalid(format!("input {:?} has no start value", var.name)));
         }
     }
     let ms = &md.model_structure;
-    for (list, unknowns) in [
-        ("Outputs", &ms.outputs),
-        ("Derivatives", &ms.derivatives),
-        ("InitialUnknowns", &ms.initial_unknowns),
-    ] {
+    for (list, unknowns) in
+        [("Outputs", &ms.outputs), ("Derivatives", &ms.derivatives), ("InitialUnknowns", &ms.initial_unknowns)]
+    {
         for u in unknowns {
             if u.index == 0 || u.index > n {
-                return Err(err_invalid(format!(
-                    "ModelStructure/{list}: index {} out of range 1..={n}",
-                    u.index
-                )));
+                return Err(err_invalid(format!("ModelStructure/{list}: index {} out of range 1..={n}", u.index)));
             }
         }
     }
@@ -802,16 +730,8 @@ fn finish(md: &mut ModelDescription) -> Result<(), SchemaError> {
             )));
         }
     }
-    if ms.derivatives.len()
-        != md
-            .variables
-            .iter()
-            .filter(|v| v.derivative.is_some())
-            .count()
-    {
-        return Err(err_invalid(
-            "ModelStructure/Derivatives does not list every variable with a derivative attribute",
-        ));
+    if ms.derivatives.len() != md.variables.iter().filter(|v| v.derivative.is_some()).count() {
+        return Err(err_invalid("ModelStructure/Derivatives does not list every variable with a derivative attribute"));
     }
     Ok(())
 }
@@ -838,10 +758,7 @@ mod tests {
         assert_eq!(states[0].0.name, "x");
         assert_eq!(states[0].1.name, "der(x)");
         assert_eq!(md.variable("x").unwrap().start, Some(Value::Real(2.0)));
-        assert_eq!(
-            md.variable("der(x)").unwrap().effective_initial(),
-            Some(Initial::Calculated)
-        );
+        assert_eq!(md.variable("der(x)").unwrap().effective_initial(), Some(Initial::Calculated));
     }
 
     #[test]

@@ -40,9 +40,7 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
                     _ => {
                         return Err(SimError::Solver {
                             time: t,
-                            message:
-                                "fmi2DoStep returned fmi2Discard without progress or termination"
-                                    .into(),
+                            message: "fmi2DoStep returned fmi2Discard without progress or termination".into(),
                         });
                     }
                 }

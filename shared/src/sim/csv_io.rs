@@ -17,11 +17,7 @@ pub struct CsvError {
 }
 
 fn err(path: &Path, line: Option<u64>, message: impl Into<String>) -> CsvError {
-    CsvError {
-        path: path.to_owned(),
-        line,
-        message: message.into(),
-    }
+    CsvError { path: path.to_owned(), line, message: message.into() }
 }
 
 /// Reads a table whose first column is `time`. Every cell must be a number; `nan` is read as
@@ -35,59 +31,31 @@ pub fn read_table(path: &Path) -> Result<InputTable, CsvError> {
         .flexible(true)
         .from_path(path)
         .map_err(|e| err(path, None, e.to_string()))?;
-    let headers: Vec<String> = reader
-        .headers()
-        .map_err(|e| err(path, Some(1), e.to_string()))?
-        .iter()
-        .map(str::to_owned)
-        .collect();
+    let headers: Vec<String> =
+        reader.headers().map_err(|e| err(path, Some(1), e.to_string()))?.iter().map(str::to_owned).collect();
     if headers.first().map(String::as_str) != Some("time") {
-        return Err(err(
-            path,
-            Some(1),
-            "the first column must be named \"time\"",
-        ));
+        return Err(err(path, Some(1), "the first column must be named \"time\""));
     }
-    if let Some(dup) = headers
-        .iter()
-        .enumerate()
-        .find(|(i, h)| headers[..*i].contains(h))
-    {
-        return Err(err(
-            path,
-            Some(1),
-            format!("column {:?} appears twice", dup.1),
-        ));
+    if let Some(dup) = headers.iter().enumerate().find(|(i, h)| headers[..*i].contains(h)) {
+        return Err(err(path, Some(1), format!("column {:?} appears twice", dup.1)));
     }
     let mut time = vec![];
-    let mut columns: Vec<(String, Vec<f64>)> =
-        headers[1..].iter().map(|h| (h.clone(), vec![])).collect();
+    let mut columns: Vec<(String, Vec<f64>)> = headers[1..].iter().map(|h| (h.clone(), vec![])).collect();
     for (row, record) in reader.records().enumerate() {
         let line = row as u64 + 2;
         let record = record.map_err(|e| err(path, Some(line), e.to_string()))?;
         if record.len() != headers.len() {
-            let missing = headers
-                .get(record.len())
-                .map(|h| format!(", column {h:?} is missing"))
-                .unwrap_or_default();
+            let missing = headers.get(record.len()).map(|h| format!(", column {h:?} is missing")).unwrap_or_default();
             return Err(err(
                 path,
                 Some(line),
-                format!(
-                    "{} cells for {} columns{missing}",
-                    record.len(),
-                    headers.len()
-                ),
+                format!("{} cells for {} columns{missing}", record.len(), headers.len()),
             ));
         }
         for (i, cell) in record.iter().enumerate() {
-            let v: f64 = cell.parse().map_err(|_| {
-                err(
-                    path,
-                    Some(line),
-                    format!("column {:?}: {cell:?} is not a number", headers[i]),
-                )
-            })?;
+            let v: f64 = cell
+                .parse()
+                .map_err(|_| err(path, Some(line), format!("column {:?}: {cell:?} is not a number", headers[i])))?;
             if i == 0 {
                 time.push(v);
             } else {
@@ -113,11 +81,7 @@ pub fn read_times(path: &Path) -> Result<Vec<f64>, CsvError> {
 ///
 /// # Errors
 /// [`CsvError`] if writing fails.
-pub fn write_result(
-    result: &SimResult,
-    out: impl Write,
-    path_for_errors: &Path,
-) -> Result<(), CsvError> {
+pub fn write_result(result: &SimResult, out: impl Write, path_for_errors: &Path) -> Result<(), CsvError> {
     let e = |x: csv::Error| err(path_for_errors, None, x.to_string());
     let mut w = csv::Writer::from_writer(out);
     let mut header = vec!["time".to_owned()];
@@ -130,7 +94,6 @@ pub fn write_result(
         row.extend(result.columns.iter().map(|c| format!("{}", c[i])));
         w.write_record(&row).map_err(e)?;
     }
-    w.flush()
-        .map_err(|x| err(path_for_errors, None, x.to_string()))?;
+    w.flush().map_err(|x| err(path_for_errors, None, x.to_string()))?;
     Ok(())
 }

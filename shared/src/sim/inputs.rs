@@ -24,10 +24,7 @@ impl InputTable {
         }
         for (i, t) in self.time.iter().enumerate() {
             if !t.is_finite() {
-                return Err(SimError::Invalid(format!(
-                    "input time in row {} is not a finite number",
-                    i + 1
-                )));
+                return Err(SimError::Invalid(format!("input time in row {} is not a finite number", i + 1)));
             }
             if i > 0 && *t < self.time[i - 1] {
                 return Err(SimError::Invalid(format!(
@@ -47,10 +44,7 @@ impl InputTable {
                 )));
             }
             if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-                return Err(SimError::Invalid(format!(
-                    "input column {name:?} row {} is not a finite number",
-                    i + 1
-                )));
+                return Err(SimError::Invalid(format!("input column {name:?} row {} is not a finite number", i + 1)));
             }
         }
         Ok(())
@@ -86,10 +80,8 @@ impl InputTable {
         (start..self.time.len()).find_map(|i| {
             let ti = self.time[i];
             let jump = i + 1 < self.time.len() && self.time[i + 1] == ti;
-            let held_change = i > 0
-                && discrete_columns
-                    .iter()
-                    .any(|&c| self.columns[c].1[i] != self.columns[c].1[i - 1]);
+            let held_change =
+                i > 0 && discrete_columns.iter().any(|&c| self.columns[c].1[i] != self.columns[c].1[i - 1]);
             (jump || held_change).then_some(ti)
         })
     }
@@ -100,10 +92,7 @@ mod tests {
     use super::*;
 
     fn table() -> InputTable {
-        InputTable {
-            time: vec![0.0, 1.0, 1.0, 3.0],
-            columns: vec![("u".into(), vec![0.0, 2.0, 5.0, 9.0])],
-        }
+        InputTable { time: vec![0.0, 1.0, 1.0, 3.0], columns: vec![("u".into(), vec![0.0, 2.0, 5.0, 9.0])] }
     }
 
     #[test]
@@ -127,12 +116,7 @@ mod tests {
     fn decreasing_time_and_nan_are_rejected() {
         let mut t = table();
         t.time[3] = 0.5;
-        assert!(
-            t.validate()
-                .unwrap_err()
-                .to_string()
-                .contains("not monotonic")
-        );
+        assert!(t.validate().unwrap_err().to_string().contains("not monotonic"));
         let mut t = table();
         t.columns[0].1[1] = f64::NAN;
         assert!(t.validate().unwrap_err().to_string().contains("row 2"));

@@ -16,9 +16,7 @@
 
 use std::cell::{Cell, RefCell};
 
-use diffsol::{
-    NalgebraLU, NalgebraMat, OdeBuilder, OdeEquations, OdeSolverMethod, OdeSolverStopReason, Vector,
-};
+use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeEquations, OdeSolverMethod, OdeSolverStopReason, Vector};
 
 use super::plan::Plan;
 use super::spec::{SimError, SimResult, Solver};
@@ -70,10 +68,9 @@ impl Model<'_> {
         }
         self.rhs_evaluations.set(self.rhs_evaluations.get() + 1);
         let mut inst = self.inst.borrow_mut();
-        let r = self.set_point(&mut inst, t, x).and_then(|_| {
-            inst.call("fmi2GetDerivatives", |c| c.get_derivatives(dx))
-                .map(|_| ())
-        });
+        let r = self
+            .set_point(&mut inst, t, x)
+            .and_then(|_| inst.call("fmi2GetDerivatives", |c| c.get_derivatives(dx)).map(|_| ()));
         self.keep(r, dx);
     }
 
@@ -105,10 +102,9 @@ impl Model<'_> {
             return;
         }
         let mut inst = self.inst.borrow_mut();
-        let r = self.set_point(&mut inst, t, x).and_then(|_| {
-            inst.call("fmi2GetEventIndicators", |c| c.get_event_indicators(z))
-                .map(|_| ())
-        });
+        let r = self
+            .set_point(&mut inst, t, x)
+            .and_then(|_| inst.call("fmi2GetEventIndicators", |c| c.get_event_indicators(z)).map(|_| ()));
         self.keep(r, z);
     }
 
@@ -143,40 +139,20 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
     let md = inst.description();
     let nx = md.states().len();
     let nz = md.number_of_event_indicators;
-    let step_event_check = !md
-        .model_exchange
-        .as_ref()
-        .is_some_and(|m| m.completed_integrator_step_not_needed);
+    let step_event_check = !md.model_exchange.as_ref().is_some_and(|m| m.completed_integrator_step_not_needed);
     let mut rec = Recorder::new(plan);
-    let model = Model {
-        inst: RefCell::new(inst),
-        plan,
-        error: RefCell::new(None),
-        rhs_evaluations: Cell::new(0),
-        nx,
-        nz,
-    };
+    let model =
+        Model { inst: RefCell::new(inst), plan, error: RefCell::new(None), rhs_evaluations: Cell::new(0), nx, nz };
 
     let mut info = event_iteration(&model, plan.start)?;
-    let mut p = Progress {
-        t: plan.start,
-        x: vec![0.0; nx],
-        next_output: 0,
-        steps: 0,
-    };
+    let mut p = Progress { t: plan.start, x: vec![0.0; nx], next_output: 0, steps: 0 };
     let mut nominals = vec![1.0; nx];
     {
         let mut inst = model.inst.borrow_mut();
-        inst.call("fmi2EnterContinuousTimeMode", |c| {
-            c.enter_continuous_time_mode()
-        })?;
+        inst.call("fmi2EnterContinuousTimeMode", |c| c.enter_continuous_time_mode())?;
         if nx > 0 {
-            inst.call("fmi2GetContinuousStates", |c| {
-                c.get_continuous_states(&mut p.x)
-            })?;
-            inst.call("fmi2GetNominalsOfContinuousStates", |c| {
-                c.get_nominals_of_continuous_states(&mut nominals)
-            })?;
+            inst.call("fmi2GetContinuousStates", |c| c.get_continuous_states(&mut p.x))?;
+            inst.call("fmi2GetNominalsOfContinuousStates", |c| c.get_nominals_of_continuous_states(&mut nominals))?;
         }
     }
     check_finite(md_state_names(&model), &p.x, p.t)?;
@@ -218,18 +194,12 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
         rec.event_times.push(p.t);
         info = event_iteration(&model, p.t)?;
         let mut inst = model.inst.borrow_mut();
-        inst.call("fmi2EnterContinuousTimeMode", |c| {
-            c.enter_continuous_time_mode()
-        })?;
+        inst.call("fmi2EnterContinuousTimeMode", |c| c.enter_continuous_time_mode())?;
         if nx > 0 && info.values_of_continuous_states_changed != 0 {
-            inst.call("fmi2GetContinuousStates", |c| {
-                c.get_continuous_states(&mut p.x)
-            })?;
+            inst.call("fmi2GetContinuousStates", |c| c.get_continuous_states(&mut p.x))?;
         }
         if nx > 0 && info.nominals_of_continuous_states_changed != 0 {
-            inst.call("fmi2GetNominalsOfContinuousStates", |c| {
-                c.get_nominals_of_continuous_states(&mut nominals)
-            })?;
+            inst.call("fmi2GetNominalsOfContinuousStates", |c| c.get_nominals_of_continuous_states(&mut nominals))?;
         }
         drop(inst);
         check_finite(md_state_names(&model), &p.x, p.t)?;
@@ -242,23 +212,14 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
 }
 
 fn md_state_names(model: &Model) -> Vec<String> {
-    model
-        .inst
-        .borrow()
-        .description()
-        .states()
-        .iter()
-        .map(|(s, _)| s.name.clone())
-        .collect()
+    model.inst.borrow().description().states().iter().map(|(s, _)| s.name.clone()).collect()
 }
 
 fn check_finite(names: Vec<String>, x: &[f64], t: f64) -> Result<(), SimError> {
     match x.iter().position(|v| !v.is_finite()) {
-        Some(i) => Err(SimError::NonFinite {
-            time: t,
-            variable: names.get(i).cloned().unwrap_or_default(),
-            value: x[i],
-        }),
+        Some(i) => {
+            Err(SimError::NonFinite { time: t, variable: names.get(i).cloned().unwrap_or_default(), value: x[i] })
+        }
         None => Ok(()),
     }
 }
@@ -269,9 +230,7 @@ fn event_iteration(model: &Model, t: f64) -> Result<EventInfo, SimError> {
     let mut merged = EventInfo::default();
     for _ in 0..1000 {
         let mut info = EventInfo::default();
-        inst.call("fmi2NewDiscreteStates", |c| {
-            c.new_discrete_states(&mut info)
-        })?;
+        inst.call("fmi2NewDiscreteStates", |c| c.new_discrete_states(&mut info))?;
         merged.values_of_continuous_states_changed |= info.values_of_continuous_states_changed;
         merged.nominals_of_continuous_states_changed |= info.nominals_of_continuous_states_changed;
         merged.terminate_simulation = info.terminate_simulation;
@@ -281,10 +240,7 @@ fn event_iteration(model: &Model, t: f64) -> Result<EventInfo, SimError> {
             return Ok(merged);
         }
     }
-    Err(SimError::Solver {
-        time: t,
-        message: "event iteration did not converge in 1000 iterations".into(),
-    })
+    Err(SimError::Solver { time: t, message: "event iteration did not converge in 1000 iterations".into() })
 }
 
 /// Records every output time in (last recorded, `upto`] using `state_at` for the states there.
@@ -311,12 +267,7 @@ fn record_due(
 }
 
 /// No continuous states: time advances straight to `stop`, recording outputs on the way.
-fn jump_without_states(
-    model: &Model,
-    rec: &mut Recorder,
-    p: &mut Progress,
-    stop: f64,
-) -> Result<SegmentEnd, SimError> {
+fn jump_without_states(model: &Model, rec: &mut Recorder, p: &mut Progress, stop: f64) -> Result<SegmentEnd, SimError> {
     record_due(model, rec, p, stop, None)?;
     p.t = stop;
     Ok(SegmentEnd::Stop)
@@ -332,65 +283,31 @@ fn integrate(
     step_event_check: bool,
 ) -> Result<SegmentEnd, SimError> {
     let plan = model.plan;
-    let atol: Vec<f64> = nominals
-        .iter()
-        .map(|n| plan.tolerance * n.abs().max(1e-10))
-        .collect();
+    let atol: Vec<f64> = nominals.iter().map(|n| plan.tolerance * n.abs().max(1e-10)).collect();
     let x0 = p.x.clone();
     let problem = OdeBuilder::<NalgebraMat<f64>>::new()
         .t0(p.t)
         .rtol(plan.tolerance)
         .atol(atol)
-        .rhs_implicit(
-            |x, _p, t, y| model.rhs(x, t, y),
-            |x, _p, t, v, y| model.jac_vec(x, t, v, y),
-        )
+        .rhs_implicit(|x, _p, t, y| model.rhs(x, t, y), |x, _p, t, v, y| model.jac_vec(x, t, v, y))
         .init(move |_p, _t, y| y.copy_from_slice(&x0), model.nx)
         .root(|x, _p, t, y| model.indicators(x, t, y), model.nz.max(1))
         .build()
-        .map_err(|e| SimError::Solver {
-            time: p.t,
-            message: e.to_string(),
-        })?;
+        .map_err(|e| SimError::Solver { time: p.t, message: e.to_string() })?;
     let start_error = |e: diffsol::DiffsolError| {
-        model.take_error().err().unwrap_or(SimError::Solver {
-            time: p.t,
-            message: e.to_string(),
-        })
+        model.take_error().err().unwrap_or(SimError::Solver { time: p.t, message: e.to_string() })
     };
     match plan.solver {
-        Solver::Bdf => drive(
-            problem.bdf::<NalgebraLU<f64>>().map_err(start_error)?,
-            model,
-            rec,
-            p,
-            stop,
-            step_event_check,
-        ),
-        Solver::Esdirk34 => drive(
-            problem.esdirk34::<NalgebraLU<f64>>().map_err(start_error)?,
-            model,
-            rec,
-            p,
-            stop,
-            step_event_check,
-        ),
-        Solver::TrBdf2 => drive(
-            problem.tr_bdf2::<NalgebraLU<f64>>().map_err(start_error)?,
-            model,
-            rec,
-            p,
-            stop,
-            step_event_check,
-        ),
-        Solver::Tsit45 => drive(
-            problem.tsit45().map_err(start_error)?,
-            model,
-            rec,
-            p,
-            stop,
-            step_event_check,
-        ),
+        Solver::Bdf => {
+            drive(problem.bdf::<NalgebraLU<f64>>().map_err(start_error)?, model, rec, p, stop, step_event_check)
+        }
+        Solver::Esdirk34 => {
+            drive(problem.esdirk34::<NalgebraLU<f64>>().map_err(start_error)?, model, rec, p, stop, step_event_check)
+        }
+        Solver::TrBdf2 => {
+            drive(problem.tr_bdf2::<NalgebraLU<f64>>().map_err(start_error)?, model, rec, p, stop, step_event_check)
+        }
+        Solver::Tsit45 => drive(problem.tsit45().map_err(start_error)?, model, rec, p, stop, step_event_check),
     }
 }
 
@@ -408,10 +325,7 @@ where
 {
     let plan = model.plan;
     let fail = |e: diffsol::DiffsolError, t: f64| {
-        model.take_error().err().unwrap_or(SimError::Solver {
-            time: t,
-            message: e.to_string(),
-        })
+        model.take_error().err().unwrap_or(SimError::Solver { time: t, message: e.to_string() })
     };
     let mut sub_stop = next_sub_stop(p.t, stop, plan.max_step);
     solver.set_stop_time(sub_stop).map_err(|e| fail(e, p.t))?;
@@ -425,10 +339,7 @@ where
             solver
                 .interpolate(t)
                 .map(|v| v.clone_as_vec())
-                .map_err(|e| SimError::Solver {
-                    time: t,
-                    message: e.to_string(),
-                })
+                .map_err(|e| SimError::Solver { time: t, message: e.to_string() })
         };
         match reason {
             OdeSolverStopReason::InternalTimestep => {

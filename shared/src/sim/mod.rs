@@ -31,17 +31,10 @@ impl Simulator {
     pub fn new(fmu: &Fmu, interface: Option<Interface>) -> Result<Self, SimError> {
         let interface = match interface {
             Some(i) => i,
-            None => *fmu
-                .interfaces()
-                .first()
-                .ok_or(FmuError::NoInterface(Interface::ModelExchange))?,
+            None => *fmu.interfaces().first().ok_or(FmuError::NoInterface(Interface::ModelExchange))?,
         };
         let instance = Instance::new(fmu, interface, &fmu.description.model_name)?;
-        Ok(Simulator {
-            instance,
-            used: false,
-            broken: false,
-        })
+        Ok(Simulator { instance, used: false, broken: false })
     }
 
     /// The interface this simulator's instance was created for.
@@ -55,11 +48,7 @@ impl Simulator {
     /// [`SimError::Invalid`] for a bad request (checked before the FMU is touched), otherwise
     /// the FMU, integrator or budget failure with the time it happened.
     pub fn run(&mut self, spec: &SimSpec) -> Result<SimResult, SimError> {
-        let plan = Plan::new(
-            self.instance.description(),
-            &[self.instance.interface()],
-            spec,
-        )?;
+        let plan = Plan::new(self.instance.description(), &[self.instance.interface()], spec)?;
         if self.broken {
             self.instance.reinstantiate()?;
             self.broken = false;
@@ -99,17 +88,11 @@ pub fn simulate(fmu: &Fmu, spec: &SimSpec) -> Result<SimResult, SimError> {
 /// initialisation mode.
 fn initialize(inst: &mut Instance, plan: &Plan) -> Result<(), SimError> {
     inst.set_error_time(plan.start);
-    inst.call("fmi2SetupExperiment", |c| {
-        c.setup_experiment(Some(plan.tolerance), plan.start, Some(plan.stop))
-    })?;
+    inst.call("fmi2SetupExperiment", |c| c.setup_experiment(Some(plan.tolerance), plan.start, Some(plan.stop)))?;
     plan.apply_settings(inst)?;
     plan.set_inputs(inst, plan.start, false)?;
-    inst.call("fmi2EnterInitializationMode", |c| {
-        c.enter_initialization_mode()
-    })?;
-    inst.call("fmi2ExitInitializationMode", |c| {
-        c.exit_initialization_mode()
-    })?;
+    inst.call("fmi2EnterInitializationMode", |c| c.enter_initialization_mode())?;
+    inst.call("fmi2ExitInitializationMode", |c| c.exit_initialization_mode())?;
     Ok(())
 }
 
@@ -127,9 +110,7 @@ impl Recorder {
         let n = plan.outputs.len();
         Recorder {
             time: Vec::with_capacity(plan.grid.len()),
-            columns: (0..n)
-                .map(|_| Vec::with_capacity(plan.grid.len()))
-                .collect(),
+            columns: (0..n).map(|_| Vec::with_capacity(plan.grid.len())).collect(),
             row: vec![0.0; n],
             names: plan.outputs.iter().map(|o| o.name.clone()).collect(),
             event_times: vec![],
@@ -154,11 +135,7 @@ impl Recorder {
             columns: self.columns,
             event_times: self.event_times,
             terminated_early,
-            stats: SimStats {
-                steps,
-                rhs_evaluations,
-                events,
-            },
+            stats: SimStats { steps, rhs_evaluations, events },
         }
     }
 }

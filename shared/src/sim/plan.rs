@@ -57,11 +57,7 @@ fn invalid(msg: impl Into<String>) -> SimError {
 }
 
 fn var_ref(v: &ScalarVariable) -> VarRef {
-    VarRef {
-        name: v.name.clone(),
-        vr: v.value_reference,
-        var_type: v.var_type,
-    }
+    VarRef { name: v.name.clone(), vr: v.value_reference, var_type: v.var_type }
 }
 
 impl Plan {
@@ -69,25 +65,17 @@ impl Plan {
     ///
     /// # Errors
     /// [`SimError::Invalid`] naming the bad field, variable or value.
-    pub fn new(
-        md: &ModelDescription,
-        interfaces: &[Interface],
-        spec: &SimSpec,
-    ) -> Result<Plan, SimError> {
+    pub fn new(md: &ModelDescription, interfaces: &[Interface], spec: &SimSpec) -> Result<Plan, SimError> {
         let interface = match spec.interface {
             Some(i) if interfaces.contains(&i) => i,
             Some(i) => return Err(invalid(format!("the FMU does not offer {i}"))),
-            None => *interfaces
-                .first()
-                .ok_or_else(|| invalid("the FMU offers no interface"))?,
+            None => *interfaces.first().ok_or_else(|| invalid("the FMU offers no interface"))?,
         };
         let de = md.default_experiment.clone().unwrap_or_default();
         let start = spec.start_time.or(de.start_time).unwrap_or(0.0);
         let stop = spec.stop_time.or(de.stop_time).unwrap_or(start + 1.0);
         if !start.is_finite() || !stop.is_finite() || stop <= start {
-            return Err(invalid(format!(
-                "stop time {stop} must be a finite number after start time {start}"
-            )));
+            return Err(invalid(format!("stop time {stop} must be a finite number after start time {start}")));
         }
         let tolerance = spec.tolerance.or(de.tolerance).unwrap_or(1e-6);
         if !(tolerance > 0.0 && tolerance < 1.0) {
@@ -99,19 +87,12 @@ impl Plan {
             return Err(invalid(format!("max step {h} must be a positive number")));
         }
         let output_times = spec.output_times.clone().unwrap_or_else(|| {
-            OutputTimes::Interval(
-                de.step_size
-                    .filter(|h| *h > 0.0)
-                    .unwrap_or((stop - start) / 500.0),
-            )
+            OutputTimes::Interval(de.step_size.filter(|h| *h > 0.0).unwrap_or((stop - start) / 500.0))
         });
         let grid = build_grid(start, stop, &output_times)?;
 
-        let settings = spec
-            .parameters
-            .iter()
-            .map(|(name, text)| setting(md, name, text))
-            .collect::<Result<Vec<_>, _>>()?;
+        let settings =
+            spec.parameters.iter().map(|(name, text)| setting(md, name, text)).collect::<Result<Vec<_>, _>>()?;
 
         let (inputs, input_bindings) = match &spec.inputs {
             None => (None, vec![]),
@@ -122,9 +103,14 @@ impl Plan {
                     .iter()
                     .enumerate()
                     .map(|(column, (name, _))| {
-                        let v = md.variable(name).ok_or_else(|| invalid(format!("input column {name:?} is not a variable of the model")))?;
+                        let v = md
+                            .variable(name)
+                            .ok_or_else(|| invalid(format!("input column {name:?} is not a variable of the model")))?;
                         if v.causality != Causality::Input {
-                            return Err(invalid(format!("input column {name:?} is not an input of the model (causality {:?})", v.causality)));
+                            return Err(invalid(format!(
+                                "input column {name:?} is not an input of the model (causality {:?})",
+                                v.causality
+                            )));
                         }
                         if v.var_type == VarType::String {
                             return Err(invalid(format!("String input {name:?} is not supported")));
@@ -141,28 +127,16 @@ impl Plan {
         };
 
         let outputs = if spec.outputs.is_empty() {
-            let outs: Vec<VarRef> = md
-                .outputs()
-                .into_iter()
-                .filter(|v| v.var_type != VarType::String)
-                .map(var_ref)
-                .collect();
-            if outs.is_empty() {
-                md.states().into_iter().map(|(s, _)| var_ref(s)).collect()
-            } else {
-                outs
-            }
+            let outs: Vec<VarRef> =
+                md.outputs().into_iter().filter(|v| v.var_type != VarType::String).map(var_ref).collect();
+            if outs.is_empty() { md.states().into_iter().map(|(s, _)| var_ref(s)).collect() } else { outs }
         } else {
             spec.outputs
                 .iter()
                 .map(|name| {
-                    let v = md
-                        .variable(name)
-                        .ok_or_else(|| invalid(format!("unknown output variable {name:?}")))?;
+                    let v = md.variable(name).ok_or_else(|| invalid(format!("unknown output variable {name:?}")))?;
                     if v.var_type == VarType::String {
-                        return Err(invalid(format!(
-                            "String variable {name:?} cannot be recorded"
-                        )));
+                        return Err(invalid(format!("String variable {name:?} cannot be recorded")));
                     }
                     Ok(var_ref(v))
                 })
@@ -194,12 +168,8 @@ impl Plan {
         for s in &self.settings {
             match *s {
                 Setting::Real(vr, v) => inst.call("fmi2SetReal", |c| c.set_real(&[vr], &[v]))?,
-                Setting::Integer(vr, v) => {
-                    inst.call("fmi2SetInteger", |c| c.set_integer(&[vr], &[v]))?
-                }
-                Setting::Boolean(vr, v) => {
-                    inst.call("fmi2SetBoolean", |c| c.set_boolean(&[vr], &[v as i32]))?
-                }
+                Setting::Integer(vr, v) => inst.call("fmi2SetInteger", |c| c.set_integer(&[vr], &[v]))?,
+                Setting::Boolean(vr, v) => inst.call("fmi2SetBoolean", |c| c.set_boolean(&[vr], &[v as i32]))?,
             };
         }
         Ok(())
@@ -210,12 +180,7 @@ impl Plan {
     ///
     /// # Errors
     /// [`FmuError::Call`] if the FMU rejects a value.
-    pub fn set_inputs(
-        &self,
-        inst: &mut Instance,
-        t: f64,
-        continuous_only: bool,
-    ) -> Result<(), FmuError> {
+    pub fn set_inputs(&self, inst: &mut Instance, t: f64, continuous_only: bool) -> Result<(), FmuError> {
         let Some(table) = &self.inputs else {
             return Ok(());
         };
@@ -227,12 +192,8 @@ impl Plan {
             let vr = b.var.vr;
             match b.var.var_type {
                 VarType::Real => inst.call("fmi2SetReal", |c| c.set_real(&[vr], &[v]))?,
-                VarType::Boolean => inst.call("fmi2SetBoolean", |c| {
-                    c.set_boolean(&[vr], &[(v != 0.0) as i32])
-                })?,
-                _ => inst.call("fmi2SetInteger", |c| {
-                    c.set_integer(&[vr], &[v.round() as i32])
-                })?,
+                VarType::Boolean => inst.call("fmi2SetBoolean", |c| c.set_boolean(&[vr], &[(v != 0.0) as i32]))?,
+                _ => inst.call("fmi2SetInteger", |c| c.set_integer(&[vr], &[v.round() as i32]))?,
             };
         }
         Ok(())
@@ -240,11 +201,7 @@ impl Plan {
 
     /// Table columns of held inputs (their sample times are events in Model Exchange).
     pub fn held_columns(&self) -> Vec<usize> {
-        self.input_bindings
-            .iter()
-            .filter(|b| b.hold)
-            .map(|b| b.column)
-            .collect()
+        self.input_bindings.iter().filter(|b| b.hold).map(|b| b.column).collect()
     }
 
     /// Reads the recorded variables into `row`.
@@ -281,18 +238,12 @@ impl Plan {
     /// [`SimError::Budget`].
     pub fn check_budget(&self, steps: u64, t: f64) -> Result<(), SimError> {
         if steps > self.max_steps {
-            return Err(SimError::Budget {
-                time: t,
-                what: format!("more than {} steps", self.max_steps),
-            });
+            return Err(SimError::Budget { time: t, what: format!("more than {} steps", self.max_steps) });
         }
         if let Some(d) = self.deadline
             && Instant::now() > d
         {
-            return Err(SimError::Budget {
-                time: t,
-                what: "wall-clock timeout".into(),
-            });
+            return Err(SimError::Budget { time: t, what: "wall-clock timeout".into() });
         }
         Ok(())
     }
@@ -302,15 +253,11 @@ fn build_grid(start: f64, stop: f64, times: &OutputTimes) -> Result<Vec<f64>, Si
     match times {
         OutputTimes::Interval(dt) => {
             if !(*dt > 0.0 && dt.is_finite()) {
-                return Err(invalid(format!(
-                    "output interval {dt} must be a positive number"
-                )));
+                return Err(invalid(format!("output interval {dt} must be a positive number")));
             }
             let n = ((stop - start) / dt + 1e-9).floor();
             if n > 1e8 {
-                return Err(invalid(format!(
-                    "output interval {dt} gives more than 1e8 output times"
-                )));
+                return Err(invalid(format!("output interval {dt} gives more than 1e8 output times")));
             }
             let n = n as usize;
             let mut grid: Vec<f64> = (0..=n).map(|i| start + i as f64 * dt).collect();
@@ -326,10 +273,7 @@ fn build_grid(start: f64, stop: f64, times: &OutputTimes) -> Result<Vec<f64>, Si
             let tol = 1e-12 * (stop - start).abs().max(1.0);
             for (i, t) in list.iter().enumerate() {
                 if !t.is_finite() || *t < start - tol || *t > stop + tol {
-                    return Err(invalid(format!(
-                        "output time {t} (entry {}) is outside [{start}, {stop}]",
-                        i + 1
-                    )));
+                    return Err(invalid(format!("output time {t} (entry {}) is outside [{start}, {stop}]", i + 1)));
                 }
                 if i > 0 && *t <= list[i - 1] {
                     return Err(invalid(format!(
@@ -346,9 +290,7 @@ fn build_grid(start: f64, stop: f64, times: &OutputTimes) -> Result<Vec<f64>, Si
 
 /// Parses `text` for variable `name` and checks that it may be set and lies within min/max.
 fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, SimError> {
-    let v = md
-        .variable(name)
-        .ok_or_else(|| invalid(format!("unknown variable {name:?}")))?;
+    let v = md.variable(name).ok_or_else(|| invalid(format!("unknown variable {name:?}")))?;
     if !v.settable_before_init() {
         return Err(invalid(format!(
             "variable {name:?} may not be set (causality {:?}, variability {:?}, initial {:?})",
@@ -362,24 +304,18 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
         if let Some(min) = v.min
             && x < min
         {
-            return Err(invalid(format!(
-                "{name} = {text} is below its minimum {min}"
-            )));
+            return Err(invalid(format!("{name} = {text} is below its minimum {min}")));
         }
         if let Some(max) = v.max
             && x > max
         {
-            return Err(invalid(format!(
-                "{name} = {text} is above its maximum {max}"
-            )));
+            return Err(invalid(format!("{name} = {text} is above its maximum {max}")));
         }
         Ok(())
     };
     match v.var_type {
         VarType::Real => {
-            let x: f64 = text
-                .parse()
-                .map_err(|_| invalid(format!("{name} = {text:?} is not a number")))?;
+            let x: f64 = text.parse().map_err(|_| invalid(format!("{name} = {text:?} is not a number")))?;
             if !x.is_finite() {
                 return Err(invalid(format!("{name} = {text} is not a finite number")));
             }
@@ -387,9 +323,7 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
             Ok(Setting::Real(v.value_reference, x))
         }
         VarType::Integer => {
-            let x: i32 = text
-                .parse()
-                .map_err(|_| invalid(format!("{name} = {text:?} is not an integer")))?;
+            let x: i32 = text.parse().map_err(|_| invalid(format!("{name} = {text:?} is not an integer")))?;
             range(x as f64)?;
             Ok(Setting::Integer(v.value_reference, x))
         }
@@ -402,22 +336,13 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
                 .unwrap_or_default();
             let x = match text.parse::<i32>() {
                 Ok(x) => x,
-                Err(_) => items
-                    .iter()
-                    .find(|i| i.name == text)
-                    .map(|i| i.value as i32)
-                    .ok_or_else(|| {
-                        let names: Vec<_> = items.iter().map(|i| i.name.as_str()).collect();
-                        invalid(format!(
-                            "{name} = {text:?} is not one of {}",
-                            names.join(", ")
-                        ))
-                    })?,
+                Err(_) => items.iter().find(|i| i.name == text).map(|i| i.value as i32).ok_or_else(|| {
+                    let names: Vec<_> = items.iter().map(|i| i.name.as_str()).collect();
+                    invalid(format!("{name} = {text:?} is not one of {}", names.join(", ")))
+                })?,
             };
             if !items.is_empty() && !items.iter().any(|i| i.value == x as i64) {
-                return Err(invalid(format!(
-                    "{name} = {x} is not a value of its enumeration"
-                )));
+                return Err(invalid(format!("{name} = {x} is not a value of its enumeration")));
             }
             range(x as f64)?;
             Ok(Setting::Integer(v.value_reference, x))
@@ -425,12 +350,8 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
         VarType::Boolean => match text {
             "true" | "1" => Ok(Setting::Boolean(v.value_reference, true)),
             "false" | "0" => Ok(Setting::Boolean(v.value_reference, false)),
-            _ => Err(invalid(format!(
-                "{name} = {text:?} is not a boolean (true/false)"
-            ))),
+            _ => Err(invalid(format!("{name} = {text:?} is not a boolean (true/false)"))),
         },
-        VarType::String => Err(invalid(format!(
-            "setting String variable {name:?} is not supported"
-        ))),
+        VarType::String => Err(invalid(format!("setting String variable {name:?} is not supported"))),
     }
 }

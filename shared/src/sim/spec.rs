@@ -30,9 +30,7 @@ impl std::str::FromStr for Solver {
             "esdirk34" => Ok(Solver::Esdirk34),
             "tr-bdf2" | "trbdf2" => Ok(Solver::TrBdf2),
             "tsit45" | "explicit" => Ok(Solver::Tsit45),
-            other => Err(format!(
-                "unknown solver {other:?} (expected bdf, esdirk34, tr-bdf2 or tsit45)"
-            )),
+            other => Err(format!("unknown solver {other:?} (expected bdf, esdirk34, tr-bdf2 or tsit45)")),
         }
     }
 }
@@ -104,10 +102,7 @@ pub struct SimResult {
 impl SimResult {
     /// The column of a variable by name.
     pub fn column(&self, name: &str) -> Option<&[f64]> {
-        self.names
-            .iter()
-            .position(|n| n == name)
-            .map(|i| self.columns[i].as_slice())
+        self.names.iter().position(|n| n == name).map(|i| self.columns[i].as_slice())
     }
 }
 
@@ -122,11 +117,7 @@ pub enum SimError {
     #[error("integrator failed at t={time}: {message}")]
     Solver { time: f64, message: String },
     #[error("state {variable} is not finite ({value}) at t={time}")]
-    NonFinite {
-        time: f64,
-        variable: String,
-        value: f64,
-    },
+    NonFinite { time: f64, variable: String, value: f64 },
     #[error("simulation stopped at t={time}: {what}")]
     Budget { time: f64, what: String },
 }
