@@ -31,6 +31,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_env("FMUCAL_LOG").unwrap_or_else(|_| "warn".into()))
         .init();
     let result = match cli.command {

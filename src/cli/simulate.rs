@@ -8,6 +8,7 @@ use fmucal_shared::fmu::{Fmu, Interface};
 use fmucal_shared::sim::{self, OutputTimes, SimSpec, Solver, csv_io};
 
 #[derive(clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct Args {
     /// The FMU: a path, or the name of a built-in example (see `fmucal examples`).
     model: String,

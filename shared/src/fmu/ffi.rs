@@ -122,8 +122,9 @@ extern "C" fn log_sink(
         Status::Warning | Status::Discard => {
             tracing::warn!(target: "fmu", %instance, %category, "{message}")
         }
+        // Error messages also travel in the returned FmuError::Call; log them quietly here.
         Status::Error | Status::Fatal => {
-            tracing::error!(target: "fmu", %instance, %category, "{message}")
+            tracing::info!(target: "fmu", %instance, %category, "{message}")
         }
     }
     if !env.is_null() && Status::from_raw(status) >= Status::Warning {
