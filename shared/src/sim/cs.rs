@@ -21,7 +21,7 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
                 Some(m) if remaining > m * (1.0 + 1e-12) => m,
                 _ => remaining,
             };
-            plan.set_inputs(inst, t, false)?;
+            plan.set_inputs(inst, t)?;
             inst.set_error_time(t);
             steps += 1;
             plan.check_budget(steps, t)?;

@@ -5,6 +5,18 @@
 
 use super::spec::SimError;
 
+/// Times closer than this are the same instant (data files and output grids differ by round-off).
+fn time_eps(t: f64) -> f64 {
+    1e-12 * t.abs().max(1.0)
+}
+
+/// Which limit to take at a time where a signal jumps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    Left,
+    Right,
+}
+
 /// Samples of named input signals.
 #[derive(Debug, Clone, PartialEq)]
 pub struct InputTable {
@@ -50,16 +62,29 @@ impl InputTable {
         Ok(())
     }
 
-    /// Index of the last sample with time <= t (the later one of repeated stamps), if any.
-    fn right_index(&self, t: f64) -> Option<usize> {
-        let n = self.time.partition_point(|&x| x <= t);
-        n.checked_sub(1)
+    /// Value of column `col` at time `t`: linear between samples, or held if `hold`. At a jump
+    /// (repeated time stamp) this is the value after it; see [`InputTable::value_before`].
+    pub fn value(&self, col: usize, t: f64, hold: bool) -> f64 {
+        self.value_on(Side::Right, col, t, hold)
     }
 
-    /// Value of column `col` at time `t`: linear between samples, or held if `hold`.
-    pub fn value(&self, col: usize, t: f64, hold: bool) -> f64 {
+    /// The left limit at `t`: at a jump, the value before it (what an integrator must see at
+    /// the end of an interval that stops at the jump).
+    pub fn value_before(&self, col: usize, t: f64, hold: bool) -> f64 {
+        self.value_on(Side::Left, col, t, hold)
+    }
+
+    /// Value from the given side of `t`.
+    pub fn value_on(&self, side: Side, col: usize, t: f64, hold: bool) -> f64 {
         let v = &self.columns[col].1;
-        let Some(i) = self.right_index(t) else {
+        // The last sample at or before t (Right), or strictly before t (Left), where times
+        // within a round-off of each other count as equal.
+        let eps = time_eps(t);
+        let n = match side {
+            Side::Right => self.time.partition_point(|&x| x <= t + eps),
+            Side::Left => self.time.partition_point(|&x| x < t - eps),
+        };
+        let Some(i) = n.checked_sub(1) else {
             return v[0];
         };
         if hold || i + 1 >= self.time.len() {
@@ -76,7 +101,8 @@ impl InputTable {
     /// Sample times strictly after `t` where a held value may change or a jump occurs; the
     /// Model Exchange driver stops the integrator there.
     pub fn next_breakpoint(&self, t: f64, discrete_columns: &[usize]) -> Option<f64> {
-        let start = self.time.partition_point(|&x| x <= t);
+        let eps = time_eps(t);
+        let start = self.time.partition_point(|&x| x <= t + eps);
         (start..self.time.len()).find_map(|i| {
             let ti = self.time[i];
             let jump = i + 1 < self.time.len() && self.time[i + 1] == ti;
@@ -103,6 +129,25 @@ mod tests {
         assert_eq!(t.value(0, 2.0, false), 7.0);
         assert_eq!(t.value(0, -1.0, false), 0.0);
         assert_eq!(t.value(0, 10.0, false), 9.0);
+    }
+
+    #[test]
+    fn left_limit_at_a_jump_is_the_value_before_it() {
+        let t = table();
+        assert_eq!(t.value_before(0, 1.0, false), 2.0);
+        assert_eq!(t.value_before(0, 0.5, false), 1.0);
+        assert_eq!(t.value_before(0, 1.0, true), 0.0);
+        assert_eq!(t.value_before(0, 0.0, false), 0.0);
+    }
+
+    #[test]
+    fn times_within_round_off_of_a_jump_are_the_jump() {
+        let t = table();
+        let noisy = 1.0 + 2.0 * f64::EPSILON;
+        assert_eq!(t.value(0, noisy, false), 5.0);
+        assert_eq!(t.value(0, 1.0 - 2.0 * f64::EPSILON, false), 5.0);
+        assert!((t.value_before(0, noisy, false) - 2.0).abs() < 1e-12);
+        assert_eq!(t.next_breakpoint(1.0 - f64::EPSILON, &[]), None);
     }
 
     #[test]

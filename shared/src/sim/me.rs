@@ -18,6 +18,7 @@ use std::cell::{Cell, RefCell};
 
 use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeEquations, OdeSolverMethod, OdeSolverStopReason, Vector};
 
+use super::inputs::Side;
 use super::plan::Plan;
 use super::spec::{SimError, SimResult, Solver};
 use super::{Recorder, initialize};
@@ -31,6 +32,8 @@ struct Model<'a> {
     plan: &'a Plan,
     error: RefCell<Option<FmuError>>,
     rhs_evaluations: Cell<u64>,
+    /// End of the segment being integrated.
+    segment_end: Cell<f64>,
     nx: usize,
     nz: usize,
 }
@@ -50,11 +53,13 @@ impl Model<'_> {
         }
     }
 
-    /// Pushes time, continuous inputs and states into the FMU.
+    /// Pushes time, continuous inputs and states into the FMU. Inside a segment the inputs at
+    /// the segment's end are its left limit: a jump there belongs to the next segment.
     fn set_point(&self, inst: &mut Instance, t: f64, x: &[f64]) -> Result<(), FmuError> {
         inst.set_error_time(t);
         inst.call("fmi2SetTime", |c| c.set_time(t))?;
-        self.plan.set_inputs(inst, t, true)?;
+        let side = if t >= self.segment_end.get() { Side::Left } else { Side::Right };
+        self.plan.set_inputs_from(inst, t, side, true)?;
         if !x.is_empty() {
             inst.call("fmi2SetContinuousStates", |c| c.set_continuous_states(x))?;
         }
@@ -141,8 +146,15 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
     let nz = md.number_of_event_indicators;
     let step_event_check = !md.model_exchange.as_ref().is_some_and(|m| m.completed_integrator_step_not_needed);
     let mut rec = Recorder::new(plan);
-    let model =
-        Model { inst: RefCell::new(inst), plan, error: RefCell::new(None), rhs_evaluations: Cell::new(0), nx, nz };
+    let model = Model {
+        inst: RefCell::new(inst),
+        plan,
+        error: RefCell::new(None),
+        rhs_evaluations: Cell::new(0),
+        segment_end: Cell::new(f64::INFINITY),
+        nx,
+        nz,
+    };
 
     let mut info = event_iteration(&model, plan.start)?;
     let mut p = Progress { t: plan.start, x: vec![0.0; nx], next_output: 0, steps: 0 };
@@ -170,6 +182,7 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
         {
             stop = stop.min(b);
         }
+        model.segment_end.set(stop);
         let end = if nx == 0 {
             jump_without_states(&model, &mut rec, &mut p, stop)?
         } else {
@@ -188,7 +201,7 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
         {
             let mut inst = model.inst.borrow_mut();
             model.set_point(&mut inst, p.t, &p.x)?;
-            plan.set_inputs(&mut inst, p.t, false)?;
+            plan.set_inputs(&mut inst, p.t)?;
             inst.call("fmi2EnterEventMode", |c| c.enter_event_mode())?;
         }
         rec.event_times.push(p.t);
@@ -335,9 +348,11 @@ where
         let reason = solver.step().map_err(|e| fail(e, p.t))?;
         model.take_error()?;
         let t_now = solver.state().t;
+        // Output times are never past the solver's time, except by float noise at a stop time
+        // (diffsol stops within a round-off of it).
         let interp = |t: f64| -> Result<Vec<f64>, SimError> {
             solver
-                .interpolate(t)
+                .interpolate(t.min(t_now))
                 .map(|v| v.clone_as_vec())
                 .map_err(|e| SimError::Solver { time: t, message: e.to_string() })
         };

@@ -90,7 +90,7 @@ fn initialize(inst: &mut Instance, plan: &Plan) -> Result<(), SimError> {
     inst.set_error_time(plan.start);
     inst.call("fmi2SetupExperiment", |c| c.setup_experiment(Some(plan.tolerance), plan.start, Some(plan.stop)))?;
     plan.apply_settings(inst)?;
-    plan.set_inputs(inst, plan.start, false)?;
+    plan.set_inputs(inst, plan.start)?;
     inst.call("fmi2EnterInitializationMode", |c| c.enter_initialization_mode())?;
     inst.call("fmi2ExitInitializationMode", |c| c.exit_initialization_mode())?;
     Ok(())

@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use super::inputs::InputTable;
+use super::inputs::{InputTable, Side};
 use super::spec::{OutputTimes, SimError, SimSpec, Solver};
 use crate::fmu::schema::{Causality, ScalarVariable, VarType, Variability};
 use crate::fmu::{FmuError, Instance, Interface, ModelDescription};
@@ -175,20 +175,32 @@ impl Plan {
         Ok(())
     }
 
-    /// Sets the inputs' values at time `t`; with `continuous_only`, held inputs are skipped
-    /// (in Model Exchange they may change only at events).
+    /// Sets all inputs to their values at time `t` (after any jump at `t`).
     ///
     /// # Errors
     /// [`FmuError::Call`] if the FMU rejects a value.
-    pub fn set_inputs(&self, inst: &mut Instance, t: f64, continuous_only: bool) -> Result<(), FmuError> {
-        let Some(table) = &self.inputs else {
-            return Ok(());
-        };
+    pub fn set_inputs(&self, inst: &mut Instance, t: f64) -> Result<(), FmuError> {
+        self.set_inputs_from(inst, t, Side::Right, false)
+    }
+
+    /// Sets the inputs from `side` of `t`; with `continuous_only`, held inputs are skipped (in
+    /// Model Exchange they may change only at events).
+    ///
+    /// # Errors
+    /// [`FmuError::Call`] if the FMU rejects a value.
+    pub fn set_inputs_from(
+        &self,
+        inst: &mut Instance,
+        t: f64,
+        side: Side,
+        continuous_only: bool,
+    ) -> Result<(), FmuError> {
+        let Some(table) = &self.inputs else { return Ok(()) };
         for b in &self.input_bindings {
             if continuous_only && b.hold {
                 continue;
             }
-            let v = table.value(b.column, t, b.hold);
+            let v = table.value_on(side, b.column, t, b.hold);
             let vr = b.var.vr;
             match b.var.var_type {
                 VarType::Real => inst.call("fmi2SetReal", |c| c.set_real(&[vr], &[v]))?,

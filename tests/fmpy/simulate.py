@@ -1,0 +1,51 @@
+"""Simulates an FMU with FMPy on a given grid and writes CSV (time first), for fmucal's
+cross-checks. Exits with status 3 and prints the problems if FMPy's validation fails."""
+import argparse
+import sys
+
+import numpy as np
+from fmpy import read_model_description, simulate_fmu
+from fmpy.validation import validate_fmu
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("--fmu", required=True)
+    p.add_argument("--interface", choices=["me", "cs"], required=True)
+    p.add_argument("--rtol", type=float, default=1e-8)
+    p.add_argument("--interval", type=float, required=True)
+    p.add_argument("--stop", type=float, required=True)
+    p.add_argument("--input", help="CSV with a time column and one column per input")
+    p.add_argument("--output", action="append", required=True)
+    p.add_argument("--out", required=True)
+    a = p.parse_args()
+
+    problems = validate_fmu(a.fmu)
+    if problems:
+        print("FMPy validation failed:", *problems, sep="\n  ", file=sys.stderr)
+        sys.exit(3)
+    read_model_description(a.fmu, validate=True)
+
+    signals = None
+    if a.input:
+        raw = np.genfromtxt(a.input, delimiter=",", names=True, deletechars="")
+        signals = np.array(raw, dtype=[(n, np.float64) for n in raw.dtype.names])
+    result = simulate_fmu(
+        a.fmu,
+        fmi_type="ModelExchange" if a.interface == "me" else "CoSimulation",
+        start_time=0.0,
+        stop_time=a.stop,
+        relative_tolerance=a.rtol,
+        output_interval=a.interval,
+        input=signals,
+        output=a.output,
+        record_events=False,
+        validate=True,
+    )
+    names = ["time"] + a.output
+    np.savetxt(a.out, np.column_stack([result[n] for n in names]), delimiter=",", header=",".join(names),
+               comments="", fmt="%.17g")
+
+
+if __name__ == "__main__":
+    main()
