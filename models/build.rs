@@ -1,6 +1,7 @@
 //! Compiles the example models' C sources into shared libraries with the `cc` crate's compiler
 //! and packages each into a real `.fmu` (zip with modelDescription.xml, binaries/linux64,
-//! sources/ and resources/). Also builds the broken fixture FMUs the tests need.
+//! sources/ and resources/). Also builds the broken fixture FMUs the tests need
+//! (MissingSymbol.fmu, ResetFails.fmu).
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -47,6 +48,11 @@ fn main() {
     compile(&root.join("c").join(decay.source), &so, &["-Dfmi2GetReal=fmucal_hidden_fmi2GetReal"]);
     let xml = fs::read(root.join("xml").join("Decay.xml")).unwrap();
     package(&root, decay, &xml, &so, &out.join("MissingSymbol.fmu"));
+
+    // Fixture: Decay whose fmi2Reset always fails (exercises re-instantiation).
+    let so = out.join("ResetFails.so");
+    compile(&root.join("c").join(decay.source), &so, &["-DFMUCAL_RESET_FAILS"]);
+    package(&root, decay, &xml, &so, &out.join("ResetFails.fmu"));
 }
 
 fn compile(source: &Path, output: &Path, defines: &[&str]) {

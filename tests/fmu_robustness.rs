@@ -140,3 +140,16 @@ fn second_load_reuses_the_unpacked_directory() {
     assert!(marker.exists(), "the archive was unpacked again");
     assert_eq!(std::fs::read_dir(cache.path()).unwrap().count(), 1);
 }
+
+#[test]
+fn failed_reset_falls_back_to_a_fresh_instance() {
+    let cache = tempfile::tempdir().unwrap();
+    let fmu = common::load(&fmucal_models::reset_fails_fixture(), cache.path());
+    for interface in [Interface::ModelExchange, Interface::CoSimulation] {
+        let mut sim = Simulator::new(&fmu, Some(interface)).unwrap();
+        let spec = SimSpec { interface: Some(interface), ..Default::default() };
+        let first = sim.run(&spec).unwrap();
+        let second = sim.run(&spec).unwrap();
+        assert_eq!(first.columns, second.columns, "{interface}: re-instantiated run differs");
+    }
+}

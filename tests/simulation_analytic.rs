@@ -176,3 +176,52 @@ fn reset_then_resimulate_matches_fresh_instance() {
         assert_eq!(again.columns, fresh.columns, "{interface}: warm reset changed the result");
     }
 }
+
+#[test]
+fn terminate_simulation_ends_the_run_early() {
+    let cache = tempfile::tempdir().unwrap();
+    let fmu = common::load_example("decay", cache.path());
+    for interface in [Interface::ModelExchange, Interface::CoSimulation] {
+        let mut s = spec(interface);
+        s.tolerance = Some(1e-9);
+        set(&mut s, "terminateTime", "1.005");
+        let r = simulate(&fmu, &s).unwrap();
+        assert!(r.terminated_early, "{interface}: not flagged as terminated early");
+        let last = *r.time.last().unwrap();
+        assert!((0.99..=1.005).contains(&last), "{interface}: results end at {last}");
+        let x = *r.column("x").unwrap().last().unwrap();
+        assert!((x - (-last).exp()).abs() < 1e-6, "{interface}: x({last}) = {x}");
+    }
+}
+
+#[test]
+fn max_step_splits_co_simulation_steps() {
+    let cache = tempfile::tempdir().unwrap();
+    let fmu = common::load_example("decay", cache.path());
+    let mut s = spec(Interface::CoSimulation);
+    s.max_step = Some(0.001);
+    let r = simulate(&fmu, &s).unwrap();
+    assert_eq!(r.stats.steps, 2000, "0.01 output steps over 2 s split into 0.001 doSteps");
+    assert_eq!(r.time.len(), 201);
+    let err = r.time.iter().zip(r.column("x").unwrap()).map(|(t, x)| (x - (-t).exp()).abs()).fold(0.0, f64::max);
+    assert!(err < 1e-9, "max error {err:e}");
+}
+
+#[test]
+fn step_and_time_budgets_stop_a_simulation_with_the_time() {
+    let cache = tempfile::tempdir().unwrap();
+    let fmu = common::load_example("furuta", cache.path());
+    let mut s = spec(Interface::ModelExchange);
+    s.max_steps = Some(50);
+    match simulate(&fmu, &s) {
+        Err(fmucal_shared::sim::SimError::Budget { time, what }) => {
+            assert!(time > 0.0 && time < 40.0, "stopped at {time}");
+            assert!(what.contains("more than 50 steps"), "{what}");
+        }
+        other => panic!("expected a budget error, got {other:?}"),
+    }
+    let mut s = spec(Interface::CoSimulation);
+    s.timeout = Some(std::time::Duration::from_nanos(1));
+    let err = simulate(&fmu, &s).unwrap_err().to_string();
+    assert!(err.contains("wall-clock timeout"), "{err}");
+}

@@ -1,11 +1,11 @@
 /* Exponential decay x' = -k * f * x^power, x(0) = 1, where f is read from resources/decay.txt
  * at instantiation (so x = exp(-t) with the defaults). It exercises what exported FMUs carry:
  * a resource file, declared types, an alias, Integer/Boolean/Enumeration parameters, a time
- * event (kickTime adds kickAmount to x) and a configurable failure (crashMode from crashTime:
+ * event (kickTime adds kickAmount to x), terminateSimulation at terminateTime, and a configurable failure (crashMode from crashTime:
  * 2 returns fmi2Error, 3 calls abort(), 4 dereferences a null pointer). */
 #define MODEL_IDENTIFIER "Decay"
 #define MODEL_GUID "{6a1f3c2e-3b44-4d1c-9a43-f0a1c0de0003}"
-#define N_REAL 7
+#define N_REAL 8
 #define N_INTEGER 3
 #define N_BOOLEAN 1
 #define NX 1
@@ -15,7 +15,7 @@
 #include "fmu_framework.h"
 #include <signal.h>
 
-enum { X, DER_X, K, KICK_TIME, KICK_AMOUNT, CRASH_TIME, RESOURCE_FACTOR };
+enum { X, DER_X, K, KICK_TIME, KICK_AMOUNT, CRASH_TIME, RESOURCE_FACTOR, TERMINATE_TIME };
 enum { POWER, CRASH_MODE, KICKED };
 enum { ENABLED };
 enum { CRASH_NONE = 1, CRASH_ERROR = 2, CRASH_ABORT = 3, CRASH_SEGFAULT = 4 };
@@ -30,6 +30,7 @@ static void model_defaults(Model *m) {
     m->r[KICK_TIME] = 1e9;
     m->r[KICK_AMOUNT] = 0.0;
     m->r[CRASH_TIME] = 0.0;
+    m->r[TERMINATE_TIME] = 1e9;
     m->r[RESOURCE_FACTOR] = g_resource_factor;
     m->i[POWER] = 1;
     m->i[CRASH_MODE] = CRASH_NONE;
@@ -57,10 +58,17 @@ static fmi2Status model_instantiated(Model *m) {
     return fmi2OK;
 }
 
+/* The next pending time event: the kick (once) or termination. */
+static void schedule(Model *m) {
+    double next = m->r[TERMINATE_TIME];
+    if (!m->i[KICKED] && m->r[KICK_TIME] < next) next = m->r[KICK_TIME];
+    m->nextEventTimeDefined = next > m->time - 1e-12 && next < 1e9;
+    m->nextEventTime = next;
+}
+
 static fmi2Status model_initialize(Model *m) {
     m->i[KICKED] = 0;
-    m->nextEventTimeDefined = m->r[KICK_TIME] > m->time;
-    m->nextEventTime = m->r[KICK_TIME];
+    schedule(m);
     return fmi2OK;
 }
 
@@ -94,8 +102,13 @@ static void model_event_update(Model *m) {
         m->i[KICKED] = 1;
         m->r[X] += m->r[KICK_AMOUNT];
         m->valuesChanged = 1;
-        m->nextEventTimeDefined = 0;
     }
+    if (m->time >= m->r[TERMINATE_TIME] - 1e-12) {
+        m->terminateSimulation = 1;
+        m->nextEventTimeDefined = 0;
+        return;
+    }
+    schedule(m);
 }
 
 #include "fmu_framework.c"

@@ -33,3 +33,8 @@ pub fn example(name: &str) -> Option<PathBuf> {
 pub fn missing_symbol_fixture() -> PathBuf {
     fmu_dir().join("MissingSymbol.fmu")
 }
+
+/// Test fixture: the Decay FMU whose `fmi2Reset` always returns `fmi2Error`.
+pub fn reset_fails_fixture() -> PathBuf {
+    fmu_dir().join("ResetFails.fmu")
+}
