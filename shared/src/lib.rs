@@ -1,5 +1,7 @@
-//! fmucal's core library: FMU loading ([`fmu`]) and simulation ([`sim`]). It knows nothing of
+//! fmucal's core library: FMU loading ([`fmu`]), simulation ([`sim`]) and the ask/tell
+//! optimizers ([`optim`]). It knows nothing of
 //! tokio, tonic or the network, so everything in it is testable without a server.
 
 pub mod fmu;
+pub mod optim;
 pub mod sim;

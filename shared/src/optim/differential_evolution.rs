@@ -1,0 +1,247 @@
+//! Differential evolution, rand/1/bin (Storn & Price 1997; Andersson et al. 2012, section
+//! 4.2.1). Each generation is one batch: for every target xᵢ a mutant v = x_r1 + F (x_r2 − x_r3)
+//! with r1, r2, r3 distinct and ≠ i, binomial crossover with probability CR (at least one
+//! component from the mutant), and selection of the trial if it is no worse than the target.
+//!
+//! - Needs finite bounds; works in the unit box of scaled variables.
+//! - **Bound rule**: a trial component outside [0, 1] is replaced by a uniform draw between the
+//!   target's component and the violated bound, so trials stay feasible without piling up on
+//!   the faces.
+//! - The initial population is uniform in the box, with x0 (if given) as its first member.
+//! - Termination (first met): x_tol on the population's size (largest ∞-norm distance from the
+//!   best member, scaled), f_tol on the spread of its values, max_iters generations, max_fevals.
+//!
+//! Defaults: population 10·n (at least 10), F = 0.8, CR = 0.9, seed 0, [`Stopping::default_for`].
+
+use serde::{Deserialize, Serialize};
+
+use super::batch::{Batch, BestSoFar};
+use super::fitness::{Fitness, spread};
+use super::random::Random;
+use super::space::Space;
+use super::{Candidate, CandidateId, OptimError, Optimizer, Outcome, Status, Stopping, Termination};
+
+/// Differential evolution settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DeSettings {
+    /// Population size N (≥ 4). Default: 10·n, at least 10.
+    pub population: usize,
+    /// Differential weight F in [0, 2]. Default: 0.8.
+    pub weight: f64,
+    /// Crossover probability CR in [0, 1]. Default: 0.9.
+    pub crossover: f64,
+    /// Seed of the random generator. Default: 0.
+    pub seed: u64,
+    /// Stopping rules. Default: [`Stopping::default_for`] the dimension.
+    pub stopping: Stopping,
+}
+
+impl DeSettings {
+    /// Defaults for an `n`-dimensional problem.
+    pub fn new(n: usize) -> Self {
+        DeSettings {
+            population: (10 * n).max(10),
+            weight: 0.8,
+            crossover: 0.9,
+            seed: 0,
+            stopping: Stopping::default_for(n),
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+enum Phase {
+    Initial,
+    Generation,
+    Done(Termination),
+}
+
+/// The differential evolution state machine; see the module docs.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct DifferentialEvolution {
+    space: Space,
+    settings: DeSettings,
+    population: Vec<(Vec<f64>, Fitness)>,
+    phase: Phase,
+    batch: Batch,
+    rng: Random,
+    next_id: CandidateId,
+    evaluations: u64,
+    generations: u64,
+    rounds: u64,
+    best: BestSoFar,
+}
+
+impl DifferentialEvolution {
+    /// Starts DE in `[lower, upper]` (finite), seeding the population with `x0` if given.
+    ///
+    /// # Errors
+    /// [`OptimError::Setting`] naming the bad field: bounds (must be finite), `x0`,
+    /// `population`, `weight`, `crossover` or a stopping rule.
+    pub fn new(lower: &[f64], upper: &[f64], x0: Option<&[f64]>, settings: DeSettings) -> Result<Self, OptimError> {
+        let space = Space::new(lower, upper, x0, None)?;
+        if !space.is_bounded() {
+            return Err(OptimError::setting("lower", "differential evolution needs finite lower and upper bounds"));
+        }
+        if settings.population < 4 {
+            return Err(OptimError::setting("population", format!("must be at least 4, got {}", settings.population)));
+        }
+        if !(0.0..=2.0).contains(&settings.weight) {
+            return Err(OptimError::setting("weight", format!("F must be in [0, 2], got {}", settings.weight)));
+        }
+        if !(0.0..=1.0).contains(&settings.crossover) {
+            return Err(OptimError::setting("crossover", format!("CR must be in [0, 1], got {}", settings.crossover)));
+        }
+        settings.stopping.validate()?;
+        let mut rng = Random::new(settings.seed);
+        let n = space.dim();
+        let mut points: Vec<Vec<f64>> = Vec::with_capacity(settings.population);
+        if let Some(x0) = x0 {
+            points.push(space.to_scaled(x0));
+        }
+        while points.len() < settings.population {
+            points.push((0..n).map(|i| uniform_in(&space, i, &mut rng)).collect());
+        }
+        let mut next_id = 0;
+        let batch = Batch::new(points, &space, &mut next_id);
+        Ok(DifferentialEvolution {
+            space,
+            settings,
+            population: vec![],
+            phase: Phase::Initial,
+            batch,
+            rng,
+            next_id,
+            evaluations: 0,
+            generations: 0,
+            rounds: 1,
+            best: BestSoFar::default(),
+        })
+    }
+
+    fn trial(&mut self, i: usize) -> Vec<f64> {
+        let np = self.population.len();
+        let pick = |exclude: &[usize], rng: &mut Random| loop {
+            let r = rng.below(np);
+            if !exclude.contains(&r) {
+                return r;
+            }
+        };
+        let r1 = pick(&[i], &mut self.rng);
+        let r2 = pick(&[i, r1], &mut self.rng);
+        let r3 = pick(&[i, r1, r2], &mut self.rng);
+        let n = self.space.dim();
+        let forced = self.rng.below(n);
+        let target = &self.population[i].0;
+        let mut u = target.clone();
+        for j in 0..n {
+            if j == forced || self.rng.chance(self.settings.crossover) {
+                let v = self.population[r1].0[j]
+                    + self.settings.weight * (self.population[r2].0[j] - self.population[r3].0[j]);
+                let (lo, hi) = self.space.z_bounds(j);
+                u[j] = if v < lo {
+                    target[j] + self.rng.uniform() * (lo - target[j])
+                } else if v > hi {
+                    target[j] + self.rng.uniform() * (hi - target[j])
+                } else {
+                    v
+                };
+            }
+        }
+        u
+    }
+
+    fn check_and_continue(&mut self) {
+        let best = self.population.iter().min_by(|a, b| a.1.cmp(&b.1)).map(|p| p.0.clone()).unwrap_or_default();
+        let size = self
+            .population
+            .iter()
+            .map(|(z, _)| z.iter().zip(&best).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max))
+            .fold(0.0, f64::max);
+        let stop = self.settings.stopping.check(
+            size,
+            spread(self.population.iter().map(|p| p.1)),
+            self.generations,
+            self.evaluations,
+        );
+        if let Some(t) = stop {
+            self.phase = Phase::Done(t);
+            self.batch = Batch::default();
+            return;
+        }
+        let trials = (0..self.population.len()).map(|i| self.trial(i)).collect();
+        self.batch = Batch::new(trials, &self.space, &mut self.next_id);
+        self.phase = Phase::Generation;
+        self.rounds += 1;
+    }
+
+    fn advance(&mut self) {
+        let values = self.batch.values();
+        self.evaluations += values.len() as u64;
+        for (z, f) in self.batch.z.iter().zip(&values) {
+            self.best.offer(z, *f);
+        }
+        match self.phase {
+            Phase::Initial => {
+                self.population = self.batch.z.iter().cloned().zip(values).collect();
+            }
+            Phase::Generation => {
+                for (i, (z, f)) in self.batch.z.iter().zip(values).enumerate() {
+                    if !self.population[i].1.lt(&f) {
+                        self.population[i] = (z.clone(), f);
+                    }
+                }
+                self.generations += 1;
+            }
+            Phase::Done(_) => return,
+        }
+        self.check_and_continue();
+    }
+}
+
+fn uniform_in(space: &Space, i: usize, rng: &mut Random) -> f64 {
+    let (lo, hi) = space.z_bounds(i);
+    lo + rng.uniform() * (hi - lo)
+}
+
+impl Optimizer for DifferentialEvolution {
+    fn ask(&mut self) -> Vec<Candidate> {
+        match self.phase {
+            Phase::Done(_) => vec![],
+            _ => self.batch.open(),
+        }
+    }
+
+    fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<(), OptimError> {
+        if matches!(self.phase, Phase::Done(_)) {
+            return Err(OptimError::UnknownCandidate(id));
+        }
+        if self.batch.tell(id, outcome)? {
+            self.advance();
+        }
+        Ok(())
+    }
+
+    fn status(&self) -> Status {
+        match self.phase {
+            Phase::Done(t) => Status::Done(t),
+            _ => Status::Running,
+        }
+    }
+
+    fn best(&self) -> Option<(Vec<f64>, f64)> {
+        self.best.get(&self.space)
+    }
+
+    fn evaluations(&self) -> u64 {
+        self.evaluations
+    }
+
+    fn iterations(&self) -> u64 {
+        self.generations
+    }
+
+    fn rounds(&self) -> u64 {
+        self.rounds
+    }
+}

@@ -1,0 +1,304 @@
+//! A genetic algorithm as Andersson et al. 2012 (section 4.2.2) describe it: individuals are
+//! bit strings with `bits` bits per parameter, decoded uniformly over the box
+//! (z = k / (2^bits − 1)); each generation selects parents with probability decreasing with
+//! their objective value, recombines them by single-point crossover (rate ≈ 0.7), flips bits at
+//! a low rate, and keeps the best `elitism` individuals unchanged. One generation is one batch
+//! (the new children only; elites keep their cached values).
+//!
+//! - **Selection** is rank-based roulette: the k-th best of N is drawn with probability
+//!   ∝ N − k. Ranks come from the total order of [`Fitness`], so failed evaluations simply rank
+//!   last and infinite values need no special care.
+//! - Needs finite bounds. x0 (if given) is encoded as the first member of the first population.
+//! - Termination (first met): x_tol on the population's size (scaled), f_tol on the spread of
+//!   its values, max_iters generations, max_fevals.
+//!
+//! Defaults: population 50, 16 bits per parameter, crossover rate 0.7, mutation rate 0.01 per
+//! bit, elitism 2, seed 0, [`Stopping::default_for`].
+
+use serde::{Deserialize, Serialize};
+
+use super::batch::{Batch, BestSoFar};
+use super::fitness::{Fitness, spread};
+use super::random::Random;
+use super::space::Space;
+use super::{Candidate, CandidateId, OptimError, Optimizer, Outcome, Status, Stopping, Termination};
+
+/// Genetic algorithm settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GaSettings {
+    /// Population size (≥ 4). Default: 50.
+    pub population: usize,
+    /// Bits per parameter (1 to 52). Default: 16.
+    pub bits: u32,
+    /// Probability that a pair of parents is recombined. Default: 0.7.
+    pub crossover_rate: f64,
+    /// Probability that a bit flips. Default: 0.01.
+    pub mutation_rate: f64,
+    /// Best individuals carried over unchanged (< population). Default: 2.
+    pub elitism: usize,
+    /// Seed of the random generator. Default: 0.
+    pub seed: u64,
+    /// Stopping rules. Default: [`Stopping::default_for`] the dimension.
+    pub stopping: Stopping,
+}
+
+impl GaSettings {
+    /// Defaults for an `n`-dimensional problem.
+    pub fn new(n: usize) -> Self {
+        GaSettings {
+            population: 50,
+            bits: 16,
+            crossover_rate: 0.7,
+            mutation_rate: 0.01,
+            elitism: 2,
+            seed: 0,
+            stopping: Stopping::default_for(n),
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+enum Phase {
+    Initial,
+    Generation,
+    Done(Termination),
+}
+
+/// One individual: its genes (one integer per parameter) and value.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct Individual {
+    genes: Vec<u64>,
+    f: Fitness,
+}
+
+/// The genetic algorithm state machine; see the module docs.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct GeneticAlgorithm {
+    space: Space,
+    settings: GaSettings,
+    population: Vec<Individual>,
+    /// Genes of the children in the current batch.
+    children: Vec<Vec<u64>>,
+    phase: Phase,
+    batch: Batch,
+    rng: Random,
+    next_id: CandidateId,
+    evaluations: u64,
+    generations: u64,
+    rounds: u64,
+    best: BestSoFar,
+}
+
+impl GeneticAlgorithm {
+    /// Starts the GA in `[lower, upper]` (finite), seeding the population with `x0` if given.
+    ///
+    /// # Errors
+    /// [`OptimError::Setting`] naming the bad field: bounds (must be finite), `x0`,
+    /// `population`, `bits`, `crossover_rate`, `mutation_rate`, `elitism` or a stopping rule.
+    pub fn new(lower: &[f64], upper: &[f64], x0: Option<&[f64]>, settings: GaSettings) -> Result<Self, OptimError> {
+        let space = Space::new(lower, upper, x0, None)?;
+        if !space.is_bounded() {
+            return Err(OptimError::setting("lower", "the genetic algorithm needs finite lower and upper bounds"));
+        }
+        if settings.population < 4 {
+            return Err(OptimError::setting("population", format!("must be at least 4, got {}", settings.population)));
+        }
+        if !(1..=52).contains(&settings.bits) {
+            return Err(OptimError::setting("bits", format!("must be in 1..=52, got {}", settings.bits)));
+        }
+        for (field, v) in [("crossover_rate", settings.crossover_rate), ("mutation_rate", settings.mutation_rate)] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(OptimError::setting(field, format!("must be in [0, 1], got {v}")));
+            }
+        }
+        if settings.elitism >= settings.population {
+            return Err(OptimError::setting(
+                "elitism",
+                format!("must be below the population {}", settings.population),
+            ));
+        }
+        settings.stopping.validate()?;
+        let mut rng = Random::new(settings.seed);
+        let max = (1u64 << settings.bits) - 1;
+        let n = space.dim();
+        let mut genomes: Vec<Vec<u64>> = vec![];
+        if let Some(x0) = x0 {
+            genomes.push(space.to_scaled(x0).iter().map(|z| (z.clamp(0.0, 1.0) * max as f64).round() as u64).collect());
+        }
+        while genomes.len() < settings.population {
+            genomes.push((0..n).map(|_| random_bits(&mut rng, settings.bits)).collect());
+        }
+        let mut ga = GeneticAlgorithm {
+            space,
+            settings,
+            population: vec![],
+            children: vec![],
+            phase: Phase::Initial,
+            batch: Batch::default(),
+            rng,
+            next_id: 0,
+            evaluations: 0,
+            generations: 0,
+            rounds: 0,
+            best: BestSoFar::default(),
+        };
+        ga.ask_children(genomes, Phase::Initial);
+        Ok(ga)
+    }
+
+    fn decode(&self, genes: &[u64]) -> Vec<f64> {
+        let max = ((1u64 << self.settings.bits) - 1) as f64;
+        genes.iter().map(|&g| g as f64 / max).collect()
+    }
+
+    fn ask_children(&mut self, genomes: Vec<Vec<u64>>, phase: Phase) {
+        let points = genomes.iter().map(|g| self.decode(g)).collect();
+        self.batch = Batch::new(points, &self.space, &mut self.next_id);
+        self.children = genomes;
+        self.phase = phase;
+        self.rounds += 1;
+    }
+
+    /// Rank-based roulette: index k (0 = best) with probability ∝ N − k.
+    fn select(&mut self) -> usize {
+        let n = self.population.len();
+        let total = n * (n + 1) / 2;
+        let mut ticket = self.rng.below(total);
+        for k in 0..n {
+            let w = n - k;
+            if ticket < w {
+                return k;
+            }
+            ticket -= w;
+        }
+        n - 1
+    }
+
+    fn breed(&mut self) -> Vec<Vec<u64>> {
+        let (bits, n) = (self.settings.bits as usize, self.space.dim());
+        let want = self.settings.population - self.settings.elitism;
+        let mut out = Vec::with_capacity(want);
+        while out.len() < want {
+            let (a, b) = (self.select(), self.select());
+            let mut c1 = self.population[a].genes.clone();
+            let mut c2 = self.population[b].genes.clone();
+            let total = bits * n;
+            if total > 1 && self.rng.chance(self.settings.crossover_rate) {
+                let point = 1 + self.rng.below(total - 1);
+                for pos in point..total {
+                    let (gene, bit) = (pos / bits, pos % bits);
+                    let mask = 1u64 << bit;
+                    let (x, y) = (c1[gene] & mask, c2[gene] & mask);
+                    c1[gene] = (c1[gene] & !mask) | y;
+                    c2[gene] = (c2[gene] & !mask) | x;
+                }
+            }
+            for child in [&mut c1, &mut c2] {
+                for g in child.iter_mut() {
+                    for bit in 0..bits {
+                        if self.rng.chance(self.settings.mutation_rate) {
+                            *g ^= 1u64 << bit;
+                        }
+                    }
+                }
+            }
+            out.push(c1);
+            if out.len() < want {
+                out.push(c2);
+            }
+        }
+        out
+    }
+
+    fn check_and_continue(&mut self) {
+        self.population.sort_by(|a, b| a.f.cmp(&b.f));
+        let best = self.decode(&self.population[0].genes);
+        let size = self
+            .population
+            .iter()
+            .map(|ind| self.decode(&ind.genes).iter().zip(&best).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max))
+            .fold(0.0, f64::max);
+        let stop = self.settings.stopping.check(
+            size,
+            spread(self.population.iter().map(|p| p.f)),
+            self.generations,
+            self.evaluations,
+        );
+        if let Some(t) = stop {
+            self.phase = Phase::Done(t);
+            self.batch = Batch::default();
+            return;
+        }
+        let children = self.breed();
+        self.ask_children(children, Phase::Generation);
+    }
+
+    fn advance(&mut self) {
+        let values = self.batch.values();
+        self.evaluations += values.len() as u64;
+        for (z, f) in self.batch.z.iter().zip(&values) {
+            self.best.offer(z, *f);
+        }
+        let children: Vec<Individual> = std::mem::take(&mut self.children)
+            .into_iter()
+            .zip(values)
+            .map(|(genes, f)| Individual { genes, f })
+            .collect();
+        match self.phase {
+            Phase::Initial => self.population = children,
+            Phase::Generation => {
+                self.population.truncate(self.settings.elitism);
+                self.population.extend(children);
+                self.generations += 1;
+            }
+            Phase::Done(_) => return,
+        }
+        self.check_and_continue();
+    }
+}
+
+fn random_bits(rng: &mut Random, bits: u32) -> u64 {
+    (0..bits).fold(0u64, |acc, b| if rng.chance(0.5) { acc | (1 << b) } else { acc })
+}
+
+impl Optimizer for GeneticAlgorithm {
+    fn ask(&mut self) -> Vec<Candidate> {
+        match self.phase {
+            Phase::Done(_) => vec![],
+            _ => self.batch.open(),
+        }
+    }
+
+    fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<(), OptimError> {
+        if matches!(self.phase, Phase::Done(_)) {
+            return Err(OptimError::UnknownCandidate(id));
+        }
+        if self.batch.tell(id, outcome)? {
+            self.advance();
+        }
+        Ok(())
+    }
+
+    fn status(&self) -> Status {
+        match self.phase {
+            Phase::Done(t) => Status::Done(t),
+            _ => Status::Running,
+        }
+    }
+
+    fn best(&self) -> Option<(Vec<f64>, f64)> {
+        self.best.get(&self.space)
+    }
+
+    fn evaluations(&self) -> u64 {
+        self.evaluations
+    }
+
+    fn iterations(&self) -> u64 {
+        self.generations
+    }
+
+    fn rounds(&self) -> u64 {
+        self.rounds
+    }
+}

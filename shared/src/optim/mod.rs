@@ -1,0 +1,186 @@
+//! Derivative-free optimizers as pure ask/tell state machines (Andersson et al. 2012, section 4).
+//!
+//! An optimizer never calls the objective: [`Optimizer::ask`] hands out a batch of candidate
+//! points, [`Optimizer::tell`] takes each result back (in any order), and the next batch is
+//! formed only once the whole batch is told, so the trajectory does not depend on the order of
+//! tells or on how many workers evaluated the points. There is no I/O, no clock and no thread;
+//! randomness comes from a seeded generator kept in the state, and the whole state is
+//! `serde`-serializable, so a checkpointed optimizer resumes with exactly the same asks.
+//!
+//! Points are reported in user units; internally each optimizer works on scaled variables
+//! ([`space::Space`]). A failed evaluation ranks worse than any value ([`fitness::Fitness`]);
+//! NaN counts as failed.
+//!
+//! - [`nelder_mead`]: Nelder–Mead with bounds, parallel (batches of 4) or sequential.
+//! - [`differential_evolution`]: DE rand/1/bin.
+//! - [`genetic`]: a bit-string genetic algorithm, as the paper describes it.
+
+mod batch;
+pub mod differential_evolution;
+pub mod fitness;
+pub mod genetic;
+pub mod nelder_mead;
+mod random;
+pub mod space;
+pub mod test_problems;
+
+use serde::{Deserialize, Serialize};
+
+pub use differential_evolution::{DeSettings, DifferentialEvolution};
+pub use fitness::Fitness;
+pub use genetic::{GaSettings, GeneticAlgorithm};
+pub use nelder_mead::{NelderMead, NmSettings};
+pub use space::Space;
+
+/// Identifies a candidate between `ask` and `tell`; unique within one optimizer run.
+pub type CandidateId = u64;
+
+/// A point to evaluate, in user units.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Candidate {
+    pub id: CandidateId,
+    pub x: Vec<f64>,
+}
+
+/// The result of evaluating a candidate.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Outcome {
+    /// The objective value (NaN is treated as [`Outcome::Failed`]).
+    Value(f64),
+    /// The simulation did not complete; ranks worse than any value.
+    Failed,
+}
+
+/// Why an optimizer stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Termination {
+    /// The simplex or population is smaller than `x_tol` in scaled variables.
+    XTol,
+    /// The spread of objective values is below `f_tol`.
+    FTol,
+    /// `max_iters` iterations (generations for DE and GA) were done.
+    MaxIters,
+    /// `max_fevals` evaluations were used.
+    MaxFevals,
+}
+
+impl std::fmt::Display for Termination {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Termination::XTol => "x_tol reached",
+            Termination::FTol => "f_tol reached",
+            Termination::MaxIters => "max_iters reached",
+            Termination::MaxFevals => "max_fevals reached",
+        })
+    }
+}
+
+/// Whether an optimizer wants more evaluations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Status {
+    Running,
+    Done(Termination),
+}
+
+/// Stopping rules shared by all optimizers. The first rule met stops the run (the paper's
+/// "one of which has to be fulfilled"); `None` disables a rule.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Stopping {
+    /// Size of the simplex (NM) or population (DE, GA) in scaled variables: the largest
+    /// infinity-norm distance from the best point. Default: 1e-6.
+    pub x_tol: Option<f64>,
+    /// Spread of objective values over the simplex or population (max − min). Default: 1e-8.
+    pub f_tol: Option<f64>,
+    /// Iterations (NM) or generations (DE, GA). Default: 1000 × dimension.
+    pub max_iters: Option<u64>,
+    /// Objective evaluations. Default: none.
+    pub max_fevals: Option<u64>,
+}
+
+impl Stopping {
+    /// The defaults for an `n`-dimensional problem.
+    pub fn default_for(n: usize) -> Self {
+        Stopping { x_tol: Some(1e-6), f_tol: Some(1e-8), max_iters: Some(1000 * n.max(1) as u64), max_fevals: None }
+    }
+
+    /// Checks the settings.
+    ///
+    /// # Errors
+    /// [`OptimError::Setting`] naming `x_tol`, `f_tol`, `max_iters` or `max_fevals`.
+    pub fn validate(&self) -> Result<(), OptimError> {
+        for (field, v) in [("x_tol", self.x_tol), ("f_tol", self.f_tol)] {
+            if let Some(v) = v
+                && !(v > 0.0 && v.is_finite())
+            {
+                return Err(OptimError::setting(field, format!("must be a positive number, got {v}")));
+            }
+        }
+        for (field, v) in [("max_iters", self.max_iters), ("max_fevals", self.max_fevals)] {
+            if v == Some(0) {
+                return Err(OptimError::setting(field, "must be at least 1"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The first rule that holds, checked in the order x_tol, f_tol, max_iters, max_fevals.
+    pub(crate) fn check(&self, x_size: f64, f_spread: f64, iterations: u64, evaluations: u64) -> Option<Termination> {
+        if self.x_tol.is_some_and(|t| x_size <= t) {
+            Some(Termination::XTol)
+        } else if self.f_tol.is_some_and(|t| f_spread <= t) {
+            Some(Termination::FTol)
+        } else if self.max_iters.is_some_and(|m| iterations >= m) {
+            Some(Termination::MaxIters)
+        } else if self.max_fevals.is_some_and(|m| evaluations >= m) {
+            Some(Termination::MaxFevals)
+        } else {
+            None
+        }
+    }
+}
+
+/// Errors of optimizer construction and of `tell`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum OptimError {
+    /// A setting is out of range; `field` names it.
+    #[error("invalid optimizer setting {field}: {message}")]
+    Setting { field: &'static str, message: String },
+    /// `tell` with an id that is not in the current batch.
+    #[error("candidate {0} is not awaiting a result")]
+    UnknownCandidate(CandidateId),
+}
+
+impl OptimError {
+    pub(crate) fn setting(field: &'static str, message: impl Into<String>) -> Self {
+        OptimError::Setting { field, message: message.into() }
+    }
+}
+
+/// The ask/tell interface every optimizer implements.
+pub trait Optimizer {
+    /// The candidates of the current batch that still await a result (a new batch once the
+    /// previous one is fully told). Empty when done. Asking twice returns the same candidates.
+    fn ask(&mut self) -> Vec<Candidate>;
+
+    /// Reports the result of candidate `id`. The next batch is formed when the whole current
+    /// batch has been told.
+    ///
+    /// # Errors
+    /// [`OptimError::UnknownCandidate`] if `id` is not awaiting a result.
+    fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<(), OptimError>;
+
+    /// Running, or done with the reason.
+    fn status(&self) -> Status;
+
+    /// The best point evaluated so far (user units) and its value.
+    fn best(&self) -> Option<(Vec<f64>, f64)>;
+
+    /// Objective evaluations told so far.
+    fn evaluations(&self) -> u64;
+
+    /// Iterations (NM) or generations (DE, GA) completed.
+    fn iterations(&self) -> u64;
+
+    /// Batches handed out so far.
+    fn rounds(&self) -> u64;
+}
