@@ -245,3 +245,42 @@ impl Optimizer for DifferentialEvolution {
         self.rounds
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optim::test_problems::{self as tp, run};
+
+    #[test]
+    fn rastrigin_2d_global_basin_for_a_fixed_seed() {
+        let mut s = DeSettings::new(2);
+        s.seed = 7;
+        s.population = 30;
+        s.stopping.max_iters = Some(300);
+        let mut de = DifferentialEvolution::new(&[-5.12, -5.12], &[5.12, 5.12], Some(&[3.3, -4.1]), s).unwrap();
+        run(&mut de, &|x| Outcome::Value(tp::rastrigin(x)), 10_000);
+        let (x, f) = de.best().unwrap();
+        assert!(x.iter().all(|v| v.abs() < 0.5) && f < 1e-6, "f = {f} at {x:?}");
+    }
+
+    #[test]
+    fn sphere_and_bound_optimum() {
+        let mut de = DifferentialEvolution::new(&[2.0, -1.0], &[5.0, 3.0], None, DeSettings::new(2)).unwrap();
+        run(&mut de, &|x| Outcome::Value(tp::shifted_sphere(x)), 10_000);
+        let (x, _) = de.best().unwrap();
+        assert!((x[0] - 2.0).abs() < 1e-4 && (x[1] + 1.0).abs() < 1e-4, "{x:?}");
+    }
+
+    #[test]
+    fn bad_settings_name_the_field() {
+        let check = |s: DeSettings, lower: f64, field: &str| {
+            let e = DifferentialEvolution::new(&[lower, 0.0], &[1.0, 1.0], None, s).unwrap_err();
+            assert!(matches!(&e, OptimError::Setting { field: f, .. } if *f == field), "{e}");
+        };
+        check(DeSettings { weight: 2.5, ..DeSettings::new(2) }, 0.0, "weight");
+        check(DeSettings { crossover: -0.1, ..DeSettings::new(2) }, 0.0, "crossover");
+        check(DeSettings { population: 3, ..DeSettings::new(2) }, 0.0, "population");
+        check(DeSettings::new(2), f64::NEG_INFINITY, "lower");
+        check(DeSettings::new(2), 2.0, "lower");
+    }
+}

@@ -8,7 +8,7 @@ use super::Outcome;
 /// An evaluated objective, ordered best (smallest) first; `Failed` ranks last.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum Fitness {
-    Value(f64),
+    Value(#[serde(with = "super::serde_float")] f64),
     Failed,
 }
 

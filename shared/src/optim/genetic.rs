@@ -302,3 +302,43 @@ impl Optimizer for GeneticAlgorithm {
         self.rounds
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optim::test_problems::{self as tp, run};
+
+    #[test]
+    fn rastrigin_2d_global_basin_for_a_fixed_seed() {
+        let mut s = GaSettings::new(2);
+        s.seed = 3;
+        s.stopping.max_iters = Some(200);
+        let mut ga = GeneticAlgorithm::new(&[-5.12, -5.12], &[5.12, 5.12], None, s).unwrap();
+        run(&mut ga, &|x| Outcome::Value(tp::rastrigin(x)), 10_000);
+        let (x, f) = ga.best().unwrap();
+        assert!(x.iter().all(|v| v.abs() < 0.5), "f = {f} at {x:?}");
+    }
+
+    #[test]
+    fn elites_are_not_evaluated_again() {
+        let mut s = GaSettings::new(2);
+        s.stopping = Stopping { x_tol: None, f_tol: None, max_iters: Some(10), max_fevals: None };
+        let mut ga = GeneticAlgorithm::new(&[0.0, 0.0], &[1.0, 1.0], None, s).unwrap();
+        run(&mut ga, &|x| Outcome::Value(tp::sphere(x)), 1000);
+        assert_eq!(ga.evaluations(), 50 + 10 * 48);
+        assert_eq!(ga.status(), Status::Done(Termination::MaxIters));
+    }
+
+    #[test]
+    fn bad_settings_name_the_field() {
+        let check = |s: GaSettings, field: &str| {
+            let e = GeneticAlgorithm::new(&[0.0], &[1.0], None, s).unwrap_err();
+            assert!(matches!(&e, OptimError::Setting { field: f, .. } if *f == field), "{e}");
+        };
+        check(GaSettings { bits: 0, ..GaSettings::new(1) }, "bits");
+        check(GaSettings { crossover_rate: 1.5, ..GaSettings::new(1) }, "crossover_rate");
+        check(GaSettings { mutation_rate: -1.0, ..GaSettings::new(1) }, "mutation_rate");
+        check(GaSettings { elitism: 50, ..GaSettings::new(1) }, "elitism");
+        check(GaSettings { population: 2, ..GaSettings::new(1) }, "population");
+    }
+}

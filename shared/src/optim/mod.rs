@@ -21,6 +21,7 @@ pub mod fitness;
 pub mod genetic;
 pub mod nelder_mead;
 mod random;
+mod serde_float;
 pub mod space;
 pub mod test_problems;
 
@@ -46,7 +47,7 @@ pub struct Candidate {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum Outcome {
     /// The objective value (NaN is treated as [`Outcome::Failed`]).
-    Value(f64),
+    Value(#[serde(with = "serde_float")] f64),
     /// The simulation did not complete; ranks worse than any value.
     Failed,
 }

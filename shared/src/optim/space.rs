@@ -10,7 +10,9 @@ use super::OptimError;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Space {
+    #[serde(with = "super::serde_float::vec")]
     lower: Vec<f64>,
+    #[serde(with = "super::serde_float::vec")]
     upper: Vec<f64>,
     offset: Vec<f64>,
     scale: Vec<f64>,
