@@ -13,8 +13,9 @@
 //!   projected a point leaves the simplex's normalised volume |det E| / Π‖eᵢ‖ below 1e-10, the
 //!   simplex is rebuilt around its best vertex with edges of the current simplex size (at least
 //!   10·x_tol, at most the initial step), costing one extra batch of n points.
-//! - The initial simplex is x0 plus `initial_step` along each scaled axis (minus where that
-//!   leaves the box). With the default scaling of unbounded parameters this is SciPy's simplex.
+//! - The initial simplex is x0 plus `initial_step` along each scaled axis, away from zero
+//!   (the other way where that leaves the box). With the default scaling of unbounded
+//!   parameters this is SciPy's initial simplex.
 //! - **Termination** (first rule met, see [`Stopping`]): x_tol on the largest ∞-norm distance of
 //!   a vertex from the best one in scaled variables, f_tol on the spread of vertex values,
 //!   max_iters, max_fevals (checked between iterations).
@@ -330,12 +331,14 @@ impl NelderMead {
     }
 }
 
-/// z0 moved by `step` along axis i, or against it where that leaves the box.
+/// z0 moved by `step` along axis i, away from zero (so x0ᵢ·1.05 for the default scaling of
+/// unbounded parameters, as SciPy does), or the other way where that leaves the box.
 fn step_along(space: &Space, z0: &[f64], i: usize, step: f64) -> f64 {
     let (lo, hi) = space.z_bounds(i);
-    if z0[i] + step <= hi {
+    let step = if z0[i] < 0.0 { -step } else { step };
+    if (lo..=hi).contains(&(z0[i] + step)) {
         z0[i] + step
-    } else if z0[i] - step >= lo {
+    } else if (lo..=hi).contains(&(z0[i] - step)) {
         z0[i] - step
     } else if hi - z0[i] >= z0[i] - lo {
         hi
@@ -491,6 +494,7 @@ mod tests {
         assert_eq!(seq.simplex, par.simplex);
         assert_eq!(seq.iterations(), par.iterations());
         assert!(par.rounds() < seq.evaluations(), "{} rounds vs {} evaluations", par.rounds(), seq.evaluations());
+        assert!(seq.evaluations() < par.evaluations(), "sequential mode should need fewer evaluations");
     }
 
     #[test]
