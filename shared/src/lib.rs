@@ -3,5 +3,6 @@
 //! tokio, tonic or the network, so everything in it is testable without a server.
 
 pub mod fmu;
+pub mod job;
 pub mod optim;
 pub mod sim;

@@ -15,6 +15,7 @@
 //! - [`differential_evolution`]: DE rand/1/bin.
 //! - [`genetic`]: a bit-string genetic algorithm, as the paper describes it.
 
+pub mod any;
 mod batch;
 pub mod differential_evolution;
 pub mod fitness;
@@ -27,6 +28,7 @@ pub mod test_problems;
 
 use serde::{Deserialize, Serialize};
 
+pub use any::AnyOptimizer;
 pub use differential_evolution::{DeSettings, DifferentialEvolution};
 pub use fitness::Fitness;
 pub use genetic::{GaSettings, GeneticAlgorithm};

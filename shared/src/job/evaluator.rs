@@ -1,0 +1,74 @@
+//! One evaluation of the objective at a parameter point, on a warm FMU instance that is reset
+//! between points and re-instantiated after a failure (see [`crate::sim::Simulator`]). A
+//! failed simulation is an [`Evaluation`] with no value and the error text, never a panic.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use serde::{Deserialize, Serialize};
+
+use super::JobError;
+use super::objective::{Objective, PreparedJob};
+use crate::fmu::Fmu;
+use crate::sim::{SimError, SimResult, Simulator};
+
+/// The result of evaluating one point.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Evaluation {
+    /// The objective value, or `None` if the simulation failed.
+    pub value: Option<f64>,
+    /// Weighted residuals, when asked for and the simulation succeeded.
+    pub residuals: Option<Vec<f64>>,
+    /// Why the simulation failed.
+    pub error: Option<String>,
+    /// Wall time of the simulation.
+    pub wall: Duration,
+}
+
+/// Evaluates points of one job on one warm instance. Not `Send`: keep it on its thread.
+pub struct Evaluator {
+    simulator: Simulator,
+    job: Arc<PreparedJob>,
+}
+
+impl Evaluator {
+    /// Instantiates the FMU for the job's interface.
+    ///
+    /// # Errors
+    /// [`JobError::Sim`] if the FMU cannot be instantiated.
+    pub fn new(fmu: &Fmu, job: Arc<PreparedJob>) -> Result<Self, JobError> {
+        Ok(Evaluator { simulator: Simulator::new(fmu, Some(job.interface))?, job })
+    }
+
+    /// Simulates at `x` on the measurement grid.
+    ///
+    /// # Errors
+    /// The simulation's error.
+    pub fn simulate(&mut self, x: &[f64]) -> Result<SimResult, SimError> {
+        self.simulator.run(&self.job.sim_spec(x))
+    }
+
+    /// Evaluates the objective at `x`.
+    pub fn evaluate(&mut self, x: &[f64], want_residuals: bool) -> Evaluation {
+        let start = Instant::now();
+        let outcome = self.simulate(x);
+        let wall = start.elapsed();
+        match outcome {
+            Ok(sim) => match self.job.objective.residuals(&sim) {
+                Some(r) => Evaluation {
+                    value: Some(Objective::value(&r)),
+                    residuals: want_residuals.then_some(r),
+                    error: None,
+                    wall,
+                },
+                None => Evaluation {
+                    value: None,
+                    residuals: None,
+                    error: Some("non-finite simulation output".into()),
+                    wall,
+                },
+            },
+            Err(e) => Evaluation { value: None, residuals: None, error: Some(e.to_string()), wall },
+        }
+    }
+}

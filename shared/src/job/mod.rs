@@ -1,0 +1,46 @@
+//! Calibration jobs (paper section 6): the job specification ([`spec`], TOML for the CLI and
+//! the same fields over gRPC), measurement data ([`data`]: CSV or MATLAB v5), the quadratic
+//! error objective ([`objective`], the paper's `quad_err`), one evaluation of a parameter point
+//! on a warm FMU instance ([`evaluator`]), the optimizer built from the spec ([`optimizer`]),
+//! an in-process calibration loop over threads ([`local`]) and the result ([`result`]).
+
+pub mod data;
+pub mod evaluator;
+pub mod local;
+pub mod objective;
+pub mod optimizer;
+pub mod result;
+pub mod spec;
+
+use crate::fmu::FmuError;
+use crate::optim::OptimError;
+use crate::sim::SimError;
+
+pub use data::MeasurementTable;
+pub use evaluator::{Evaluation, Evaluator};
+pub use objective::{Objective, PreparedJob};
+pub use result::{CalibrationResult, HistoryPoint};
+pub use spec::JobSpec;
+
+/// Why a job cannot be prepared or run.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    /// The job is inconsistent with itself, its data or its model; `field` names the culprit
+    /// (e.g. `parameters[1].lower`, `outputs[0].column`, `data.time`).
+    #[error("{field}: {message}")]
+    Invalid { field: String, message: String },
+    #[error("cannot read {path}: {message}")]
+    Read { path: String, message: String },
+    #[error(transparent)]
+    Fmu(#[from] FmuError),
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    #[error(transparent)]
+    Optim(#[from] OptimError),
+}
+
+impl JobError {
+    pub fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
+        JobError::Invalid { field: field.into(), message: message.into() }
+    }
+}

@@ -1,0 +1,270 @@
+//! The objective of the paper's equation (1), over several outputs with weights:
+//! f(x) = Σ_j w_j Σ_i (y_sim,j(t_i, x) − y_meas,j(t_i))², with y_sim taken at exactly the
+//! measurement times. Missing measurements (NaN or empty cells) are skipped; rows with the same
+//! time stamp (before and after an event) are averaged per column, as the 2012 `quad_err` did.
+//! Measurements outside the simulated span [start, stop] are left out, so one data file can
+//! serve a calibration window and a validation window.
+//!
+//! [`PreparedJob`] checks a job against its model and data once, and holds what every
+//! evaluation needs: the simulation template and the averaged targets.
+
+use serde::{Deserialize, Serialize};
+
+use super::JobError;
+use super::data::MeasurementTable;
+use super::spec::JobSpec;
+use crate::fmu::schema::{Causality, VarType};
+use crate::fmu::{Interface, ModelDescription};
+use crate::sim::plan::Plan;
+use crate::sim::{InputTable, OutputTimes, SimResult, SimSpec};
+
+/// One output's targets at the unique measurement times (NaN = missing).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Target {
+    pub variable: String,
+    pub weight: f64,
+    pub values: Vec<f64>,
+}
+
+/// The measurement side of the objective.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Objective {
+    /// Unique measurement times inside the simulated span, increasing.
+    pub times: Vec<f64>,
+    pub targets: Vec<Target>,
+}
+
+impl Objective {
+    /// Weighted residuals √w_j (y_sim − y_meas), output by output, skipping missing values.
+    /// `None` if the simulation lacks an output or produced a non-finite value.
+    pub fn residuals(&self, sim: &SimResult) -> Option<Vec<f64>> {
+        let mut r = Vec::with_capacity(self.times.len() * self.targets.len());
+        for t in &self.targets {
+            let y = sim.column(&t.variable)?;
+            if y.len() != t.values.len() {
+                return None;
+            }
+            let s = t.weight.sqrt();
+            for (ys, ym) in y.iter().zip(&t.values) {
+                if ym.is_nan() {
+                    continue;
+                }
+                let d = s * (ys - ym);
+                if !d.is_finite() {
+                    return None;
+                }
+                r.push(d);
+            }
+        }
+        Some(r)
+    }
+
+    /// Σ r².
+    pub fn value(residuals: &[f64]) -> f64 {
+        residuals.iter().map(|r| r * r).sum()
+    }
+}
+
+/// A job checked against its model and data.
+#[derive(Debug, Clone)]
+pub struct PreparedJob {
+    pub spec: JobSpec,
+    pub objective: Objective,
+    /// The simulation of one evaluation, without the parameters.
+    pub template: SimSpec,
+    pub interface: Interface,
+    pub parameter_names: Vec<String>,
+}
+
+impl PreparedJob {
+    /// Checks `spec` against the model description and the data and builds the objective.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] naming the field: unknown or unsettable parameters, bounds outside
+    /// a variable's min/max, unknown output variables, missing or malformed data columns,
+    /// inputs that are not model inputs, and anything the simulation itself would reject.
+    pub fn new(
+        spec: &JobSpec,
+        md: &ModelDescription,
+        interfaces: &[Interface],
+        data: &MeasurementTable,
+    ) -> Result<Self, JobError> {
+        spec.validate()?;
+        let mut used: Vec<&str> = spec.outputs.iter().map(|o| o.column.as_str()).collect();
+        used.extend(spec.inputs.iter().map(|i| i.column.as_str()));
+        data.validate(&used)?;
+
+        for (k, p) in spec.parameters.iter().enumerate() {
+            let field = format!("parameters[{k}].name");
+            let v = md
+                .variable(&p.name)
+                .ok_or_else(|| JobError::invalid(&field, format!("unknown variable {:?}", p.name)))?;
+            if v.var_type != VarType::Real {
+                return Err(JobError::invalid(
+                    &field,
+                    format!("{} is {:?}; only Real parameters can be calibrated", p.name, v.var_type),
+                ));
+            }
+            if !v.settable_before_init() {
+                return Err(JobError::invalid(
+                    &field,
+                    format!("{} may not be set (causality {:?})", p.name, v.causality),
+                ));
+            }
+            if let Some(min) = v.min
+                && p.lower < min
+            {
+                return Err(JobError::invalid(
+                    format!("parameters[{k}].lower"),
+                    format!("{} is below {}'s minimum {min}", p.lower, p.name),
+                ));
+            }
+            if let Some(max) = v.max
+                && p.upper > max
+            {
+                return Err(JobError::invalid(
+                    format!("parameters[{k}].upper"),
+                    format!("{} is above {}'s maximum {max}", p.upper, p.name),
+                ));
+            }
+        }
+        for (k, o) in spec.outputs.iter().enumerate() {
+            let v = md.variable(&o.variable).ok_or_else(|| {
+                JobError::invalid(format!("outputs[{k}].variable"), format!("unknown variable {:?}", o.variable))
+            })?;
+            if v.var_type == VarType::String {
+                return Err(JobError::invalid(format!("outputs[{k}].variable"), format!("{} is a String", o.variable)));
+            }
+        }
+        for (k, i) in spec.inputs.iter().enumerate() {
+            let v = md.variable(&i.variable).ok_or_else(|| {
+                JobError::invalid(format!("inputs[{k}].variable"), format!("unknown variable {:?}", i.variable))
+            })?;
+            if v.causality != Causality::Input {
+                return Err(JobError::invalid(
+                    format!("inputs[{k}].variable"),
+                    format!("{} is not an input of the model", i.variable),
+                ));
+            }
+        }
+
+        let start = spec.simulation.start_time.unwrap_or(data.time[0]);
+        let stop = spec.simulation.stop_time.unwrap_or(*data.time.last().expect("validated: rows present"));
+        if !(stop > start) {
+            return Err(JobError::invalid(
+                "simulation.stop_time",
+                format!("{stop} is not after the start time {start}"),
+            ));
+        }
+        // Group rows by time stamp inside [start, stop] and average each output column.
+        let tol = 1e-12 * stop.abs().max(start.abs()).max(1.0);
+        let mut times: Vec<f64> = vec![];
+        let mut groups: Vec<(usize, usize)> = vec![];
+        let mut i = 0;
+        while i < data.time.len() {
+            let mut j = i + 1;
+            while j < data.time.len() && data.time[j] == data.time[i] {
+                j += 1;
+            }
+            let t = data.time[i];
+            if t >= start - tol && t <= stop + tol {
+                times.push(t.clamp(start, stop));
+                groups.push((i, j));
+            }
+            i = j;
+        }
+        if times.is_empty() {
+            return Err(JobError::invalid(
+                "data.time",
+                format!("no measurement inside the simulated span [{start}, {stop}]"),
+            ));
+        }
+        let left_out = data.time.len() - groups.iter().map(|(a, b)| b - a).sum::<usize>();
+        if left_out > 0 {
+            tracing::info!(
+                left_out,
+                start,
+                stop,
+                "measurement rows outside the simulated span are left out of the objective"
+            );
+        }
+        let targets: Vec<Target> = spec
+            .outputs
+            .iter()
+            .map(|o| {
+                let col = data.column(&o.column).expect("validated");
+                let values = groups
+                    .iter()
+                    .map(|&(a, b)| {
+                        let vals: Vec<f64> = col[a..b].iter().copied().filter(|v| !v.is_nan()).collect();
+                        if vals.is_empty() { f64::NAN } else { vals.iter().sum::<f64>() / vals.len() as f64 }
+                    })
+                    .collect();
+                Target { variable: o.variable.clone(), weight: o.weight, values }
+            })
+            .collect();
+        if targets.iter().all(|t| t.values.iter().all(|v| v.is_nan())) {
+            return Err(JobError::invalid("data", "every measurement of the outputs is missing"));
+        }
+
+        let inputs = (!spec.inputs.is_empty()).then(|| InputTable {
+            time: data.time.clone(),
+            columns: spec
+                .inputs
+                .iter()
+                .map(|i| (i.variable.clone(), data.column(&i.column).expect("validated").to_vec()))
+                .collect(),
+        });
+        if let Some(t) = &inputs {
+            t.validate().map_err(|e| JobError::invalid("inputs", e.to_string()))?;
+        }
+        let interface = match spec.model.interface.as_deref() {
+            Some("cs") => Interface::CoSimulation,
+            Some(_) => Interface::ModelExchange,
+            None => *interfaces.first().ok_or_else(|| JobError::invalid("model", "the FMU offers no interface"))?,
+        };
+        let solver = match &spec.simulation.solver {
+            Some(s) => s.parse().map_err(|e: String| JobError::invalid("simulation.solver", e))?,
+            None => Default::default(),
+        };
+        let mut outputs: Vec<String> = vec![];
+        for o in &spec.outputs {
+            if !outputs.contains(&o.variable) {
+                outputs.push(o.variable.clone());
+            }
+        }
+        let template = SimSpec {
+            interface: Some(interface),
+            start_time: Some(start),
+            stop_time: Some(stop),
+            output_times: Some(OutputTimes::Times(times.clone())),
+            parameters: vec![],
+            inputs,
+            outputs,
+            tolerance: spec.simulation.tolerance,
+            solver,
+            ..Default::default()
+        };
+        // Everything the simulation would reject, rejected now, with the start values set.
+        let (names, x0, _, _) = spec.parameter_vectors();
+        let mut check = template.clone();
+        check.parameters = names.iter().zip(&x0).map(|(n, v)| (n.clone(), format!("{v}"))).collect();
+        Plan::new(md, interfaces, &check).map_err(|e| JobError::invalid("simulation", e.to_string()))?;
+
+        Ok(PreparedJob {
+            spec: spec.clone(),
+            objective: Objective { times, targets },
+            template,
+            interface,
+            parameter_names: names,
+        })
+    }
+
+    /// The simulation request of one evaluation at `x` (user units, in parameter order).
+    pub fn sim_spec(&self, x: &[f64]) -> SimSpec {
+        let mut s = self.template.clone();
+        // `{}` prints the shortest text that parses back to the same f64.
+        s.parameters = self.parameter_names.iter().zip(x).map(|(n, v)| (n.clone(), format!("{v}"))).collect();
+        s
+    }
+}

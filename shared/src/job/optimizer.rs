@@ -1,0 +1,61 @@
+//! Builds the job's optimizer from its `[optimizer]` table: unset fields keep each
+//! optimizer's defaults.
+
+use super::spec::JobSpec;
+use crate::optim::{
+    AnyOptimizer, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, NelderMead, NmSettings, OptimError,
+    Stopping,
+};
+
+/// The optimizer of `spec`, starting at the parameters' start values.
+///
+/// # Errors
+/// [`OptimError::Setting`] naming the bad field.
+pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
+    let (_, x0, lower, upper) = spec.parameter_vectors();
+    let o = &spec.optimizer;
+    let n = x0.len();
+    let defaults = Stopping::default_for(n);
+    let stopping = Stopping {
+        x_tol: o.x_tol.or(defaults.x_tol),
+        f_tol: o.f_tol.or(defaults.f_tol),
+        max_iters: o.max_iters.or(defaults.max_iters),
+        max_fevals: o.max_fevals,
+    };
+    Ok(match o.algorithm.as_str() {
+        "differential-evolution" => {
+            let d = DeSettings::new(n);
+            let s = DeSettings {
+                population: o.population.unwrap_or(d.population),
+                weight: o.weight.unwrap_or(d.weight),
+                crossover: o.crossover.unwrap_or(d.crossover),
+                seed: o.seed,
+                stopping,
+            };
+            AnyOptimizer::DifferentialEvolution(DifferentialEvolution::new(&lower, &upper, Some(&x0), s)?)
+        }
+        "genetic" => {
+            let d = GaSettings::new(n);
+            let s = GaSettings {
+                population: o.population.unwrap_or(d.population),
+                bits: o.bits.unwrap_or(d.bits),
+                crossover_rate: o.crossover_rate.unwrap_or(d.crossover_rate),
+                mutation_rate: o.mutation_rate.unwrap_or(d.mutation_rate),
+                elitism: o.elitism.unwrap_or(d.elitism),
+                seed: o.seed,
+                stopping,
+            };
+            AnyOptimizer::Genetic(GeneticAlgorithm::new(&lower, &upper, Some(&x0), s)?)
+        }
+        _ => {
+            let d = NmSettings::new(n);
+            let s = NmSettings {
+                parallel: o.parallel,
+                initial_step: o.initial_step.unwrap_or(d.initial_step),
+                stopping,
+                nominal: None,
+            };
+            AnyOptimizer::NelderMead(NelderMead::new(&lower, &upper, &x0, s)?)
+        }
+    })
+}

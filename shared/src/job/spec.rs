@@ -1,0 +1,329 @@
+//! The job specification, read from TOML by the CLI and converted from protobuf by the
+//! coordinator. Relative paths in a TOML file are resolved against the file's folder.
+//!
+//! ```toml
+//! [model]
+//! path = "furuta.fmu"        # or: id = "<sha256 of an uploaded FMU>"
+//! interface = "me"           # me | cs (default: me if offered)
+//!
+//! [data]
+//! path = "FurutaData.mat"    # CSV with a time column, or MATLAB v5 .mat
+//! time_column = "time"       # default "time"
+//!
+//! [[outputs]]
+//! variable = "armJoint.phi"  # FMU variable
+//! column = "phi"             # data column
+//! weight = 1.0               # default 1
+//!
+//! [[inputs]]                 # data column -> FMU input
+//! column = "u"
+//! variable = "u"
+//!
+//! [[parameters]]
+//! name = "armFriction"
+//! start = 0.012
+//! lower = 0.0
+//! upper = 0.022
+//!
+//! [simulation]               # all optional; default: the data's time span, FMU defaults
+//! start_time = 0.0
+//! stop_time = 40.0
+//! tolerance = 1e-6
+//! solver = "bdf"
+//!
+//! [optimizer]
+//! algorithm = "nelder-mead"  # nelder-mead | differential-evolution | genetic
+//! parallel = true
+//! x_tol = 1e-3
+//! f_tol = 1e-2
+//! max_iters = 1000
+//! max_fevals = 5000
+//! seed = 0
+//!
+//! [workers]
+//! count = 2                  # local runs; default: number of cores
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::JobError;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JobSpec {
+    pub model: ModelRef,
+    pub data: DataRef,
+    pub outputs: Vec<OutputMap>,
+    #[serde(default)]
+    pub inputs: Vec<InputMap>,
+    pub parameters: Vec<ParameterSpec>,
+    #[serde(default)]
+    pub simulation: SimulationSpec,
+    #[serde(default)]
+    pub optimizer: OptimizerSpec,
+    #[serde(default)]
+    pub workers: WorkersSpec,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelRef {
+    /// Path of the `.fmu` (CLI), or
+    pub path: Option<PathBuf>,
+    /// SHA-256 of an FMU uploaded to the coordinator.
+    pub id: Option<String>,
+    /// `me` or `cs`. Default: Model Exchange if offered.
+    pub interface: Option<String>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DataRef {
+    /// CSV or MATLAB v5 `.mat` file (CLI); over gRPC the data travels with the job.
+    pub path: Option<PathBuf>,
+    /// Name of the time column or variable. Default: `time`.
+    #[serde(default = "default_time_column")]
+    pub time_column: String,
+}
+
+fn default_time_column() -> String {
+    "time".into()
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputMap {
+    pub variable: String,
+    pub column: String,
+    #[serde(default = "one")]
+    pub weight: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InputMap {
+    pub column: String,
+    pub variable: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParameterSpec {
+    pub name: String,
+    pub start: f64,
+    pub lower: f64,
+    pub upper: f64,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulationSpec {
+    /// Default: the first measurement time.
+    pub start_time: Option<f64>,
+    /// Default: the last measurement time.
+    pub stop_time: Option<f64>,
+    /// Default: the FMU's DefaultExperiment tolerance, else 1e-6.
+    pub tolerance: Option<f64>,
+    /// bdf (default), esdirk34, tr-bdf2 or tsit45.
+    pub solver: Option<String>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OptimizerSpec {
+    /// nelder-mead (default), differential-evolution or genetic.
+    #[serde(default = "default_algorithm")]
+    pub algorithm: String,
+    /// Nelder–Mead: evaluate the four trial points as one batch. Default: true.
+    #[serde(default = "default_true")]
+    pub parallel: bool,
+    pub x_tol: Option<f64>,
+    pub f_tol: Option<f64>,
+    pub max_iters: Option<u64>,
+    pub max_fevals: Option<u64>,
+    /// Seed of DE and GA. Default: 0.
+    #[serde(default)]
+    pub seed: u64,
+    /// Nelder–Mead initial simplex edge (scaled). Default: 0.05.
+    pub initial_step: Option<f64>,
+    /// DE and GA population.
+    pub population: Option<usize>,
+    /// DE weight F.
+    pub weight: Option<f64>,
+    /// DE crossover probability CR.
+    pub crossover: Option<f64>,
+    /// GA bits per parameter.
+    pub bits: Option<u32>,
+    /// GA crossover rate.
+    pub crossover_rate: Option<f64>,
+    /// GA mutation rate.
+    pub mutation_rate: Option<f64>,
+    /// GA elitism.
+    pub elitism: Option<usize>,
+}
+
+fn default_algorithm() -> String {
+    "nelder-mead".into()
+}
+
+fn default_true() -> bool {
+    true
+}
+
+impl Default for OptimizerSpec {
+    fn default() -> Self {
+        toml::from_str("").expect("an empty optimizer table is valid")
+    }
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorkersSpec {
+    /// Worker processes for local runs. Default: the number of cores.
+    pub count: Option<usize>,
+}
+
+impl JobSpec {
+    /// Parses TOML text; relative paths are resolved against `base_dir`.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] with field `toml` and the parser's message (which gives the line).
+    pub fn from_toml(text: &str, base_dir: &Path) -> Result<JobSpec, JobError> {
+        let mut spec: JobSpec =
+            toml::from_str(text).map_err(|e| JobError::invalid("toml", e.to_string().trim().replace('\n', " ")))?;
+        for p in [&mut spec.model.path, &mut spec.data.path].into_iter().flatten() {
+            if p.is_relative() {
+                *p = base_dir.join(&*p);
+            }
+        }
+        Ok(spec)
+    }
+
+    /// Reads a TOML job file.
+    ///
+    /// # Errors
+    /// [`JobError::Read`] if the file cannot be read, else as [`JobSpec::from_toml`].
+    pub fn from_toml_file(path: &Path) -> Result<JobSpec, JobError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| JobError::Read { path: path.display().to_string(), message: e.to_string() })?;
+        JobSpec::from_toml(&text, path.parent().unwrap_or(Path::new(".")))
+    }
+
+    /// Checks what can be checked without the model or data: names present, bounds ordered,
+    /// starts within bounds, weights non-negative.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] naming the field.
+    pub fn validate(&self) -> Result<(), JobError> {
+        if self.model.path.is_none() && self.model.id.is_none() {
+            return Err(JobError::invalid("model", "give a path or an id"));
+        }
+        if let Some(i) = &self.model.interface
+            && !matches!(i.as_str(), "me" | "cs")
+        {
+            return Err(JobError::invalid("model.interface", format!("{i:?} is not me or cs")));
+        }
+        if self.outputs.is_empty() {
+            return Err(JobError::invalid("outputs", "at least one output is needed"));
+        }
+        for (k, o) in self.outputs.iter().enumerate() {
+            if !(o.weight >= 0.0 && o.weight.is_finite()) {
+                return Err(JobError::invalid(
+                    format!("outputs[{k}].weight"),
+                    format!("{} must be a non-negative number", o.weight),
+                ));
+            }
+        }
+        if self.parameters.is_empty() {
+            return Err(JobError::invalid("parameters", "at least one parameter is needed"));
+        }
+        for (k, p) in self.parameters.iter().enumerate() {
+            let f = |name: &str| format!("parameters[{k}].{name}");
+            if p.name.trim().is_empty() {
+                return Err(JobError::invalid(f("name"), "is empty"));
+            }
+            if self.parameters[..k].iter().any(|q| q.name == p.name) {
+                return Err(JobError::invalid(f("name"), format!("{:?} appears twice", p.name)));
+            }
+            if p.lower.is_nan() || p.upper.is_nan() || p.lower > p.upper {
+                return Err(JobError::invalid(
+                    f("lower"),
+                    format!("{}: lower {} is above upper {}", p.name, p.lower, p.upper),
+                ));
+            }
+            if !(p.start.is_finite() && p.start >= p.lower && p.start <= p.upper) {
+                return Err(JobError::invalid(
+                    f("start"),
+                    format!("{}: start {} is outside [{}, {}]", p.name, p.start, p.lower, p.upper),
+                ));
+            }
+        }
+        if !matches!(self.optimizer.algorithm.as_str(), "nelder-mead" | "differential-evolution" | "genetic") {
+            return Err(JobError::invalid(
+                "optimizer.algorithm",
+                format!("{:?} is not nelder-mead, differential-evolution or genetic", self.optimizer.algorithm),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Parameter names, starts and bounds as vectors.
+    pub fn parameter_vectors(&self) -> (Vec<String>, Vec<f64>, Vec<f64>, Vec<f64>) {
+        let p = &self.parameters;
+        (
+            p.iter().map(|p| p.name.clone()).collect(),
+            p.iter().map(|p| p.start).collect(),
+            p.iter().map(|p| p.lower).collect(),
+            p.iter().map(|p| p.upper).collect(),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const JOB: &str = r#"
+[model]
+path = "m.fmu"
+[data]
+path = "d.csv"
+[[outputs]]
+variable = "y"
+column = "y"
+[[parameters]]
+name = "k"
+start = 1.0
+lower = 0.0
+upper = 2.0
+"#;
+
+    #[test]
+    fn minimal_toml_gets_defaults_and_resolved_paths() {
+        let spec = JobSpec::from_toml(JOB, Path::new("/jobs")).unwrap();
+        assert_eq!(spec.model.path.as_deref(), Some(Path::new("/jobs/m.fmu")));
+        assert_eq!(spec.data.time_column, "time");
+        assert_eq!(spec.outputs[0].weight, 1.0);
+        assert_eq!(spec.optimizer.algorithm, "nelder-mead");
+        assert!(spec.optimizer.parallel);
+        spec.validate().unwrap();
+    }
+
+    #[test]
+    fn inconsistent_parameters_name_the_field() {
+        let bad = JOB.replace("lower = 0.0", "lower = 3.0");
+        let e = JobSpec::from_toml(&bad, Path::new(".")).unwrap().validate().unwrap_err();
+        assert!(e.to_string().starts_with("parameters[0].lower"), "{e}");
+        let bad = JOB.replace("start = 1.0", "start = 5.0");
+        let e = JobSpec::from_toml(&bad, Path::new(".")).unwrap().validate().unwrap_err();
+        assert!(e.to_string().starts_with("parameters[0].start"), "{e}");
+        let e = JobSpec::from_toml(&JOB.replace("[data]", "[data]\nbogus = 1"), Path::new(".")).unwrap_err();
+        assert!(e.to_string().contains("bogus"), "{e}");
+    }
+}

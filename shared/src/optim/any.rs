@@ -1,0 +1,57 @@
+//! One serializable type for whichever optimizer a job uses, so the coordinator can store and
+//! resume any of them the same way.
+
+use serde::{Deserialize, Serialize};
+
+use super::{
+    Candidate, CandidateId, DifferentialEvolution, GeneticAlgorithm, NelderMead, OptimError, Optimizer, Outcome, Status,
+};
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub enum AnyOptimizer {
+    NelderMead(NelderMead),
+    DifferentialEvolution(DifferentialEvolution),
+    Genetic(GeneticAlgorithm),
+}
+
+impl AnyOptimizer {
+    fn inner(&self) -> &dyn Optimizer {
+        match self {
+            AnyOptimizer::NelderMead(o) => o,
+            AnyOptimizer::DifferentialEvolution(o) => o,
+            AnyOptimizer::Genetic(o) => o,
+        }
+    }
+
+    fn inner_mut(&mut self) -> &mut dyn Optimizer {
+        match self {
+            AnyOptimizer::NelderMead(o) => o,
+            AnyOptimizer::DifferentialEvolution(o) => o,
+            AnyOptimizer::Genetic(o) => o,
+        }
+    }
+}
+
+impl Optimizer for AnyOptimizer {
+    fn ask(&mut self) -> Vec<Candidate> {
+        self.inner_mut().ask()
+    }
+    fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<(), OptimError> {
+        self.inner_mut().tell(id, outcome)
+    }
+    fn status(&self) -> Status {
+        self.inner().status()
+    }
+    fn best(&self) -> Option<(Vec<f64>, f64)> {
+        self.inner().best()
+    }
+    fn evaluations(&self) -> u64 {
+        self.inner().evaluations()
+    }
+    fn iterations(&self) -> u64 {
+        self.inner().iterations()
+    }
+    fn rounds(&self) -> u64 {
+        self.inner().rounds()
+    }
+}

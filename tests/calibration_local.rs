@@ -1,0 +1,124 @@
+//! Calibration in-process: recovers a known parameter from data the model itself generated,
+//! gives the same result for any number of threads, and rejects inconsistent jobs with the
+//! field named.
+
+mod common;
+
+use std::sync::Arc;
+
+use fmucal_shared::job::{JobSpec, MeasurementTable, PreparedJob, local};
+use fmucal_shared::sim::{SimSpec, simulate};
+
+/// Synthetic data from Decay with k = 1.7, every 0.05 s, with one duplicated time stamp and one
+/// missing cell.
+fn data(dir: &std::path::Path) -> std::path::PathBuf {
+    let cache = dir.join("cache");
+    let fmu = common::load_example("decay", &cache);
+    let spec = SimSpec { parameters: vec![("k".into(), "1.7".into())], tolerance: Some(1e-10), ..Default::default() };
+    let r = simulate(&fmu, &spec).unwrap();
+    let mut text = String::from("time,x\n");
+    for (i, (t, x)) in r.time.iter().zip(r.column("x").unwrap()).enumerate() {
+        if i % 5 != 0 {
+            continue;
+        }
+        if i == 50 {
+            text.push_str(&format!("{t},\n"));
+        } else {
+            text.push_str(&format!("{t},{x}\n"));
+        }
+        if i == 100 {
+            text.push_str(&format!("{t},{x}\n"));
+        }
+    }
+    let p = dir.join("decay.csv");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn job(dir: &std::path::Path, extra: &str) -> JobSpec {
+    let toml = format!(
+        r#"
+[model]
+path = "{}"
+[data]
+path = "{}"
+[[outputs]]
+variable = "x"
+column = "x"
+[[parameters]]
+name = "k"
+start = 1.0
+lower = 0.1
+upper = 5.0
+[simulation]
+tolerance = 1e-10
+[optimizer]
+x_tol = 1e-8
+f_tol = 1e-14
+{extra}
+"#,
+        common::example("decay").display(),
+        data(dir).display()
+    );
+    JobSpec::from_toml(&toml, dir).unwrap()
+}
+
+fn prepare(
+    spec: &JobSpec,
+    dir: &std::path::Path,
+) -> (Arc<fmucal_shared::fmu::Fmu>, Result<PreparedJob, fmucal_shared::job::JobError>) {
+    let fmu = Arc::new(common::load_example("decay", &dir.join("cache")));
+    let table = MeasurementTable::read(spec.data.path.as_ref().unwrap(), "time").unwrap();
+    let prepared = PreparedJob::new(spec, &fmu.description, &fmu.interfaces(), &table);
+    (fmu, prepared)
+}
+
+#[test]
+fn recovers_the_rate_that_generated_the_data_with_any_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    for algorithm in ["nelder-mead", "differential-evolution"] {
+        let spec = job(dir.path(), &format!("algorithm = \"{algorithm}\"\nmax_iters = 200\nseed = 3"));
+        let (fmu, prepared) = prepare(&spec, dir.path());
+        let prepared = Arc::new(prepared.unwrap());
+        let one = local::calibrate(fmu.clone(), prepared.clone(), 1, |_| {}).unwrap();
+        let three = local::calibrate(fmu, prepared, 3, |_| {}).unwrap();
+        assert_eq!(one.x_opt, three.x_opt, "{algorithm}: thread count changed the result");
+        assert_eq!(one.evaluations, three.evaluations);
+        let k = one.x_opt["k"];
+        assert!((k - 1.7).abs() < 1e-4, "{algorithm}: recovered k = {k}");
+        assert!(one.f_opt < 1e-8, "{algorithm}: f_opt = {}", one.f_opt);
+        assert!(!one.history.is_empty() && one.history.windows(2).all(|w| w[1].best_f <= w[0].best_f));
+    }
+}
+
+#[test]
+fn duplicate_stamps_are_averaged_and_missing_cells_skipped() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = job(dir.path(), "");
+    let (_, prepared) = prepare(&spec, dir.path());
+    let obj = prepared.unwrap().objective;
+    assert_eq!(obj.times.len(), 41, "41 unique time stamps");
+    assert!(obj.targets[0].values[10].is_nan(), "the empty cell is missing");
+    assert!(obj.times.windows(2).all(|w| w[0] < w[1]));
+}
+
+#[test]
+fn inconsistent_jobs_name_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: [(&str, &str, &str); 6] = [
+        ("name = \"k\"", "name = \"kk\"", "parameters[0].name: unknown variable \"kk\""),
+        ("name = \"k\"", "name = \"resourceFactor\"", "parameters[0].name: resourceFactor may not be set"),
+        ("name = \"k\"", "name = \"power\"", "only Real parameters"),
+        ("upper = 5.0", "upper = 500.0", "parameters[0].upper: 500 is above k's maximum 100"),
+        ("column = \"x\"", "column = \"y\"", "data.columns[y]: no such column"),
+        ("variable = \"x\"", "variable = \"nope\"", "outputs[0].variable: unknown variable"),
+    ];
+    for (from, to, want) in cases {
+        let spec = job(dir.path(), "");
+        let text = toml::to_string(&spec).unwrap().replacen(from, to, 1);
+        let spec = JobSpec::from_toml(&text, dir.path()).unwrap();
+        let (_, prepared) = prepare(&spec, dir.path());
+        let err = prepared.unwrap_err().to_string();
+        assert!(err.contains(want), "{want:?} not in {err:?}");
+    }
+}
