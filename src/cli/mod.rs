@@ -1,9 +1,12 @@
 //! Command-line parsing (clap) and dispatch. Each subcommand lives in its own module; errors
 //! are printed as one line and give exit code 1 (clap's usage errors give 2).
 
+mod calibrate;
 mod inspect;
 mod model_arg;
+mod servers;
 mod simulate;
+mod token;
 
 use std::process::ExitCode;
 
@@ -24,6 +27,12 @@ enum Command {
     Simulate(simulate::Args),
     /// List the built-in example FMUs and where they are.
     Examples,
+    /// Calibrate a job's parameters (locally with worker processes, or on a coordinator).
+    Calibrate(calibrate::Args),
+    /// Run a coordinator server.
+    Coordinator(servers::CoordinatorArgs),
+    /// Run a worker that evaluates points for a coordinator.
+    Worker(servers::WorkerArgs),
 }
 
 /// Runs the CLI with the process arguments.
@@ -37,6 +46,9 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Inspect(args) => inspect::run(args),
         Command::Simulate(args) => simulate::run(args),
+        Command::Calibrate(args) => calibrate::run(args),
+        Command::Coordinator(args) => servers::coordinator(args),
+        Command::Worker(args) => servers::worker(args),
         Command::Examples => {
             for (name, path) in fmucal_models::examples() {
                 println!("{name:<14} {}", path.display());

@@ -194,6 +194,37 @@ impl Fmu {
     }
 }
 
+/// An FMU's description, read without loading its binary (for processes that must not run
+/// model code, such as the coordinator).
+#[derive(Debug, Clone)]
+pub struct Described {
+    pub description: Arc<ModelDescription>,
+    pub sha256: String,
+    /// Interfaces declared in the description, Model Exchange first.
+    pub interfaces: Vec<Interface>,
+}
+
+/// Unpacks (or reuses) `path` and parses its model description; no native code is loaded.
+///
+/// # Errors
+/// As [`Fmu::load_with`], except binary errors.
+pub fn describe(path: &Path, opts: &LoadOptions) -> Result<Described, FmuError> {
+    let unpacked = archive::unpack(path, &opts.cache_dir, &opts.limits)?;
+    let md_path = unpacked.dir.join("modelDescription.xml");
+    let xml = std::fs::read(&md_path).map_err(|e| FmuError::Read { path: md_path.clone(), message: e.to_string() })?;
+    let xml =
+        String::from_utf8(xml).map_err(|_| FmuError::Read { path: md_path.clone(), message: "not UTF-8".into() })?;
+    let description = Arc::new(ModelDescription::parse(&xml)?);
+    let mut interfaces = vec![];
+    if description.model_exchange.is_some() {
+        interfaces.push(Interface::ModelExchange);
+    }
+    if description.co_simulation.is_some() {
+        interfaces.push(Interface::CoSimulation);
+    }
+    Ok(Described { description, sha256: unpacked.sha256, interfaces })
+}
+
 fn binary_path(dir: &Path, identifier: &str) -> Result<PathBuf, FmuError> {
     let expected = format!("binaries/{PLATFORM}/{identifier}.{LIB_EXT}");
     let path = dir.join(&expected);

@@ -3,7 +3,7 @@
 //!
 //! ```toml
 //! [model]
-//! path = "furuta.fmu"        # or: id = "<sha256 of an uploaded FMU>"
+//! path = "furuta.fmu"        # or "example:furuta", or: id = "<sha256 of an uploaded FMU>"
 //! interface = "me"           # me | cs (default: me if offered)
 //!
 //! [data]
@@ -198,7 +198,8 @@ impl JobSpec {
         let mut spec: JobSpec =
             toml::from_str(text).map_err(|e| JobError::invalid("toml", e.to_string().trim().replace('\n', " ")))?;
         for p in [&mut spec.model.path, &mut spec.data.path].into_iter().flatten() {
-            if p.is_relative() {
+            // `example:NAME` names a built-in example FMU and is left as written.
+            if p.is_relative() && !p.to_string_lossy().starts_with("example:") {
                 *p = base_dir.join(&*p);
             }
         }

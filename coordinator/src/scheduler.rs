@@ -1,0 +1,575 @@
+//! The one task that owns all job and worker state. gRPC handlers validate and convert
+//! requests, then send a [`Command`] here and await the reply; no lock is held across awaits.
+//!
+//! Dispatch is pull-based: workers long-poll with the results of their previous points and the
+//! number of free slots, and get points from the open batches (oldest job first). Pull lets a
+//! pool grow by simply starting more workers that point at the coordinator, through NAT or a
+//! Kubernetes service, with no connection from the coordinator to the workers.
+//!
+//! Failures: a point whose worker expires (no heartbeat) or passes the evaluation timeout is
+//! re-queued, preferably for another worker; a point that failed on two different workers (or
+//! three times in all) is told to the optimizer as failed and the job goes on. The optimizer is
+//! told results only through its ask/tell interface, so the trajectory is the same whatever the
+//! number of workers.
+
+use std::collections::{BTreeMap, HashMap, HashSet, VecDeque};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use fmucal_proto::v1 as pb;
+use fmucal_shared::job::{PreparedJob, local, optimizer};
+use fmucal_shared::optim::{Optimizer, Outcome, Status};
+use prost::Message;
+use tokio::sync::{mpsc, oneshot};
+
+use crate::error::CoordinatorError;
+use crate::models::ModelStore;
+use crate::store::{JobState, Store};
+use fmucal_proto::convert::{SubmittedJob, result_to_proto};
+
+type Reply<T> = oneshot::Sender<Result<T, CoordinatorError>>;
+pub type WatchSender = mpsc::Sender<Result<pb::WatchJobResponse, tonic::Status>>;
+
+/// Requests to the scheduler.
+pub enum Command {
+    Submit { spec: pb::JobSpec, reply: Reply<String> },
+    Get { job_id: String, reply: Reply<pb::GetJobResponse> },
+    List { reply: Reply<pb::ListJobsResponse> },
+    Cancel { job_id: String, reply: Reply<i32> },
+    Watch { job_id: String, tx: WatchSender, reply: Reply<()> },
+    Register { req: pb::RegisterRequest, reply: Reply<pb::RegisterResponse> },
+    Heartbeat { worker_id: String, reply: Reply<bool> },
+    FetchJob { job_id: String, reply: Reply<pb::JobSpec> },
+    Poll { req: pb::PollWorkRequest, reply: oneshot::Sender<pb::PollWorkResponse> },
+}
+
+/// Timing of the pool.
+#[derive(Debug, Clone)]
+pub struct Timing {
+    /// How often workers heartbeat.
+    pub heartbeat_interval: Duration,
+    /// A worker silent this long is dropped.
+    pub worker_expiry: Duration,
+    /// A point not answered this long after assignment is re-sent.
+    pub evaluation_timeout: Duration,
+}
+
+struct Point {
+    x: Vec<f64>,
+    failed_on: Vec<String>,
+    assigned: Option<(String, Instant)>,
+}
+
+struct Job {
+    spec: pb::JobSpec,
+    prepared: Arc<PreparedJob>,
+    state: JobState,
+    open: BTreeMap<u64, Point>,
+    queue: VecDeque<u64>,
+    watchers: Vec<WatchSender>,
+    started: Instant,
+    batch_started: Instant,
+}
+
+struct WorkerInfo {
+    last_seen: Instant,
+    inflight: HashSet<(String, u64)>,
+}
+
+struct Parked {
+    worker_id: String,
+    max: usize,
+    deadline: Instant,
+    reply: oneshot::Sender<pb::PollWorkResponse>,
+}
+
+pub struct Scheduler {
+    jobs: BTreeMap<String, Job>,
+    workers: HashMap<String, WorkerInfo>,
+    parked: VecDeque<Parked>,
+    store: Store,
+    models: Arc<Mutex<ModelStore>>,
+    timing: Timing,
+    next_seq: u64,
+    next_worker: u64,
+}
+
+const RUNNING: i32 = pb::JobStatus::Running as i32;
+
+fn is_running(status: i32) -> bool {
+    status == RUNNING
+}
+
+impl Scheduler {
+    /// Opens the store and resumes the jobs that were running.
+    pub fn new(store: Store, models: Arc<Mutex<ModelStore>>, timing: Timing) -> Result<Self, CoordinatorError> {
+        let mut s = Scheduler {
+            jobs: BTreeMap::new(),
+            workers: HashMap::new(),
+            parked: VecDeque::new(),
+            store,
+            models,
+            timing,
+            next_seq: 0,
+            next_worker: 0,
+        };
+        for (id, spec_bytes, mut state) in s.store.load_all()? {
+            s.next_seq = s.next_seq.max(state.seq + 1);
+            let spec = pb::JobSpec::decode(spec_bytes.as_slice()).unwrap_or_default();
+            let prepared = match s.prepare(&spec) {
+                Ok(p) => p,
+                Err(e) => {
+                    if is_running(state.status) {
+                        state.status = pb::JobStatus::Failed as i32;
+                        state.error = Some(format!("cannot resume: {e}"));
+                        s.store.save_state(&id, &state)?;
+                    }
+                    continue;
+                }
+            };
+            let running = is_running(state.status);
+            let job = Job {
+                spec,
+                prepared,
+                state,
+                open: BTreeMap::new(),
+                queue: VecDeque::new(),
+                watchers: vec![],
+                started: Instant::now(),
+                batch_started: Instant::now(),
+            };
+            s.jobs.insert(id.clone(), job);
+            if running {
+                // Tell the logged results of the open batch instead of evaluating them again.
+                let logged: HashMap<u64, Outcome> = s.store.evaluations(&id)?.into_iter().collect();
+                let job = s.jobs.get_mut(&id).expect("just inserted");
+                for c in job.state.optimizer.ask() {
+                    if let Some(o) = logged.get(&c.id) {
+                        let _ = job.state.optimizer.tell(c.id, *o);
+                    }
+                }
+                tracing::info!(job = %id, rounds = job.state.optimizer.rounds(), "resuming job");
+                s.refill(&id)?;
+            }
+        }
+        Ok(s)
+    }
+
+    fn prepare(&self, spec: &pb::JobSpec) -> Result<Arc<PreparedJob>, CoordinatorError> {
+        let submitted = SubmittedJob::try_from(spec.clone())?;
+        let described = self
+            .models
+            .lock()
+            .map_err(|_| CoordinatorError::Storage("model store poisoned".into()))?
+            .describe(&spec.model_id)?;
+        let prepared =
+            PreparedJob::new(&submitted.spec, &described.description, &described.interfaces, &submitted.data)?;
+        optimizer::build(&prepared.spec).map_err(|e| CoordinatorError::InvalidArgument(e.to_string()))?;
+        Ok(Arc::new(prepared))
+    }
+
+    /// Runs until the command channel closes.
+    pub async fn run(mut self, mut commands: mpsc::Receiver<Command>) {
+        let mut tick = tokio::time::interval(Duration::from_millis(50));
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        loop {
+            tokio::select! {
+                cmd = commands.recv() => match cmd {
+                    Some(cmd) => self.handle(cmd),
+                    None => break,
+                },
+                _ = tick.tick() => self.on_tick(),
+            }
+        }
+        for p in self.parked.drain(..) {
+            let _ = p.reply.send(pb::PollWorkResponse { assignments: vec![], known: true });
+        }
+    }
+
+    fn handle(&mut self, cmd: Command) {
+        match cmd {
+            Command::Submit { spec, reply } => {
+                let _ = reply.send(self.submit(spec));
+            }
+            Command::Get { job_id, reply } => {
+                let _ = reply.send(self.get(&job_id));
+            }
+            Command::List { reply } => {
+                let mut jobs: Vec<(&String, &Job)> = self.jobs.iter().collect();
+                jobs.sort_by_key(|(_, j)| std::cmp::Reverse(j.state.seq));
+                let jobs = jobs
+                    .into_iter()
+                    .map(|(id, j)| pb::JobSummary {
+                        job_id: id.clone(),
+                        status: j.state.status,
+                        best_f: j.state.optimizer.best().map(|b| b.1).unwrap_or(f64::INFINITY),
+                        evaluations: j.state.optimizer.evaluations(),
+                    })
+                    .collect();
+                let _ = reply.send(Ok(pb::ListJobsResponse { jobs }));
+            }
+            Command::Cancel { job_id, reply } => {
+                let r = match self.jobs.get(&job_id) {
+                    None => Err(CoordinatorError::NotFound(format!("job {job_id:?}"))),
+                    Some(j) if !is_running(j.state.status) => Ok(j.state.status),
+                    Some(_) => self
+                        .finish(&job_id, pb::JobStatus::Cancelled, Some("cancelled"))
+                        .map(|_| pb::JobStatus::Cancelled as i32),
+                };
+                let _ = reply.send(r);
+            }
+            Command::Watch { job_id, tx, reply } => {
+                let r = match self.jobs.get_mut(&job_id) {
+                    None => Err(CoordinatorError::NotFound(format!("job {job_id:?}"))),
+                    Some(job) => {
+                        let event = progress(job, 0.0);
+                        if is_running(job.state.status) {
+                            let _ = tx.try_send(Ok(event));
+                            job.watchers.push(tx);
+                        } else {
+                            let _ = tx.try_send(Ok(event));
+                        }
+                        Ok(())
+                    }
+                };
+                let _ = reply.send(r);
+            }
+            Command::Register { req, reply } => {
+                let r = if req.protocol_version != fmucal_proto::PROTOCOL_VERSION {
+                    Err(CoordinatorError::InvalidArgument(format!(
+                        "protocol_version: worker speaks {}, coordinator speaks {}",
+                        req.protocol_version,
+                        fmucal_proto::PROTOCOL_VERSION
+                    )))
+                } else {
+                    self.next_worker += 1;
+                    let id = format!("w{}-{}", self.next_worker, req.name.replace(char::is_whitespace, "_"));
+                    self.workers.insert(id.clone(), WorkerInfo { last_seen: Instant::now(), inflight: HashSet::new() });
+                    tracing::info!(worker = %id, slots = req.slots, "worker registered");
+                    Ok(pb::RegisterResponse {
+                        worker_id: id,
+                        heartbeat_interval_ms: self.timing.heartbeat_interval.as_millis() as u64,
+                    })
+                };
+                let _ = reply.send(r);
+            }
+            Command::Heartbeat { worker_id, reply } => {
+                let known = match self.workers.get_mut(&worker_id) {
+                    Some(w) => {
+                        w.last_seen = Instant::now();
+                        true
+                    }
+                    None => false,
+                };
+                let _ = reply.send(Ok(known));
+            }
+            Command::FetchJob { job_id, reply } => {
+                let r = self
+                    .jobs
+                    .get(&job_id)
+                    .map(|j| j.spec.clone())
+                    .ok_or(CoordinatorError::NotFound(format!("job {job_id:?}")));
+                let _ = reply.send(r);
+            }
+            Command::Poll { req, reply } => self.poll(req, reply),
+        }
+    }
+
+    fn submit(&mut self, spec: pb::JobSpec) -> Result<String, CoordinatorError> {
+        let prepared = self.prepare(&spec)?;
+        let optimizer =
+            optimizer::build(&prepared.spec).map_err(|e| CoordinatorError::InvalidArgument(e.to_string()))?;
+        let seq = self.next_seq;
+        self.next_seq += 1;
+        let id = format!("job-{seq:06}");
+        let state = JobState {
+            seq,
+            status: RUNNING,
+            optimizer,
+            history: vec![],
+            failed_evaluations: 0,
+            elapsed_s: 0.0,
+            result: None,
+            error: None,
+        };
+        self.store.create(&id, &spec.encode_to_vec(), &state)?;
+        let now = Instant::now();
+        self.jobs.insert(
+            id.clone(),
+            Job {
+                spec,
+                prepared,
+                state,
+                open: BTreeMap::new(),
+                queue: VecDeque::new(),
+                watchers: vec![],
+                started: now,
+                batch_started: now,
+            },
+        );
+        tracing::info!(job = %id, "job submitted");
+        self.refill(&id)?;
+        Ok(id)
+    }
+
+    fn get(&self, job_id: &str) -> Result<pb::GetJobResponse, CoordinatorError> {
+        let j = self.jobs.get(job_id).ok_or(CoordinatorError::NotFound(format!("job {job_id:?}")))?;
+        Ok(pb::GetJobResponse {
+            job_id: job_id.to_owned(),
+            status: j.state.status,
+            result: j.state.result.as_ref().map(|r| result_to_proto(r, &j.prepared.parameter_names)),
+            error: j.state.error.clone().unwrap_or_default(),
+        })
+    }
+
+    /// Queues the optimizer's open candidates, or finishes the job when it asks for none.
+    fn refill(&mut self, id: &str) -> Result<(), CoordinatorError> {
+        let Some(job) = self.jobs.get_mut(id) else { return Ok(()) };
+        if !is_running(job.state.status) {
+            return Ok(());
+        }
+        let batch = job.state.optimizer.ask();
+        if batch.is_empty() {
+            return self.finish(id, pb::JobStatus::Succeeded, None);
+        }
+        job.batch_started = Instant::now();
+        for c in batch {
+            if !job.open.contains_key(&c.id) {
+                job.open.insert(c.id, Point { x: c.x, failed_on: vec![], assigned: None });
+                job.queue.push_back(c.id);
+            }
+        }
+        self.wake_parked();
+        Ok(())
+    }
+
+    fn finish(&mut self, id: &str, status: pb::JobStatus, why: Option<&str>) -> Result<(), CoordinatorError> {
+        let Some(job) = self.jobs.get_mut(id) else { return Ok(()) };
+        let elapsed = job.state.elapsed_s + job.started.elapsed().as_secs_f64();
+        let mut result = local::finish(
+            &job.state.optimizer,
+            &job.prepared,
+            job.state.failed_evaluations,
+            elapsed,
+            job.state.history.clone(),
+        );
+        if let Some(why) = why {
+            result.termination = why.to_owned();
+        }
+        job.state.status = status as i32;
+        job.state.elapsed_s = elapsed;
+        job.state.result = Some(result);
+        job.open.clear();
+        job.queue.clear();
+        self.store.save_state(id, &job.state)?;
+        let event = progress(job, 0.0);
+        for w in job.watchers.drain(..) {
+            let _ = w.try_send(Ok(event.clone()));
+        }
+        for w in self.workers.values_mut() {
+            w.inflight.retain(|(j, _)| j != id);
+        }
+        tracing::info!(job = %id, ?status, "job finished");
+        Ok(())
+    }
+
+    /// Tells a point's outcome; completes the batch when it was the last open point.
+    fn tell(&mut self, id: &str, point: u64, outcome: Outcome) {
+        let Some(job) = self.jobs.get_mut(id) else { return };
+        if job.open.remove(&point).is_none() {
+            return;
+        }
+        job.queue.retain(|p| *p != point);
+        if let Err(e) = self.store.log_evaluation(id, point, outcome) {
+            tracing::error!(job = %id, "cannot log an evaluation: {e}");
+        }
+        if matches!(outcome, Outcome::Failed) {
+            job.state.failed_evaluations += 1;
+        }
+        if let Err(e) = job.state.optimizer.tell(point, outcome) {
+            tracing::error!(job = %id, "optimizer rejected a result: {e}");
+            return;
+        }
+        if job.open.is_empty() {
+            let batch_wall = job.batch_started.elapsed().as_secs_f64();
+            job.state.history.push(fmucal_shared::job::HistoryPoint {
+                round: job.state.optimizer.rounds(),
+                evaluations: job.state.optimizer.evaluations(),
+                best_f: job.state.optimizer.best().map(|b| b.1).unwrap_or(f64::INFINITY),
+                batch_wall_s: batch_wall,
+            });
+            let event = progress(job, batch_wall);
+            job.watchers.retain(|w| w.try_send(Ok(event.clone())).is_ok() || !w.is_closed());
+            if matches!(job.state.optimizer.status(), Status::Done(_)) {
+                if let Err(e) = self.finish(id, pb::JobStatus::Succeeded, None) {
+                    tracing::error!(job = %id, "cannot save the result: {e}");
+                }
+                return;
+            }
+            if let Err(e) = self.store.save_state(id, &job.state) {
+                tracing::error!(job = %id, "cannot save the job state: {e}");
+            }
+            if let Err(e) = self.refill(id) {
+                tracing::error!(job = %id, "cannot continue: {e}");
+            }
+        }
+    }
+
+    /// Records a failed attempt; the point is told as failed after two different workers (or
+    /// three attempts), else queued again.
+    fn attempt_failed(&mut self, id: &str, point: u64, worker: &str) {
+        let Some(job) = self.jobs.get_mut(id) else { return };
+        let Some(p) = job.open.get_mut(&point) else { return };
+        p.failed_on.push(worker.to_owned());
+        p.assigned = None;
+        let distinct: HashSet<&String> = p.failed_on.iter().collect();
+        if distinct.len() >= 2 || p.failed_on.len() >= 3 {
+            self.tell(id, point, Outcome::Failed);
+        } else {
+            job.queue.push_back(point);
+            self.wake_parked();
+        }
+    }
+
+    fn poll(&mut self, req: pb::PollWorkRequest, reply: oneshot::Sender<pb::PollWorkResponse>) {
+        let wid = req.worker_id.clone();
+        match self.workers.get_mut(&wid) {
+            None => {
+                let _ = reply.send(pb::PollWorkResponse { assignments: vec![], known: false });
+                return;
+            }
+            Some(w) => w.last_seen = Instant::now(),
+        }
+        for r in req.results {
+            if let Some(w) = self.workers.get_mut(&wid) {
+                w.inflight.remove(&(r.job_id.clone(), r.point_id));
+            }
+            if r.status == pb::PointStatus::Ok as i32 {
+                self.tell(&r.job_id, r.point_id, Outcome::Value(r.value));
+            } else {
+                tracing::debug!(job = %r.job_id, point = r.point_id, worker = %wid, "simulation failed: {}", r.message);
+                self.attempt_failed(&r.job_id, r.point_id, &wid);
+            }
+        }
+        let max = req.max_points as usize;
+        let assignments = self.assign(&wid, max);
+        if !assignments.is_empty() || max == 0 || req.wait_ms == 0 {
+            let _ = reply.send(pb::PollWorkResponse { assignments, known: true });
+        } else {
+            let wait = Duration::from_millis(u64::from(req.wait_ms).min(10_000));
+            self.parked.push_back(Parked { worker_id: wid, max, deadline: Instant::now() + wait, reply });
+        }
+    }
+
+    /// Takes up to `max` queued points for a worker, oldest job first, avoiding points that
+    /// already failed on it while another worker is alive.
+    fn assign(&mut self, wid: &str, max: usize) -> Vec<pb::Assignment> {
+        let alone = self.workers.len() <= 1;
+        let mut out = vec![];
+        let mut order: Vec<(&String, &mut Job)> =
+            self.jobs.iter_mut().filter(|(_, j)| is_running(j.state.status)).collect();
+        order.sort_by_key(|(_, j)| j.state.seq);
+        for (id, job) in order {
+            let mut skipped = VecDeque::new();
+            while out.len() < max {
+                let Some(pid) = job.queue.pop_front() else { break };
+                let Some(p) = job.open.get_mut(&pid) else { continue };
+                if !alone && p.failed_on.iter().any(|w| w == wid) {
+                    skipped.push_back(pid);
+                    continue;
+                }
+                p.assigned = Some((wid.to_owned(), Instant::now()));
+                out.push(pb::Assignment { job_id: id.clone(), point_id: pid, x: p.x.clone(), want_residuals: false });
+            }
+            skipped.extend(job.queue.drain(..));
+            job.queue = skipped;
+            if out.len() >= max {
+                break;
+            }
+        }
+        if let Some(w) = self.workers.get_mut(wid) {
+            for a in &out {
+                w.inflight.insert((a.job_id.clone(), a.point_id));
+            }
+        }
+        out
+    }
+
+    fn wake_parked(&mut self) {
+        let mut still = VecDeque::new();
+        while let Some(p) = self.parked.pop_front() {
+            if p.reply.is_closed() {
+                continue;
+            }
+            let a = self.assign(&p.worker_id, p.max);
+            if a.is_empty() {
+                still.push_back(p);
+            } else {
+                let _ = p.reply.send(pb::PollWorkResponse { assignments: a, known: true });
+            }
+        }
+        self.parked = still;
+    }
+
+    fn on_tick(&mut self) {
+        let now = Instant::now();
+        // Expire silent workers; their points count as failed attempts on them.
+        let expired: Vec<String> = self
+            .workers
+            .iter()
+            .filter(|(_, w)| now.duration_since(w.last_seen) > self.timing.worker_expiry)
+            .map(|(id, _)| id.clone())
+            .collect();
+        for wid in expired {
+            let w = self.workers.remove(&wid).expect("listed above");
+            tracing::warn!(worker = %wid, points = w.inflight.len(), "worker expired");
+            for (job, point) in w.inflight {
+                self.attempt_failed(&job, point, &wid);
+            }
+        }
+        // Re-send points past the evaluation timeout.
+        let mut late = vec![];
+        for (id, job) in &self.jobs {
+            for (pid, p) in &job.open {
+                if let Some((w, at)) = &p.assigned
+                    && now.duration_since(*at) > self.timing.evaluation_timeout
+                {
+                    late.push((id.clone(), *pid, w.clone()));
+                }
+            }
+        }
+        for (id, pid, w) in late {
+            tracing::warn!(job = %id, point = pid, worker = %w, "evaluation timed out");
+            if let Some(info) = self.workers.get_mut(&w) {
+                info.inflight.remove(&(id.clone(), pid));
+            }
+            self.attempt_failed(&id, pid, &w);
+        }
+        // Answer long polls that waited long enough.
+        let mut still = VecDeque::new();
+        while let Some(p) = self.parked.pop_front() {
+            if p.deadline <= now || p.reply.is_closed() {
+                let _ = p
+                    .reply
+                    .send(pb::PollWorkResponse { assignments: vec![], known: self.workers.contains_key(&p.worker_id) });
+            } else {
+                still.push_back(p);
+            }
+        }
+        self.parked = still;
+        self.wake_parked();
+    }
+}
+
+fn progress(job: &Job, batch_wall_s: f64) -> pb::WatchJobResponse {
+    let o = &job.state.optimizer;
+    pb::WatchJobResponse {
+        iteration: o.iterations(),
+        evaluations: o.evaluations(),
+        best_f: o.best().map(|b| b.1).unwrap_or(f64::INFINITY),
+        best_x: o.best().map(|b| b.0).unwrap_or_default(),
+        batch_wall_s,
+        status: job.state.status,
+        rounds: o.rounds(),
+    }
+}

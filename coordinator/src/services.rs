@@ -1,0 +1,156 @@
+//! gRPC handlers: validate and convert, then ask the scheduler. They hold no state and no lock
+//! across an await.
+
+use std::sync::{Arc, Mutex};
+
+use fmucal_proto::v1 as pb;
+use tokio::sync::{mpsc, oneshot};
+use tokio_stream::wrappers::ReceiverStream;
+use tonic::{Request, Response, Status, Streaming};
+
+use crate::error::CoordinatorError;
+use crate::models::ModelStore;
+use crate::scheduler::Command;
+
+/// Largest model accepted by `UploadModel`.
+pub const MAX_MODEL_BYTES: usize = 1 << 30;
+const CHUNK: usize = 1 << 20;
+
+/// Runs `f` on the model store (call from a blocking thread).
+fn with_models<T>(
+    models: &Mutex<ModelStore>,
+    f: impl FnOnce(&mut ModelStore) -> Result<T, CoordinatorError>,
+) -> Result<T, CoordinatorError> {
+    let mut guard = models.lock().map_err(|_| CoordinatorError::Storage("model store poisoned".into()))?;
+    f(&mut guard)
+}
+
+#[derive(Clone)]
+pub struct Handlers {
+    pub commands: mpsc::Sender<Command>,
+    pub models: Arc<Mutex<ModelStore>>,
+}
+
+impl Handlers {
+    async fn ask<T>(
+        &self,
+        make: impl FnOnce(oneshot::Sender<Result<T, CoordinatorError>>) -> Command,
+    ) -> Result<T, Status> {
+        let (tx, rx) = oneshot::channel();
+        self.commands.send(make(tx)).await.map_err(|_| Status::unavailable("the coordinator is shutting down"))?;
+        rx.await.map_err(|_| Status::unavailable("the coordinator is shutting down"))?.map_err(Status::from)
+    }
+}
+
+#[tonic::async_trait]
+impl pb::calibration_server::Calibration for Handlers {
+    async fn upload_model(
+        &self,
+        req: Request<Streaming<pb::UploadModelRequest>>,
+    ) -> Result<Response<pb::UploadModelResponse>, Status> {
+        let mut stream = req.into_inner();
+        let mut bytes = vec![];
+        while let Some(m) = stream.message().await? {
+            bytes.extend_from_slice(&m.chunk);
+            if bytes.len() > MAX_MODEL_BYTES {
+                return Err(Status::invalid_argument(format!("chunk: the model exceeds {MAX_MODEL_BYTES} bytes")));
+            }
+        }
+        if bytes.is_empty() {
+            return Err(Status::invalid_argument("chunk: no bytes were uploaded"));
+        }
+        let models = self.models.clone();
+        let (model_id, model_name) = tokio::task::spawn_blocking(move || with_models(&models, |m| m.put(&bytes)))
+            .await
+            .map_err(|e| Status::internal(e.to_string()))??;
+        Ok(Response::new(pb::UploadModelResponse { model_id, model_name }))
+    }
+
+    async fn submit_job(&self, req: Request<pb::SubmitJobRequest>) -> Result<Response<pb::SubmitJobResponse>, Status> {
+        let spec = req.into_inner().spec.ok_or_else(|| Status::invalid_argument("spec is required"))?;
+        // Describing a new model may unpack it: keep that off the scheduler task.
+        let models = self.models.clone();
+        let id = spec.model_id.clone();
+        tokio::task::spawn_blocking(move || with_models(&models, |m| m.describe(&id).map(|_| ())))
+            .await
+            .map_err(|e| Status::internal(e.to_string()))??;
+        let job_id = self.ask(|reply| Command::Submit { spec, reply }).await?;
+        Ok(Response::new(pb::SubmitJobResponse { job_id }))
+    }
+
+    type WatchJobStream = ReceiverStream<Result<pb::WatchJobResponse, Status>>;
+
+    async fn watch_job(&self, req: Request<pb::WatchJobRequest>) -> Result<Response<Self::WatchJobStream>, Status> {
+        let job_id = req.into_inner().job_id;
+        let (tx, rx) = mpsc::channel(1024);
+        self.ask(|reply| Command::Watch { job_id, tx, reply }).await?;
+        Ok(Response::new(ReceiverStream::new(rx)))
+    }
+
+    async fn get_job(&self, req: Request<pb::GetJobRequest>) -> Result<Response<pb::GetJobResponse>, Status> {
+        let job_id = req.into_inner().job_id;
+        Ok(Response::new(self.ask(|reply| Command::Get { job_id, reply }).await?))
+    }
+
+    async fn cancel_job(&self, req: Request<pb::CancelJobRequest>) -> Result<Response<pb::CancelJobResponse>, Status> {
+        let job_id = req.into_inner().job_id;
+        let status = self.ask(|reply| Command::Cancel { job_id, reply }).await?;
+        Ok(Response::new(pb::CancelJobResponse { status }))
+    }
+
+    async fn list_jobs(&self, _req: Request<pb::ListJobsRequest>) -> Result<Response<pb::ListJobsResponse>, Status> {
+        Ok(Response::new(self.ask(|reply| Command::List { reply }).await?))
+    }
+}
+
+#[tonic::async_trait]
+impl pb::worker_pool_server::WorkerPool for Handlers {
+    async fn register(&self, req: Request<pb::RegisterRequest>) -> Result<Response<pb::RegisterResponse>, Status> {
+        let req = req.into_inner();
+        Ok(Response::new(self.ask(|reply| Command::Register { req, reply }).await?))
+    }
+
+    async fn heartbeat(&self, req: Request<pb::HeartbeatRequest>) -> Result<Response<pb::HeartbeatResponse>, Status> {
+        let worker_id = req.into_inner().worker_id;
+        let known = self.ask(|reply| Command::Heartbeat { worker_id, reply }).await?;
+        Ok(Response::new(pb::HeartbeatResponse { known }))
+    }
+
+    type FetchModelStream = ReceiverStream<Result<pb::FetchModelResponse, Status>>;
+
+    async fn fetch_model(
+        &self,
+        req: Request<pb::FetchModelRequest>,
+    ) -> Result<Response<Self::FetchModelStream>, Status> {
+        let id = req.into_inner().model_id;
+        let models = self.models.clone();
+        let bytes = tokio::task::spawn_blocking(move || with_models(&models, |m| m.bytes(&id)))
+            .await
+            .map_err(|e| Status::internal(e.to_string()))??;
+        let (tx, rx) = mpsc::channel(4);
+        tokio::spawn(async move {
+            for chunk in bytes.chunks(CHUNK) {
+                if tx.send(Ok(pb::FetchModelResponse { chunk: chunk.to_vec() })).await.is_err() {
+                    break;
+                }
+            }
+        });
+        Ok(Response::new(ReceiverStream::new(rx)))
+    }
+
+    async fn fetch_job(&self, req: Request<pb::FetchJobRequest>) -> Result<Response<pb::FetchJobResponse>, Status> {
+        let job_id = req.into_inner().job_id;
+        let spec = self.ask(|reply| Command::FetchJob { job_id, reply }).await?;
+        Ok(Response::new(pb::FetchJobResponse { spec: Some(spec) }))
+    }
+
+    async fn poll_work(&self, req: Request<pb::PollWorkRequest>) -> Result<Response<pb::PollWorkResponse>, Status> {
+        let req = req.into_inner();
+        if req.worker_id.is_empty() {
+            return Err(Status::invalid_argument("worker_id is required"));
+        }
+        let (tx, rx) = oneshot::channel();
+        self.commands.send(Command::Poll { req, reply: tx }).await.map_err(|_| Status::unavailable("shutting down"))?;
+        Ok(Response::new(rx.await.map_err(|_| Status::unavailable("shutting down"))?))
+    }
+}

@@ -1,0 +1,180 @@
+//! Conversions between protobuf messages and fmucal's job types: `TryFrom` with
+//! [`ConvertError::Missing`] for absent required fields (never an `unwrap`), and the reverse
+//! direction for clients.
+
+use crate::v1 as pb;
+use fmucal_shared::job::spec::{
+    DataRef, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SimulationSpec, WorkersSpec,
+};
+use fmucal_shared::job::{CalibrationResult, JobSpec, MeasurementTable};
+
+/// A message that cannot be converted.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConvertError {
+    #[error("{0} is required")]
+    Missing(&'static str),
+}
+
+/// A job as submitted over gRPC: the spec and the data that travels with it.
+#[derive(Debug, Clone)]
+pub struct SubmittedJob {
+    pub spec: JobSpec,
+    pub data: MeasurementTable,
+}
+
+impl TryFrom<pb::JobSpec> for SubmittedJob {
+    type Error = ConvertError;
+
+    fn try_from(p: pb::JobSpec) -> Result<Self, ConvertError> {
+        let data = p.data.ok_or(ConvertError::Missing("spec.data"))?;
+        if p.model_id.is_empty() {
+            return Err(ConvertError::Missing("spec.model_id"));
+        }
+        let sim = p.simulation.unwrap_or_default();
+        let o = p.optimizer.unwrap_or_default();
+        let spec = JobSpec {
+            model: ModelRef {
+                path: None,
+                id: Some(p.model_id),
+                interface: (!p.interface.is_empty()).then_some(p.interface),
+            },
+            data: DataRef { path: None, time_column: "time".into() },
+            outputs: p
+                .outputs
+                .into_iter()
+                .map(|o| OutputMap {
+                    variable: o.variable,
+                    column: o.column,
+                    weight: if o.weight == 0.0 { 1.0 } else { o.weight },
+                })
+                .collect(),
+            inputs: p.inputs.into_iter().map(|i| InputMap { column: i.column, variable: i.variable }).collect(),
+            parameters: p
+                .parameters
+                .into_iter()
+                .map(|q| ParameterSpec { name: q.name, start: q.start, lower: q.lower, upper: q.upper })
+                .collect(),
+            simulation: SimulationSpec {
+                start_time: sim.start_time,
+                stop_time: sim.stop_time,
+                tolerance: sim.tolerance,
+                solver: sim.solver,
+            },
+            optimizer: OptimizerSpec {
+                algorithm: if o.algorithm.is_empty() { OptimizerSpec::default().algorithm } else { o.algorithm },
+                parallel: o.parallel.unwrap_or(true),
+                x_tol: o.x_tol,
+                f_tol: o.f_tol,
+                max_iters: o.max_iters,
+                max_fevals: o.max_fevals,
+                seed: o.seed,
+                initial_step: o.initial_step,
+                population: o.population.map(|v| v as usize),
+                weight: o.weight,
+                crossover: o.crossover,
+                bits: o.bits,
+                crossover_rate: o.crossover_rate,
+                mutation_rate: o.mutation_rate,
+                elitism: o.elitism.map(|v| v as usize),
+            },
+            workers: WorkersSpec::default(),
+        };
+        let data = MeasurementTable {
+            time: data.time,
+            columns: data.columns.into_iter().map(|c| (c.name, c.values)).collect(),
+        };
+        Ok(SubmittedJob { spec, data })
+    }
+}
+
+/// The protobuf form of a job, for clients (the model must already be uploaded as `model_id`).
+pub fn job_to_proto(spec: &JobSpec, data: &MeasurementTable, model_id: &str) -> pb::JobSpec {
+    let o = &spec.optimizer;
+    pb::JobSpec {
+        model_id: model_id.to_owned(),
+        interface: spec.model.interface.clone().unwrap_or_default(),
+        data: Some(pb::MeasurementData {
+            time: data.time.clone(),
+            columns: data.columns.iter().map(|(n, v)| pb::Column { name: n.clone(), values: v.clone() }).collect(),
+        }),
+        outputs: spec
+            .outputs
+            .iter()
+            .map(|o| pb::OutputMap { variable: o.variable.clone(), column: o.column.clone(), weight: o.weight })
+            .collect(),
+        inputs: spec
+            .inputs
+            .iter()
+            .map(|i| pb::InputMap { column: i.column.clone(), variable: i.variable.clone() })
+            .collect(),
+        parameters: spec
+            .parameters
+            .iter()
+            .map(|p| pb::ParameterSpec { name: p.name.clone(), start: p.start, lower: p.lower, upper: p.upper })
+            .collect(),
+        simulation: Some(pb::SimulationSpec {
+            start_time: spec.simulation.start_time,
+            stop_time: spec.simulation.stop_time,
+            tolerance: spec.simulation.tolerance,
+            solver: spec.simulation.solver.clone(),
+        }),
+        optimizer: Some(pb::OptimizerSpec {
+            algorithm: o.algorithm.clone(),
+            parallel: Some(o.parallel),
+            x_tol: o.x_tol,
+            f_tol: o.f_tol,
+            max_iters: o.max_iters,
+            max_fevals: o.max_fevals,
+            seed: o.seed,
+            initial_step: o.initial_step,
+            population: o.population.map(|v| v as u64),
+            weight: o.weight,
+            crossover: o.crossover,
+            bits: o.bits,
+            crossover_rate: o.crossover_rate,
+            mutation_rate: o.mutation_rate,
+            elitism: o.elitism.map(|v| v as u64),
+        }),
+    }
+}
+
+/// The protobuf form of a result.
+pub fn result_to_proto(r: &CalibrationResult, names: &[String]) -> pb::JobResult {
+    pb::JobResult {
+        names: names.to_vec(),
+        x_opt: names.iter().map(|n| r.x_opt.get(n).copied().unwrap_or(f64::NAN)).collect(),
+        f_opt: r.f_opt,
+        iterations: r.iterations,
+        evaluations: r.evaluations,
+        elapsed_s: r.elapsed_s,
+        termination: r.termination.clone(),
+        failed_evaluations: r.failed_evaluations,
+        rounds: r.rounds,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn missing_data_is_named_not_unwrapped() {
+        let p = pb::JobSpec { model_id: "abc".into(), ..Default::default() };
+        assert_eq!(SubmittedJob::try_from(p).unwrap_err(), ConvertError::Missing("spec.data"));
+        let p = pb::JobSpec { data: Some(Default::default()), ..Default::default() };
+        assert_eq!(SubmittedJob::try_from(p).unwrap_err(), ConvertError::Missing("spec.model_id"));
+    }
+
+    #[test]
+    fn round_trip_keeps_the_job() {
+        let spec = JobSpec::from_toml(
+            "[model]\nid = \"m\"\n[data]\n[[outputs]]\nvariable = \"y\"\ncolumn = \"y\"\nweight = 2.0\n[[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n[optimizer]\nx_tol = 1e-3\n",
+            std::path::Path::new("."),
+        )
+        .unwrap();
+        let data = MeasurementTable { time: vec![0.0, 1.0], columns: vec![("y".into(), vec![1.0, f64::NAN])] };
+        let back = SubmittedJob::try_from(job_to_proto(&spec, &data, "m")).unwrap();
+        assert_eq!(back.spec, spec);
+        assert_eq!(back.data.time, data.time);
+    }
+}

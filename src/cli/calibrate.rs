@@ -1,0 +1,271 @@
+//! `fmucal calibrate JOB.toml`: checks the job locally, then either starts an in-process
+//! coordinator on loopback with a generated token and N worker processes (restarted if they
+//! die), or submits to `--coordinator URL`. Follows progress with a bar, then writes
+//! `result.json`, `convergence.csv` and `fit.csv` (measured, nominal and optimized outputs) to
+//! `--out`.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use fmucal_proto::auth::AttachToken;
+use fmucal_proto::convert::job_to_proto;
+use fmucal_proto::v1 as pb;
+use fmucal_proto::v1::calibration_client::CalibrationClient;
+use fmucal_shared::fmu::Fmu;
+use fmucal_shared::job::{CalibrationResult, Evaluator, HistoryPoint, JobSpec, MeasurementTable, PreparedJob};
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::Channel;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The job file (TOML).
+    job: PathBuf,
+    /// Worker processes for a local run. Default: the job's [workers] count, else the number of cores.
+    #[arg(long)]
+    workers: Option<usize>,
+    /// Output folder for result.json, convergence.csv and fit.csv.
+    #[arg(long, default_value = "calibration")]
+    out: PathBuf,
+    /// Submit to a running coordinator instead of starting one.
+    #[arg(long)]
+    coordinator: Option<String>,
+    /// Token file for --coordinator (else FMUCAL_TOKEN).
+    #[arg(long)]
+    token_file: Option<PathBuf>,
+}
+
+type Client = CalibrationClient<InterceptedService<Channel, AttachToken>>;
+
+/// Resolves `example:NAME` and checks the file exists.
+fn model_path(spec: &JobSpec) -> Result<PathBuf> {
+    let p = spec.model.path.as_ref().context("the job's [model] needs a path for the CLI")?;
+    let text = p.to_string_lossy();
+    if let Some(name) = text.strip_prefix("example:") {
+        return fmucal_models::example(name).with_context(|| format!("no built-in example {name:?}"));
+    }
+    anyhow::ensure!(p.is_file(), "model file {} does not exist", p.display());
+    Ok(p.clone())
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let mut spec = JobSpec::from_toml_file(&args.job)?;
+    spec.validate()?;
+    let model = model_path(&spec)?;
+    spec.model.path = Some(model.clone());
+    let data_path = spec.data.path.clone().context("the job's [data] needs a path for the CLI")?;
+    let data = MeasurementTable::read(&data_path, &spec.data.time_column)?;
+    // Check everything locally first: bad jobs fail before any process starts.
+    let fmu = Arc::new(Fmu::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
+    let prepared = Arc::new(PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), &data)?);
+    fmucal_shared::job::optimizer::build(&spec)?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+
+    let rt = tokio::runtime::Runtime::new()?;
+    let result = rt.block_on(async {
+        match &args.coordinator {
+            Some(url) => {
+                let token = super::token::load(args.token_file.as_deref())?;
+                let client = connect(url, token.as_deref()).await?;
+                follow(client, &spec, &data, &model).await
+            }
+            None => {
+                let n = args
+                    .workers
+                    .or(spec.workers.count)
+                    .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
+                run_local(&spec, &data, &model, n.max(1)).await
+            }
+        }
+    })?;
+
+    write_outputs(&args.out, &result, &fmu, &prepared, &data)?;
+    println!(
+        "termination: {}; f_opt = {:.6e} after {} evaluations in {:.1} s",
+        result.termination, result.f_opt, result.evaluations, result.elapsed_s
+    );
+    for (name, v) in &result.x_opt {
+        println!("  {name} = {v:.6e}");
+    }
+    eprintln!("wrote {}", args.out.join("result.json").display());
+    Ok(())
+}
+
+async fn connect(url: &str, token: Option<&str>) -> Result<Client> {
+    let attach = AttachToken::new(token).map_err(anyhow::Error::msg)?;
+    let channel = tonic::transport::Endpoint::from_shared(url.to_owned())?
+        .tcp_nodelay(true)
+        .connect()
+        .await
+        .with_context(|| format!("cannot reach the coordinator at {url}"))?;
+    Ok(CalibrationClient::with_interceptor(channel, attach)
+        .max_encoding_message_size(256 << 20)
+        .max_decoding_message_size(256 << 20))
+}
+
+async fn run_local(spec: &JobSpec, data: &MeasurementTable, model: &Path, workers: usize) -> Result<CalibrationResult> {
+    let token = super::token::generate()?;
+    let state = tempfile::tempdir()?;
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let url = format!("http://{}", listener.local_addr()?);
+    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+    let config = fmucal_coordinator::Config {
+        data_dir: state.path().join("coordinator"),
+        token: Some(token.clone()),
+        timing: Default::default(),
+    };
+    let server = tokio::spawn(fmucal_coordinator::run(config, listener, async {
+        let _ = stop_rx.await;
+    }));
+    let exe = std::env::current_exe()?;
+    let cache = state.path().join("worker-cache");
+    let spawn = |k: usize| {
+        tokio::process::Command::new(&exe)
+            .args(["worker", "--coordinator", &url, "--cache-dir"])
+            .arg(&cache)
+            .env("FMUCAL_TOKEN", &token)
+            .env("HOSTNAME", format!("local{k}"))
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::null())
+            .kill_on_drop(true)
+            .spawn()
+    };
+    let mut children =
+        (0..workers).map(&spawn).collect::<std::io::Result<Vec<_>>>().context("cannot start worker processes")?;
+    let client = connect(&url, Some(&token)).await?;
+    let job = follow(client, spec, data, model);
+    tokio::pin!(job);
+    // Supervise: a worker that dies (an FMU may crash it) is replaced.
+    let mut restarts = 0;
+    let result = loop {
+        tokio::select! {
+            r = &mut job => break r,
+            _ = tokio::time::sleep(Duration::from_millis(200)) => {
+                for (k, c) in children.iter_mut().enumerate() {
+                    if let Ok(Some(status)) = c.try_wait() {
+                        restarts += 1;
+                        if restarts > 1000 {
+                            bail!("workers keep dying ({status}); giving up");
+                        }
+                        tracing::warn!(worker = k, %status, "worker exited; starting another");
+                        *c = spawn(k)?;
+                    }
+                }
+            }
+        }
+    };
+    for c in &mut children {
+        let _ = c.start_kill();
+    }
+    let _ = stop_tx.send(());
+    let _ = server.await;
+    result
+}
+
+/// Uploads the model, submits the job, shows progress, and returns the result.
+async fn follow(
+    mut client: Client,
+    spec: &JobSpec,
+    data: &MeasurementTable,
+    model: &Path,
+) -> Result<CalibrationResult> {
+    let bytes = std::fs::read(model)?;
+    let chunks: Vec<pb::UploadModelRequest> =
+        bytes.chunks(1 << 20).map(|c| pb::UploadModelRequest { chunk: c.to_vec() }).collect();
+    let model_id =
+        client.upload_model(tokio_stream::iter(chunks)).await.context("uploading the model")?.into_inner().model_id;
+    let job_id = client
+        .submit_job(pb::SubmitJobRequest { spec: Some(job_to_proto(spec, data, &model_id)) })
+        .await
+        .map_err(|s| anyhow::anyhow!("the coordinator rejected the job: {}", s.message()))?
+        .into_inner()
+        .job_id;
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} {msg}").expect("valid template"),
+    );
+    bar.enable_steady_tick(Duration::from_millis(200));
+    let mut stream = client.watch_job(pb::WatchJobRequest { job_id: job_id.clone() }).await?.into_inner();
+    let mut history = vec![];
+    while let Some(ev) = stream.message().await? {
+        bar.set_message(format!(
+            "iteration {}  evaluations {}  best f {:.6e}",
+            ev.iteration, ev.evaluations, ev.best_f
+        ));
+        if ev.batch_wall_s > 0.0 {
+            history.push(HistoryPoint {
+                round: ev.rounds,
+                evaluations: ev.evaluations,
+                best_f: ev.best_f,
+                batch_wall_s: ev.batch_wall_s,
+            });
+        }
+        if ev.status != pb::JobStatus::Running as i32 {
+            break;
+        }
+    }
+    bar.finish_and_clear();
+    let job = client.get_job(pb::GetJobRequest { job_id }).await?.into_inner();
+    if job.status == pb::JobStatus::Failed as i32 {
+        bail!("the job failed: {}", job.error);
+    }
+    let r = job.result.context("the coordinator returned no result")?;
+    Ok(CalibrationResult {
+        x_opt: r.names.iter().cloned().zip(r.x_opt.iter().copied()).collect::<BTreeMap<_, _>>(),
+        f_opt: r.f_opt,
+        iterations: r.iterations,
+        evaluations: r.evaluations,
+        rounds: r.rounds,
+        failed_evaluations: r.failed_evaluations,
+        termination: r.termination,
+        elapsed_s: r.elapsed_s,
+        history,
+    })
+}
+
+fn write_outputs(
+    out: &Path,
+    result: &CalibrationResult,
+    fmu: &Fmu,
+    job: &Arc<PreparedJob>,
+    data: &MeasurementTable,
+) -> Result<()> {
+    std::fs::write(out.join("result.json"), serde_json::to_string_pretty(result)?)?;
+    let mut conv = String::from("round,evaluations,best_f,batch_wall_s\n");
+    for h in &result.history {
+        conv.push_str(&format!("{},{},{},{}\n", h.round, h.evaluations, h.best_f, h.batch_wall_s));
+    }
+    std::fs::write(out.join("convergence.csv"), conv)?;
+
+    let (_, x0, _, _) = job.spec.parameter_vectors();
+    let x_opt: Vec<f64> =
+        job.parameter_names.iter().map(|n| result.x_opt.get(n).copied().unwrap_or(f64::NAN)).collect();
+    let mut ev = Evaluator::new(fmu, job.clone())?;
+    let nominal = ev.simulate(&x0).ok();
+    let optimized = ev.simulate(&x_opt).ok();
+    let mut header = vec!["time".to_owned()];
+    for t in &job.objective.targets {
+        header.extend([
+            format!("{}:measured", t.variable),
+            format!("{}:nominal", t.variable),
+            format!("{}:optimized", t.variable),
+        ]);
+    }
+    let mut text = header.join(",") + "\n";
+    for (i, t) in job.objective.times.iter().enumerate() {
+        let mut row = vec![format!("{t}")];
+        for tg in &job.objective.targets {
+            let pick = |r: &Option<fmucal_shared::sim::SimResult>| {
+                r.as_ref().and_then(|r| r.column(&tg.variable)).map(|c| format!("{}", c[i])).unwrap_or_default()
+            };
+            let m = tg.values[i];
+            row.extend([if m.is_nan() { String::new() } else { format!("{m}") }, pick(&nominal), pick(&optimized)]);
+        }
+        text.push_str(&(row.join(",") + "\n"));
+    }
+    std::fs::write(out.join("fit.csv"), text)?;
+    let _ = data;
+    Ok(())
+}

@@ -1,0 +1,97 @@
+//! `fmucal coordinator` and `fmucal worker`: start the servers and stop them cleanly on
+//! SIGTERM or Ctrl-C (a worker finishes or hands back the points it holds).
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+
+#[derive(clap::Args)]
+pub struct CoordinatorArgs {
+    /// Address to listen on.
+    #[arg(long, default_value = "127.0.0.1:7070")]
+    listen: SocketAddr,
+    /// Where models and job state are kept (created if missing).
+    #[arg(long)]
+    data_dir: PathBuf,
+    /// File holding the shared token (else FMUCAL_TOKEN). Required off loopback.
+    #[arg(long)]
+    token_file: Option<PathBuf>,
+    /// Drop a worker after this many seconds without a heartbeat.
+    #[arg(long, default_value_t = 5.0)]
+    worker_expiry: f64,
+    /// Re-send a point after this many seconds without a result.
+    #[arg(long, default_value_t = 600.0)]
+    evaluation_timeout: f64,
+}
+
+#[derive(clap::Args)]
+pub struct WorkerArgs {
+    /// Coordinator URL, e.g. http://127.0.0.1:7070.
+    #[arg(long)]
+    coordinator: String,
+    /// Concurrent evaluations (FMU instances on their own threads).
+    #[arg(long, default_value_t = 1)]
+    slots: usize,
+    /// File holding the shared token (else FMUCAL_TOKEN).
+    #[arg(long)]
+    token_file: Option<PathBuf>,
+    /// Serve gRPC health here (NOT_SERVING until registered).
+    #[arg(long)]
+    health_listen: Option<SocketAddr>,
+    /// Where fetched models are kept. Default: the FMU cache.
+    #[arg(long)]
+    cache_dir: Option<PathBuf>,
+}
+
+pub async fn terminate_signal() {
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    tokio::select! {
+        _ = term => {}
+        _ = tokio::signal::ctrl_c() => {}
+    }
+}
+
+pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
+    let token = super::token::load(args.token_file.as_deref())?;
+    fmucal_coordinator::check_exposure(args.listen, token.as_deref())?;
+    let rt = tokio::runtime::Runtime::new()?;
+    rt.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(args.listen)
+            .await
+            .with_context(|| format!("cannot listen on {}", args.listen))?;
+        eprintln!("coordinator listening on {}", listener.local_addr()?);
+        let timing = fmucal_coordinator::Timing {
+            worker_expiry: std::time::Duration::from_secs_f64(args.worker_expiry),
+            evaluation_timeout: std::time::Duration::from_secs_f64(args.evaluation_timeout),
+            ..Default::default()
+        };
+        let config = fmucal_coordinator::Config { data_dir: args.data_dir, token, timing };
+        fmucal_coordinator::run(config, listener, terminate_signal()).await?;
+        Ok(())
+    })
+}
+
+pub fn worker(args: WorkerArgs) -> Result<()> {
+    let token = super::token::load(args.token_file.as_deref())?;
+    let cache_dir = args.cache_dir.unwrap_or_else(fmucal_shared::fmu::archive::default_cache_dir);
+    let name = format!("{}-{}", std::env::var("HOSTNAME").unwrap_or_else(|_| "worker".into()), std::process::id());
+    let config = fmucal_worker::Config {
+        coordinator: args.coordinator,
+        token,
+        slots: args.slots,
+        name,
+        cache_dir,
+        health_listen: args.health_listen,
+    };
+    let rt = tokio::runtime::Runtime::new()?;
+    rt.block_on(fmucal_worker::run(config, terminate_signal()))?;
+    Ok(())
+}

@@ -1,0 +1,81 @@
+//! Per-job context fetched once: the spec and data (`FetchJob`), the model bytes
+//! (`FetchModel`, stored by hash), the loaded FMU and the prepared objective.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use fmucal_proto::convert::SubmittedJob;
+use fmucal_proto::v1 as pb;
+use fmucal_shared::fmu::{Fmu, LoadOptions};
+use fmucal_shared::job::PreparedJob;
+use tokio::sync::Mutex;
+
+use crate::Client;
+
+/// What a slot needs to evaluate a job's points.
+pub struct JobContext {
+    pub fmu: Arc<Fmu>,
+    pub job: Arc<PreparedJob>,
+}
+
+pub struct JobCache {
+    dir: PathBuf,
+    jobs: Mutex<HashMap<String, Arc<JobContext>>>,
+}
+
+impl JobCache {
+    pub fn new(dir: PathBuf) -> Self {
+        JobCache { dir, jobs: Mutex::new(HashMap::new()) }
+    }
+
+    /// The job's context, fetching and loading it on first use.
+    pub async fn get(&self, client: &mut Client, job_id: &str) -> Result<Arc<JobContext>, String> {
+        let mut jobs = self.jobs.lock().await;
+        if let Some(c) = jobs.get(job_id) {
+            return Ok(c.clone());
+        }
+        let spec = client
+            .fetch_job(pb::FetchJobRequest { job_id: job_id.to_owned() })
+            .await
+            .map_err(|s| format!("fetching job {job_id}: {}", s.message()))?
+            .into_inner()
+            .spec
+            .ok_or("the coordinator sent a job without a spec")?;
+        let model_id = spec.model_id.clone();
+        let path = self.dir.join("models").join(format!("{model_id}.fmu"));
+        if !path.is_file() {
+            let mut stream = client
+                .fetch_model(pb::FetchModelRequest { model_id: model_id.clone() })
+                .await
+                .map_err(|s| format!("fetching model {model_id}: {}", s.message()))?
+                .into_inner();
+            let mut bytes = vec![];
+            while let Some(m) =
+                stream.message().await.map_err(|s| format!("fetching model {model_id}: {}", s.message()))?
+            {
+                bytes.extend_from_slice(&m.chunk);
+            }
+            if fmucal_shared::fmu::archive::sha256_hex(&bytes) != model_id {
+                return Err(format!("model {model_id}: the bytes received do not match their hash"));
+            }
+            std::fs::create_dir_all(path.parent().expect("has a parent")).map_err(|e| e.to_string())?;
+            let tmp = path.with_extension("part");
+            std::fs::write(&tmp, &bytes).map_err(|e| e.to_string())?;
+            std::fs::rename(&tmp, &path).map_err(|e| e.to_string())?;
+        }
+        let opts = LoadOptions { cache_dir: self.dir.join("unpacked"), ..Default::default() };
+        let ctx = tokio::task::spawn_blocking(move || -> Result<JobContext, String> {
+            let submitted = SubmittedJob::try_from(spec).map_err(|e| e.to_string())?;
+            let fmu = Fmu::load_with(&path, &opts).map_err(|e| e.to_string())?;
+            let job = PreparedJob::new(&submitted.spec, &fmu.description, &fmu.interfaces(), &submitted.data)
+                .map_err(|e| e.to_string())?;
+            Ok(JobContext { fmu: Arc::new(fmu), job: Arc::new(job) })
+        })
+        .await
+        .map_err(|e| e.to_string())??;
+        let ctx = Arc::new(ctx);
+        jobs.insert(job_id.to_owned(), ctx.clone());
+        Ok(ctx)
+    }
+}

@@ -1,0 +1,190 @@
+//! fmucal's worker: registers with a coordinator (announcing the protocol version), heartbeats,
+//! and runs `slots` evaluation slots. Each slot long-polls the coordinator with the result of
+//! its previous point (one RPC per point) and evaluates on its own OS thread, which keeps one
+//! warm FMU instance per job (FMU instances are not `Send`). Models and job data are fetched
+//! once per job and cached; unpacked models are cached by hash. On shutdown the slots finish
+//! their current point and hand its result back before the worker exits.
+
+mod jobs;
+mod slot;
+
+use std::future::Future;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+use fmucal_proto::auth::AttachToken;
+use fmucal_proto::v1 as pb;
+use fmucal_proto::v1::worker_pool_client::WorkerPoolClient;
+use tokio::sync::watch;
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::Channel;
+
+/// The client type the worker uses.
+pub type Client = WorkerPoolClient<InterceptedService<Channel, AttachToken>>;
+
+/// Worker settings.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// Coordinator URL, e.g. `http://127.0.0.1:7070`.
+    pub coordinator: String,
+    pub token: Option<String>,
+    /// Concurrent evaluations (FMU instances). Default: 1.
+    pub slots: usize,
+    /// Name shown by the coordinator.
+    pub name: String,
+    /// Where fetched models are stored and unpacked.
+    pub cache_dir: PathBuf,
+    /// Serve gRPC health (NOT_SERVING until registered) on this address.
+    pub health_listen: Option<SocketAddr>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum WorkerError {
+    #[error("cannot reach the coordinator at {url}: {message}")]
+    Connect { url: String, message: String },
+    #[error("registration refused: {0}")]
+    Registration(String),
+    #[error("{0}")]
+    Config(String),
+}
+
+/// Runs until `shutdown` resolves (then finishes the points in hand) or the coordinator stops
+/// answering for good.
+///
+/// # Errors
+/// [`WorkerError`] if the coordinator cannot be reached or refuses the registration.
+pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'static) -> Result<(), WorkerError> {
+    let attach = AttachToken::new(config.token.as_deref()).map_err(WorkerError::Config)?;
+    let channel = connect(&config.coordinator).await?;
+    let mut client: Client = WorkerPoolClient::with_interceptor(channel, attach)
+        .max_decoding_message_size(256 << 20)
+        .max_encoding_message_size(256 << 20);
+
+    let (health_reporter, health_service) = tonic_health::server::health_reporter();
+    health_reporter.set_not_serving::<pb::worker_pool_server::WorkerPoolServer<Unused>>().await;
+    if let Some(addr) = config.health_listen {
+        tokio::spawn(async move {
+            if let Err(e) = tonic::transport::Server::builder().add_service(health_service).serve(addr).await {
+                tracing::error!("health endpoint failed: {e}");
+            }
+        });
+    }
+
+    let reg = register(&mut client, &config).await?;
+    let worker_id = Arc::new(tokio::sync::RwLock::new(reg.worker_id));
+    health_reporter.set_serving::<pb::worker_pool_server::WorkerPoolServer<Unused>>().await;
+    let (stop_tx, stop_rx) = watch::channel(false);
+    tokio::spawn(async move {
+        shutdown.await;
+        let _ = stop_tx.send(true);
+    });
+
+    // Heartbeats; a coordinator that forgot us gets a new registration.
+    {
+        let (mut client, id, config, mut stop) = (client.clone(), worker_id.clone(), config.clone(), stop_rx.clone());
+        let every = Duration::from_millis(reg.heartbeat_interval_ms.max(50));
+        tokio::spawn(async move {
+            loop {
+                tokio::select! {
+                    _ = tokio::time::sleep(every) => {}
+                    _ = stop.changed() => return,
+                }
+                let current = id.read().await.clone();
+                match client.heartbeat(pb::HeartbeatRequest { worker_id: current }).await {
+                    Ok(r) if !r.get_ref().known => {
+                        if let Ok(r) = register(&mut client, &config).await {
+                            *id.write().await = r.worker_id;
+                        }
+                    }
+                    Ok(_) => {}
+                    Err(e) => tracing::warn!("heartbeat failed: {e}"),
+                }
+            }
+        });
+    }
+
+    let jobs = Arc::new(jobs::JobCache::new(config.cache_dir.clone()));
+    let mut slots = vec![];
+    for k in 0..config.slots.max(1) {
+        let ctx = slot::SlotContext {
+            client: client.clone(),
+            worker_id: worker_id.clone(),
+            jobs: jobs.clone(),
+            stop: stop_rx.clone(),
+            index: k,
+        };
+        slots.push(tokio::spawn(slot::run(ctx)));
+    }
+    for s in slots {
+        let _ = s.await;
+    }
+    health_reporter.set_not_serving::<pb::worker_pool_server::WorkerPoolServer<Unused>>().await;
+    tracing::info!("worker stopped");
+    Ok(())
+}
+
+/// Placeholder service type naming the worker in the health registry.
+#[derive(Clone)]
+pub struct Unused;
+
+#[tonic::async_trait]
+impl pb::worker_pool_server::WorkerPool for Unused {
+    async fn register(
+        &self,
+        _: tonic::Request<pb::RegisterRequest>,
+    ) -> Result<tonic::Response<pb::RegisterResponse>, tonic::Status> {
+        Err(tonic::Status::unimplemented("health only"))
+    }
+    async fn heartbeat(
+        &self,
+        _: tonic::Request<pb::HeartbeatRequest>,
+    ) -> Result<tonic::Response<pb::HeartbeatResponse>, tonic::Status> {
+        Err(tonic::Status::unimplemented("health only"))
+    }
+    type FetchModelStream = tokio_stream::wrappers::ReceiverStream<Result<pb::FetchModelResponse, tonic::Status>>;
+    async fn fetch_model(
+        &self,
+        _: tonic::Request<pb::FetchModelRequest>,
+    ) -> Result<tonic::Response<Self::FetchModelStream>, tonic::Status> {
+        Err(tonic::Status::unimplemented("health only"))
+    }
+    async fn fetch_job(
+        &self,
+        _: tonic::Request<pb::FetchJobRequest>,
+    ) -> Result<tonic::Response<pb::FetchJobResponse>, tonic::Status> {
+        Err(tonic::Status::unimplemented("health only"))
+    }
+    async fn poll_work(
+        &self,
+        _: tonic::Request<pb::PollWorkRequest>,
+    ) -> Result<tonic::Response<pb::PollWorkResponse>, tonic::Status> {
+        Err(tonic::Status::unimplemented("health only"))
+    }
+}
+
+async fn connect(url: &str) -> Result<Channel, WorkerError> {
+    let endpoint = tonic::transport::Endpoint::from_shared(url.to_owned())
+        .map_err(|e| WorkerError::Connect { url: url.into(), message: e.to_string() })?
+        .tcp_nodelay(true)
+        .connect_timeout(Duration::from_secs(2));
+    let mut last = String::new();
+    for _ in 0..50 {
+        match endpoint.connect().await {
+            Ok(ch) => return Ok(ch),
+            Err(e) => last = e.to_string(),
+        }
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+    Err(WorkerError::Connect { url: url.into(), message: last })
+}
+
+async fn register(client: &mut Client, config: &Config) -> Result<pb::RegisterResponse, WorkerError> {
+    let req = pb::RegisterRequest {
+        protocol_version: fmucal_proto::PROTOCOL_VERSION,
+        slots: config.slots.max(1) as u32,
+        name: config.name.clone(),
+    };
+    client.register(req).await.map(|r| r.into_inner()).map_err(|s| WorkerError::Registration(s.message().to_owned()))
+}
