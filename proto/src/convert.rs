@@ -4,7 +4,7 @@
 
 use crate::v1 as pb;
 use fmucal_shared::job::spec::{
-    DataRef, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SimulationSpec, WorkersSpec,
+    DataRef, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec, WorkersSpec,
 };
 use fmucal_shared::job::{CalibrationResult, JobSpec, MeasurementTable};
 
@@ -59,6 +59,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 stop_time: sim.stop_time,
                 tolerance: sim.tolerance,
                 solver: sim.solver,
+                set: sim.set.into_iter().map(|(k, v)| (k, SetValue::Text(v))).collect(),
             },
             optimizer: OptimizerSpec {
                 algorithm: if o.algorithm.is_empty() { OptimizerSpec::default().algorithm } else { o.algorithm },
@@ -117,6 +118,7 @@ pub fn job_to_proto(spec: &JobSpec, data: &MeasurementTable, model_id: &str) -> 
             stop_time: spec.simulation.stop_time,
             tolerance: spec.simulation.tolerance,
             solver: spec.simulation.solver.clone(),
+            set: spec.simulation.set.iter().map(|(k, v)| (k.clone(), v.to_string())).collect(),
         }),
         optimizer: Some(pb::OptimizerSpec {
             algorithm: o.algorithm.clone(),

@@ -233,12 +233,17 @@ impl PreparedJob {
                 outputs.push(o.variable.clone());
             }
         }
+        for name in spec.simulation.set.keys() {
+            if spec.parameters.iter().any(|p| &p.name == name) {
+                return Err(JobError::invalid(format!("simulation.set.{name}"), "is also a calibrated parameter"));
+            }
+        }
         let template = SimSpec {
             interface: Some(interface),
             start_time: Some(start),
             stop_time: Some(stop),
             output_times: Some(OutputTimes::Times(times.clone())),
-            parameters: vec![],
+            parameters: spec.simulation.set.iter().map(|(k, v)| (k.clone(), v.to_string())).collect(),
             inputs,
             outputs,
             tolerance: spec.simulation.tolerance,
@@ -248,7 +253,7 @@ impl PreparedJob {
         // Everything the simulation would reject, rejected now, with the start values set.
         let (names, x0, _, _) = spec.parameter_vectors();
         let mut check = template.clone();
-        check.parameters = names.iter().zip(&x0).map(|(n, v)| (n.clone(), format!("{v}"))).collect();
+        check.parameters.extend(names.iter().zip(&x0).map(|(n, v)| (n.clone(), format!("{v}"))));
         Plan::new(md, interfaces, &check).map_err(|e| JobError::invalid("simulation", e.to_string()))?;
 
         Ok(PreparedJob {
@@ -264,7 +269,7 @@ impl PreparedJob {
     pub fn sim_spec(&self, x: &[f64]) -> SimSpec {
         let mut s = self.template.clone();
         // `{}` prints the shortest text that parses back to the same f64.
-        s.parameters = self.parameter_names.iter().zip(x).map(|(n, v)| (n.clone(), format!("{v}"))).collect();
+        s.parameters.extend(self.parameter_names.iter().zip(x).map(|(n, v)| (n.clone(), format!("{v}"))));
         s
     }
 }

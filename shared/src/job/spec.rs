@@ -30,6 +30,7 @@
 //! stop_time = 40.0
 //! tolerance = 1e-6
 //! solver = "bdf"
+//! set = { g = 9.81 }         # fixed values of other variables
 //!
 //! [optimizer]
 //! algorithm = "nelder-mead"  # nelder-mead | differential-evolution | genetic
@@ -132,6 +133,28 @@ pub struct SimulationSpec {
     pub tolerance: Option<f64>,
     /// bdf (default), esdirk34, tr-bdf2 or tsit45.
     pub solver: Option<String>,
+    /// Fixed values for other model variables, e.g. `{ crashMode = "abort", g = 9.81 }`.
+    #[serde(default)]
+    pub set: std::collections::BTreeMap<String, SetValue>,
+}
+
+/// A fixed value in `[simulation] set`: a number, a boolean or text (enumeration item names).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum SetValue {
+    Number(f64),
+    Bool(bool),
+    Text(String),
+}
+
+impl std::fmt::Display for SetValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SetValue::Number(v) => write!(f, "{v}"),
+            SetValue::Bool(b) => write!(f, "{b}"),
+            SetValue::Text(t) => f.write_str(t),
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

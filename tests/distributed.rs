@@ -1,0 +1,413 @@
+//! The coordinator and real worker processes on 127.0.0.1: results equal the in-process
+//! reference for any number of workers, survive a killed worker and a killed coordinator, go on
+//! past an FMU that segfaults, reject invalid requests with INVALID_ARGUMENT naming the field,
+//! and refuse calls without the token.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use fmucal_proto::auth::AttachToken;
+use fmucal_proto::convert::job_to_proto;
+use fmucal_proto::v1 as pb;
+use fmucal_proto::v1::calibration_client::CalibrationClient;
+use fmucal_shared::job::{JobSpec, MeasurementTable, PreparedJob, local};
+use fmucal_shared::sim::{InputTable, SimSpec, simulate};
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::Channel;
+
+type Client = CalibrationClient<InterceptedService<Channel, AttachToken>>;
+const TOKEN: &str = "test-token-0123456789";
+
+/// Furuta data from frictions 0.010 / 0.0010 with a torque profile, 10 s every 0.05 s.
+fn furuta_job(dir: &Path, max_iters: u64) -> (JobSpec, MeasurementTable) {
+    let fmu = common::load_example("furuta", &dir.join("cache"));
+    let time: Vec<f64> = (0..=200).map(|i| i as f64 * 0.05).collect();
+    let u: Vec<f64> = time.iter().map(|t| 0.05 * (1.3 * t).sin()).collect();
+    let spec = SimSpec {
+        parameters: vec![("armFriction".into(), "0.010".into()), ("pendulumFriction".into(), "0.0010".into())],
+        stop_time: Some(10.0),
+        output_times: Some(fmucal_shared::sim::OutputTimes::Times(time.clone())),
+        inputs: Some(InputTable { time: time.clone(), columns: vec![("u".into(), u.clone())] }),
+        tolerance: Some(1e-8),
+        ..Default::default()
+    };
+    let r = simulate(&fmu, &spec).unwrap();
+    let data = MeasurementTable {
+        time,
+        columns: vec![
+            ("phi".into(), r.column("armJoint.phi").unwrap().to_vec()),
+            ("theta".into(), r.column("pendulumJoint.phi").unwrap().to_vec()),
+            ("u".into(), u),
+        ],
+    };
+    let toml = format!(
+        r#"
+[model]
+path = "{}"
+[data]
+[[outputs]]
+variable = "armJoint.phi"
+column = "phi"
+[[outputs]]
+variable = "pendulumJoint.phi"
+column = "theta"
+[[inputs]]
+column = "u"
+variable = "u"
+[[parameters]]
+name = "armFriction"
+start = 0.012
+lower = 0.0
+upper = 0.022
+[[parameters]]
+name = "pendulumFriction"
+start = 0.002
+lower = 0.0
+upper = 0.012
+[simulation]
+tolerance = 1e-8
+[optimizer]
+x_tol = 1e-6
+f_tol = 1e-14
+max_iters = {max_iters}
+"#,
+        common::example("furuta").display()
+    );
+    (JobSpec::from_toml(&toml, dir).unwrap(), data)
+}
+
+/// The in-process reference result.
+fn reference(spec: &JobSpec, data: &MeasurementTable, dir: &Path) -> fmucal_shared::job::CalibrationResult {
+    let fmu = Arc::new(common::load(spec.model.path.as_ref().unwrap(), &dir.join("cache")));
+    let job = Arc::new(PreparedJob::new(spec, &fmu.description, &fmu.interfaces(), data).unwrap());
+    local::calibrate(fmu, job, 1, |_| {}).unwrap()
+}
+
+struct Coordinator {
+    url: String,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: tokio::task::JoinHandle<Result<(), fmucal_coordinator::CoordinatorError>>,
+}
+
+async fn start_coordinator(data_dir: &Path) -> Coordinator {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let url = format!("http://{}", listener.local_addr().unwrap());
+    let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+    let timing = fmucal_coordinator::Timing {
+        heartbeat_interval: Duration::from_millis(200),
+        worker_expiry: Duration::from_millis(1500),
+        evaluation_timeout: Duration::from_secs(60),
+    };
+    let config = fmucal_coordinator::Config { data_dir: data_dir.to_owned(), token: Some(TOKEN.into()), timing };
+    let task = tokio::spawn(fmucal_coordinator::run(config, listener, async {
+        let _ = rx.await;
+    }));
+    Coordinator { url, stop: Some(tx), task }
+}
+
+fn start_worker(url: &str, cache: &Path, token: &str) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(["worker", "--coordinator", url, "--cache-dir"])
+        .arg(cache)
+        .env("FMUCAL_TOKEN", token)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap()
+}
+
+async fn client(url: &str, token: Option<&str>) -> Client {
+    let ch = tonic::transport::Endpoint::from_shared(url.to_owned()).unwrap().connect().await.unwrap();
+    CalibrationClient::with_interceptor(ch, AttachToken::new(token).unwrap()).max_encoding_message_size(256 << 20)
+}
+
+async fn upload(c: &mut Client, path: &Path) -> Result<String, tonic::Status> {
+    let bytes = std::fs::read(path).unwrap();
+    let chunks: Vec<_> = bytes.chunks(100_000).map(|c| pb::UploadModelRequest { chunk: c.to_vec() }).collect();
+    Ok(c.upload_model(tokio_stream::iter(chunks)).await?.into_inner().model_id)
+}
+
+async fn submit(c: &mut Client, spec: &JobSpec, data: &MeasurementTable) -> String {
+    let id = upload(c, spec.model.path.as_ref().unwrap()).await.unwrap();
+    c.submit_job(pb::SubmitJobRequest { spec: Some(job_to_proto(spec, data, &id)) }).await.unwrap().into_inner().job_id
+}
+
+/// Polls until the job leaves RUNNING; `during` runs once the job has completed `after_rounds`.
+async fn wait_done(c: &mut Client, job: &str, after_rounds: u64, mut during: impl FnMut()) -> pb::GetJobResponse {
+    let deadline = Instant::now() + Duration::from_secs(300);
+    let mut fired = false;
+    loop {
+        assert!(Instant::now() < deadline, "job {job} did not finish in time");
+        if let Ok(r) = c.get_job(pb::GetJobRequest { job_id: job.into() }).await {
+            let r = r.into_inner();
+            if r.status != pb::JobStatus::Running as i32 {
+                return r;
+            }
+        }
+        if !fired {
+            let evs = c.list_jobs(pb::ListJobsRequest {}).await.map(|r| r.into_inner().jobs).unwrap_or_default();
+            if evs.iter().any(|j| j.job_id == job && j.evaluations >= after_rounds.saturating_mul(4)) {
+                during();
+                fired = true;
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+fn x_opt(r: &pb::GetJobResponse) -> Vec<f64> {
+    r.result.as_ref().expect("a result").x_opt.clone()
+}
+
+fn kill_all(children: &mut [Child]) {
+    for c in children {
+        let _ = c.kill();
+        let _ = c.wait();
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_and_three_workers_give_the_in_process_result() {
+    let dir = tempfile::tempdir().unwrap();
+    let (spec, data) = furuta_job(dir.path(), 25);
+    let want = reference(&spec, &data, dir.path());
+    let want_x: Vec<f64> = ["armFriction", "pendulumFriction"].iter().map(|n| want.x_opt[*n]).collect();
+    for n in [1, 3] {
+        let coord = start_coordinator(&dir.path().join(format!("coord{n}"))).await;
+        let mut workers: Vec<Child> =
+            (0..n).map(|_| start_worker(&coord.url, &dir.path().join("wcache"), TOKEN)).collect();
+        let mut c = client(&coord.url, Some(TOKEN)).await;
+        let job = submit(&mut c, &spec, &data).await;
+        let r = wait_done(&mut c, &job, u64::MAX, || {}).await;
+        kill_all(&mut workers);
+        assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
+        assert_eq!(x_opt(&r), want_x, "{n} workers");
+        assert_eq!(r.result.as_ref().unwrap().evaluations, want.evaluations);
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn killing_a_worker_mid_job_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let (spec, data) = furuta_job(dir.path(), 25);
+    let want = reference(&spec, &data, dir.path());
+    let coord = start_coordinator(&dir.path().join("coord")).await;
+    let mut workers: Vec<Child> = (0..3).map(|_| start_worker(&coord.url, &dir.path().join("wcache"), TOKEN)).collect();
+    let mut c = client(&coord.url, Some(TOKEN)).await;
+    let job = submit(&mut c, &spec, &data).await;
+    let victim = workers[1].id();
+    let r = wait_done(&mut c, &job, 5, || {
+        sigkill(victim);
+    })
+    .await;
+    kill_all(&mut workers);
+    assert_eq!(r.status, pb::JobStatus::Succeeded as i32);
+    assert_eq!(x_opt(&r), vec![want.x_opt["armFriction"], want.x_opt["pendulumFriction"]]);
+}
+
+/// SIGKILL through the `kill` command (no unsafe libc call in tests).
+fn sigkill(pid: u32) {
+    let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn coordinator_killed_and_restarted_resumes_the_job() {
+    let dir = tempfile::tempdir().unwrap();
+    let (spec, data) = furuta_job(dir.path(), 30);
+    let want = reference(&spec, &data, dir.path());
+    let port = {
+        let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        l.local_addr().unwrap().port()
+    };
+    let data_dir = dir.path().join("coord");
+    let start = || {
+        Command::new(env!("CARGO_BIN_EXE_fmucal"))
+            .args(["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir"])
+            .arg(&data_dir)
+            .args(["--worker-expiry", "2"])
+            .env("FMUCAL_TOKEN", TOKEN)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    let url = format!("http://127.0.0.1:{port}");
+    let mut coord = start();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let mut workers: Vec<Child> = (0..2).map(|_| start_worker(&url, &dir.path().join("wcache"), TOKEN)).collect();
+    let mut c = client(&url, Some(TOKEN)).await;
+    let job = submit(&mut c, &spec, &data).await;
+    // Wait for some progress, then SIGKILL the coordinator and start it again.
+    let deadline = Instant::now() + Duration::from_secs(120);
+    loop {
+        let jobs = c.list_jobs(pb::ListJobsRequest {}).await.unwrap().into_inner().jobs;
+        if jobs.iter().any(|j| j.evaluations >= 30) {
+            break;
+        }
+        assert!(Instant::now() < deadline);
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    coord.kill().unwrap();
+    coord.wait().unwrap();
+    let mut coord = start();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let mut c = client(&url, Some(TOKEN)).await;
+    let r = wait_done(&mut c, &job, u64::MAX, || {}).await;
+    kill_all(&mut workers);
+    let _ = coord.kill();
+    assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
+    assert_eq!(x_opt(&r), vec![want.x_opt["armFriction"], want.x_opt["pendulumFriction"]]);
+    assert_eq!(r.result.unwrap().evaluations, want.evaluations, "a completed batch was evaluated again");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_fmu_that_segfaults_fails_points_not_the_job() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let fmu = common::load_example("decay", &cache);
+    let r = simulate(&fmu, &SimSpec { parameters: vec![("k".into(), "1.7".into())], ..Default::default() }).unwrap();
+    let data = MeasurementTable { time: r.time.clone(), columns: vec![("x".into(), r.column("x").unwrap().to_vec())] };
+    // crashTime below the stop time (2 s) kills the worker process with SIGSEGV.
+    let toml = format!(
+        r#"
+[model]
+path = "{}"
+[data]
+[[outputs]]
+variable = "x"
+column = "x"
+[[parameters]]
+name = "k"
+start = 1.0
+lower = 0.5
+upper = 3.0
+[[parameters]]
+name = "crashTime"
+start = 2.5
+lower = 1.0
+upper = 3.0
+[simulation]
+set = {{ crashMode = "segfault" }}
+[optimizer]
+algorithm = "differential-evolution"
+population = 8
+max_iters = 4
+seed = 1
+"#,
+        common::example("decay").display()
+    );
+    let spec = JobSpec::from_toml(&toml, dir.path()).unwrap();
+    let coord = start_coordinator(&dir.path().join("coord")).await;
+    let wcache = dir.path().join("wcache");
+    let mut workers: Vec<Child> = (0..2).map(|_| start_worker(&coord.url, &wcache, TOKEN)).collect();
+    let mut c = client(&coord.url, Some(TOKEN)).await;
+    let job = submit(&mut c, &spec, &data).await;
+    // Replace crashed workers, as `fmucal calibrate` does.
+    let deadline = Instant::now() + Duration::from_secs(240);
+    let r = loop {
+        for w in workers.iter_mut() {
+            if let Ok(Some(_)) = w.try_wait() {
+                *w = start_worker(&coord.url, &wcache, TOKEN);
+            }
+        }
+        let r = c.get_job(pb::GetJobRequest { job_id: job.clone() }).await.unwrap().into_inner();
+        if r.status != pb::JobStatus::Running as i32 {
+            break r;
+        }
+        assert!(Instant::now() < deadline, "job did not finish");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    };
+    kill_all(&mut workers);
+    assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
+    let res = r.result.unwrap();
+    assert!(res.failed_evaluations > 0, "no point crashed: {res:?}");
+    assert!(res.x_opt[1] >= 2.0, "the best point cannot be one that crashed: {res:?}");
+    // The coordinator still serves.
+    assert!(!c.list_jobs(pb::ListJobsRequest {}).await.unwrap().into_inner().jobs.is_empty());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn invalid_requests_get_invalid_argument_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let (spec, data) = furuta_job(dir.path(), 5);
+    let coord = start_coordinator(&dir.path().join("coord")).await;
+    let mut c = client(&coord.url, Some(TOKEN)).await;
+    let model = upload(&mut c, &common::example("furuta")).await.unwrap();
+    let base = job_to_proto(&spec, &data, &model);
+    let cases: Vec<(Box<dyn Fn(&mut pb::JobSpec)>, &str)> = vec![
+        (Box::new(|j| j.parameters[0].name = "armFrction".into()), "parameters[0].name"),
+        (Box::new(|j| j.parameters[1].lower = 0.5), "parameters[1].lower"),
+        (Box::new(|j| j.parameters[0].start = 1.0), "parameters[0].start"),
+        (Box::new(|j| j.outputs[0].variable = "nope".into()), "outputs[0].variable"),
+        (Box::new(|j| j.data.as_mut().unwrap().time.clear()), "data"),
+        (
+            Box::new(|j| {
+                j.data.as_mut().unwrap().columns[0].values.pop();
+            }),
+            "data.columns[phi]",
+        ),
+        (Box::new(|j| j.data.as_mut().unwrap().time.swap(3, 4)), "data.time"),
+        (Box::new(|j| j.model_id = "0".repeat(64)), "spec.model_id"),
+        (Box::new(|j| j.data = None), "spec.data"),
+    ];
+    for (edit, field) in cases {
+        let mut j = base.clone();
+        edit(&mut j);
+        let err = c.submit_job(pb::SubmitJobRequest { spec: Some(j) }).await.unwrap_err();
+        assert_eq!(err.code(), tonic::Code::InvalidArgument, "{field}: {err:?}");
+        assert!(err.message().contains(field), "{field:?} not in {:?}", err.message());
+    }
+    let tmp = dir.path().join("not.fmu");
+    std::fs::write(&tmp, b"these bytes are not an FMU").unwrap();
+    let err = upload(&mut c, &tmp).await.unwrap_err();
+    assert_eq!(err.code(), tonic::Code::InvalidArgument, "{err:?}");
+    assert!(err.message().contains("not a usable FMU"), "{}", err.message());
+
+    // A worker speaking another protocol version.
+    let ch = tonic::transport::Endpoint::from_shared(coord.url.clone()).unwrap().connect().await.unwrap();
+    let mut w = pb::worker_pool_client::WorkerPoolClient::with_interceptor(ch, AttachToken::new(Some(TOKEN)).unwrap());
+    let err = w.register(pb::RegisterRequest { protocol_version: 99, slots: 1, name: "old".into() }).await.unwrap_err();
+    assert_eq!(err.code(), tonic::Code::InvalidArgument);
+    assert!(err.message().contains("protocol_version"), "{}", err.message());
+    drop(coord);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn calls_without_the_token_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let coord = start_coordinator(&dir.path().join("coord")).await;
+    for token in [None, Some("wrong")] {
+        let mut c = client(&coord.url, token).await;
+        let err = c.list_jobs(pb::ListJobsRequest {}).await.unwrap_err();
+        assert_eq!(err.code(), tonic::Code::Unauthenticated, "{token:?}");
+    }
+    // A worker with the wrong token cannot register: it exits with an error.
+    let out = Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(["worker", "--coordinator", &coord.url, "--cache-dir"])
+        .arg(dir.path().join("w"))
+        .env("FMUCAL_TOKEN", "wrong")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("registration refused") && stderr.contains("bearer token"), "{stderr}");
+    // A coordinator refuses to listen off loopback without a token.
+    let out = Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(["coordinator", "--listen", "0.0.0.0:0", "--data-dir"])
+        .arg(dir.path().join("c2"))
+        .env_remove("FMUCAL_TOKEN")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("without a token"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
