@@ -17,8 +17,8 @@ use std::time::Duration;
 
 use fmucal_proto::v1 as pb;
 use tokio::net::TcpListener;
-use tokio_stream::wrappers::TcpListenerStream;
 use tonic::service::interceptor::InterceptedService;
+use tonic::transport::server::TcpIncoming;
 
 pub use error::CoordinatorError;
 pub use scheduler::Timing;
@@ -95,7 +95,7 @@ pub async fn run(
             pb::worker_pool_server::WorkerPoolServer::new(handlers).max_decoding_message_size(256 << 20),
             move |r| a2.check(r),
         ))
-        .serve_with_incoming_shutdown(TcpListenerStream::new(listener), shutdown)
+        .serve_with_incoming_shutdown(TcpIncoming::from(listener).with_nodelay(Some(true)), shutdown)
         .await?;
     scheduler_task.abort();
     Ok(())

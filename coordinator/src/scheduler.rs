@@ -24,7 +24,7 @@ use tokio::sync::{mpsc, oneshot};
 
 use crate::error::CoordinatorError;
 use crate::models::ModelStore;
-use crate::store::{JobState, Store};
+use crate::store::{JobState, Store, Write, Writer};
 use fmucal_proto::convert::{SubmittedJob, result_to_proto};
 
 type Reply<T> = oneshot::Sender<Result<T, CoordinatorError>>;
@@ -72,6 +72,7 @@ struct Job {
 }
 
 struct WorkerInfo {
+    slots: usize,
     last_seen: Instant,
     inflight: HashSet<(String, u64)>,
 }
@@ -87,7 +88,10 @@ pub struct Scheduler {
     jobs: BTreeMap<String, Job>,
     workers: HashMap<String, WorkerInfo>,
     parked: VecDeque<Parked>,
-    store: Store,
+    store: Arc<Store>,
+    writer: Writer,
+    /// Told points not yet sent to the writer (sent every tick and at batch ends).
+    unlogged: Vec<(String, u64, Outcome)>,
     models: Arc<Mutex<ModelStore>>,
     timing: Timing,
     next_seq: u64,
@@ -103,11 +107,15 @@ fn is_running(status: i32) -> bool {
 impl Scheduler {
     /// Opens the store and resumes the jobs that were running.
     pub fn new(store: Store, models: Arc<Mutex<ModelStore>>, timing: Timing) -> Result<Self, CoordinatorError> {
+        let store = Arc::new(store);
+        let writer = Writer::spawn(store.clone());
         let mut s = Scheduler {
+            writer,
             jobs: BTreeMap::new(),
             workers: HashMap::new(),
             parked: VecDeque::new(),
             store,
+            unlogged: vec![],
             models,
             timing,
             next_seq: 0,
@@ -122,7 +130,7 @@ impl Scheduler {
                     if is_running(state.status) {
                         state.status = pb::JobStatus::Failed as i32;
                         state.error = Some(format!("cannot resume: {e}"));
-                        s.store.save_state(&id, &state)?;
+                        s.save(&id, &state);
                     }
                     continue;
                 }
@@ -181,6 +189,7 @@ impl Scheduler {
                 _ = tick.tick() => self.on_tick(),
             }
         }
+        self.flush_log();
         for p in self.parked.drain(..) {
             let _ = p.reply.send(pb::PollWorkResponse { assignments: vec![], known: true });
         }
@@ -244,7 +253,14 @@ impl Scheduler {
                 } else {
                     self.next_worker += 1;
                     let id = format!("w{}-{}", self.next_worker, req.name.replace(char::is_whitespace, "_"));
-                    self.workers.insert(id.clone(), WorkerInfo { last_seen: Instant::now(), inflight: HashSet::new() });
+                    self.workers.insert(
+                        id.clone(),
+                        WorkerInfo {
+                            slots: req.slots.max(1) as usize,
+                            last_seen: Instant::now(),
+                            inflight: HashSet::new(),
+                        },
+                    );
                     tracing::info!(worker = %id, slots = req.slots, "worker registered");
                     Ok(pb::RegisterResponse {
                         worker_id: id,
@@ -361,7 +377,7 @@ impl Scheduler {
         job.state.result = Some(result);
         job.open.clear();
         job.queue.clear();
-        self.store.save_state(id, &job.state)?;
+        let state_json = serde_json::to_string(&job.state)?;
         let event = progress(job, 0.0);
         for w in job.watchers.drain(..) {
             let _ = w.try_send(Ok(event.clone()));
@@ -369,6 +385,8 @@ impl Scheduler {
         for w in self.workers.values_mut() {
             w.inflight.retain(|(j, _)| j != id);
         }
+        self.flush_log();
+        self.writer.send(Write::State { id: id.to_owned(), json: state_json });
         tracing::info!(job = %id, ?status, "job finished");
         Ok(())
     }
@@ -380,9 +398,7 @@ impl Scheduler {
             return;
         }
         job.queue.retain(|p| *p != point);
-        if let Err(e) = self.store.log_evaluation(id, point, outcome) {
-            tracing::error!(job = %id, "cannot log an evaluation: {e}");
-        }
+        self.unlogged.push((id.to_owned(), point, outcome));
         if matches!(outcome, Outcome::Failed) {
             job.state.failed_evaluations += 1;
         }
@@ -406,8 +422,12 @@ impl Scheduler {
                 }
                 return;
             }
-            if let Err(e) = self.store.save_state(id, &job.state) {
-                tracing::error!(job = %id, "cannot save the job state: {e}");
+            match serde_json::to_string(&job.state) {
+                Ok(json) => {
+                    self.flush_log();
+                    self.writer.send(Write::State { id: id.to_owned(), json });
+                }
+                Err(e) => tracing::error!(job = %id, "cannot save the job state: {e}"),
             }
             if let Err(e) = self.refill(id) {
                 tracing::error!(job = %id, "cannot continue: {e}");
@@ -462,9 +482,14 @@ impl Scheduler {
     }
 
     /// Takes up to `max` queued points for a worker, oldest job first, avoiding points that
-    /// already failed on it while another worker is alive.
+    /// already failed on it while another worker is alive. A worker may ask for several points
+    /// per poll (to amortise the round trip), but gets at most its fair share of the queue,
+    /// ⌈queued / live slots⌉, so expensive batches still spread over the whole pool.
     fn assign(&mut self, wid: &str, max: usize) -> Vec<pb::Assignment> {
         let alone = self.workers.len() <= 1;
+        let queued: usize = self.jobs.values().filter(|j| is_running(j.state.status)).map(|j| j.queue.len()).sum();
+        let slots: usize = self.workers.values().map(|w| w.slots).sum::<usize>().max(1);
+        let max = max.min(queued.div_ceil(slots).max(1));
         let mut out = vec![];
         let mut order: Vec<(&String, &mut Job)> =
             self.jobs.iter_mut().filter(|(_, j)| is_running(j.state.status)).collect();
@@ -511,7 +536,21 @@ impl Scheduler {
         self.parked = still;
     }
 
+    fn flush_log(&mut self) {
+        if !self.unlogged.is_empty() {
+            self.writer.send(Write::Log(std::mem::take(&mut self.unlogged)));
+        }
+    }
+
+    fn save(&self, id: &str, state: &JobState) {
+        match serde_json::to_string(state) {
+            Ok(json) => self.writer.send(Write::State { id: id.to_owned(), json }),
+            Err(e) => tracing::error!(job = %id, "cannot save the job state: {e}"),
+        }
+    }
+
     fn on_tick(&mut self) {
+        self.flush_log();
         let now = Instant::now();
         // Expire silent workers; their points count as failed attempts on them.
         let expired: Vec<String> = self

@@ -1,14 +1,18 @@
 //! Job persistence in redb under `<data-dir>/jobs.redb`: the submitted spec (protobuf bytes),
 //! the job state after every completed batch (optimizer included, as JSON), the evaluation log
-//! (one entry per told point), and the result. After a restart, running jobs resume from their
+//! (one entry per told point), and the result. Submissions are written before they are
+//! acknowledged; states and log entries go through a [`Writer`] thread that commits whatever
+//! has queued up in one durable transaction, so the scheduler never waits for a disk flush. After a restart, running jobs resume from their
 //! last completed batch and the logged points of the open batch are told again rather than
 //! re-evaluated; finished results stay queryable.
 
 use std::path::Path;
+use std::sync::Arc;
+use std::sync::mpsc;
 
 use fmucal_shared::job::{CalibrationResult, HistoryPoint};
 use fmucal_shared::optim::{AnyOptimizer, Outcome};
-use redb::{Database, Durability, ReadableDatabase, ReadableTable, TableDefinition};
+use redb::{Database, ReadableDatabase, ReadableTable, TableDefinition};
 use serde::{Deserialize, Serialize};
 
 use crate::error::CoordinatorError;
@@ -65,15 +69,6 @@ impl Store {
         Ok(())
     }
 
-    /// Logs one told point. Not fsynced on its own: it becomes durable with the next batch.
-    pub fn log_evaluation(&self, id: &str, point: u64, outcome: Outcome) -> Result<(), CoordinatorError> {
-        let mut tx = self.db.begin_write()?;
-        tx.set_durability(Durability::None).map_err(|e| CoordinatorError::Storage(e.to_string()))?;
-        tx.open_table(EVALS)?.insert((id, point), serde_json::to_string(&outcome)?.as_str())?;
-        tx.commit()?;
-        Ok(())
-    }
-
     /// Every job: (id, spec bytes, state).
     pub fn load_all(&self) -> Result<Vec<(String, Vec<u8>, JobState)>, CoordinatorError> {
         let tx = self.db.begin_read()?;
@@ -100,5 +95,79 @@ impl Store {
             out.push((k.value().1, serde_json::from_str(v.value())?));
         }
         Ok(out)
+    }
+}
+
+/// A queued write.
+pub enum Write {
+    /// A job's state after a completed batch (JSON).
+    State { id: String, json: String },
+    /// Told points.
+    Log(Vec<(String, u64, Outcome)>),
+}
+
+/// The thread that commits queued writes in order.
+pub struct Writer {
+    tx: Option<mpsc::Sender<Write>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Writer {
+    pub fn spawn(store: Arc<Store>) -> Self {
+        let (tx, rx) = mpsc::channel::<Write>();
+        let thread = std::thread::Builder::new()
+            .name("fmucal-store".into())
+            .spawn(move || {
+                while let Ok(first) = rx.recv() {
+                    let mut writes = vec![first];
+                    writes.extend(rx.try_iter());
+                    if let Err(e) = store.commit(writes) {
+                        tracing::error!("cannot write job state: {e}");
+                    }
+                }
+            })
+            .ok();
+        Writer { tx: Some(tx), thread }
+    }
+
+    pub fn send(&self, w: Write) {
+        if let Some(tx) = &self.tx {
+            let _ = tx.send(w);
+        }
+    }
+}
+
+impl Drop for Writer {
+    /// Waits until everything queued is on disk.
+    fn drop(&mut self) {
+        self.tx.take();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Store {
+    /// Commits a group of writes in one durable transaction (for a job's state, the last wins).
+    fn commit(&self, writes: Vec<Write>) -> Result<(), CoordinatorError> {
+        let tx = self.db.begin_write()?;
+        {
+            let mut states = tx.open_table(STATES)?;
+            let mut evals = tx.open_table(EVALS)?;
+            for w in &writes {
+                match w {
+                    Write::State { id, json } => {
+                        states.insert(id.as_str(), json.as_str())?;
+                    }
+                    Write::Log(entries) => {
+                        for (id, point, outcome) in entries {
+                            evals.insert((id.as_str(), *point), serde_json::to_string(outcome)?.as_str())?;
+                        }
+                    }
+                }
+            }
+        }
+        tx.commit()?;
+        Ok(())
     }
 }

@@ -1,11 +1,13 @@
 /* Exponential decay x' = -k * f * x^power, x(0) = 1, where f is read from resources/decay.txt
  * at instantiation (so x = exp(-t) with the defaults). It exercises what exported FMUs carry:
  * a resource file, declared types, an alias, Integer/Boolean/Enumeration parameters, a time
- * event (kickTime adds kickAmount to x), terminateSimulation at terminateTime, and a configurable failure (crashMode from crashTime:
+ * event (kickTime adds kickAmount to x), terminateSimulation at terminateTime, a wall-time `delay`
+ * (seconds slept at initialisation, for benchmarks), and a configurable failure (crashMode from crashTime:
  * 2 returns fmi2Error, 3 calls abort(), 4 dereferences a null pointer). */
+#define _POSIX_C_SOURCE 200809L /* nanosleep under -std=c99 */
 #define MODEL_IDENTIFIER "Decay"
 #define MODEL_GUID "{6a1f3c2e-3b44-4d1c-9a43-f0a1c0de0003}"
-#define N_REAL 8
+#define N_REAL 9
 #define N_INTEGER 3
 #define N_BOOLEAN 1
 #define NX 1
@@ -14,8 +16,9 @@
 #define CS_IMPLICIT 0
 #include "fmu_framework.h"
 #include <signal.h>
+#include <time.h>
 
-enum { X, DER_X, K, KICK_TIME, KICK_AMOUNT, CRASH_TIME, RESOURCE_FACTOR, TERMINATE_TIME };
+enum { X, DER_X, K, KICK_TIME, KICK_AMOUNT, CRASH_TIME, RESOURCE_FACTOR, TERMINATE_TIME, DELAY };
 enum { POWER, CRASH_MODE, KICKED };
 enum { ENABLED };
 enum { CRASH_NONE = 1, CRASH_ERROR = 2, CRASH_ABORT = 3, CRASH_SEGFAULT = 4 };
@@ -31,6 +34,7 @@ static void model_defaults(Model *m) {
     m->r[KICK_AMOUNT] = 0.0;
     m->r[CRASH_TIME] = 0.0;
     m->r[TERMINATE_TIME] = 1e9;
+    m->r[DELAY] = 0.0;
     m->r[RESOURCE_FACTOR] = g_resource_factor;
     m->i[POWER] = 1;
     m->i[CRASH_MODE] = CRASH_NONE;
@@ -69,6 +73,10 @@ static void schedule(Model *m) {
 static fmi2Status model_initialize(Model *m) {
     m->i[KICKED] = 0;
     schedule(m);
+    if (m->r[DELAY] > 0) { /* stand-in for an expensive model: wall time without CPU */
+        struct timespec ts = {(time_t)m->r[DELAY], (long)((m->r[DELAY] - (double)(time_t)m->r[DELAY]) * 1e9)};
+        nanosleep(&ts, NULL);
+    }
     return fmi2OK;
 }
 

@@ -1,4 +1,5 @@
-//! One evaluation slot: a task that long-polls the coordinator and an OS thread that owns the
+//! One evaluation slot: a task that long-polls the coordinator (asking for up to 4 points and
+//! returning their results with the next poll) and an OS thread that owns the
 //! slot's FMU instances (one per job, reset between points, replaced after a failure).
 
 use std::collections::HashMap;
@@ -11,6 +12,9 @@ use tokio::sync::{RwLock, oneshot, watch};
 
 use crate::Client;
 use crate::jobs::{JobCache, JobContext};
+
+/// Points a slot asks for per poll; the coordinator grants at most a fair share.
+const PREFETCH: u32 = 4;
 
 pub struct SlotContext {
     pub client: Client,
@@ -31,6 +35,10 @@ struct Task {
 fn evaluator_thread(rx: mpsc::Receiver<Task>) {
     let mut evaluators: HashMap<String, Evaluator> = HashMap::new();
     while let Ok(task) = rx.recv() {
+        // Keep instances of a few recent jobs only: a long-lived worker sees many jobs.
+        if !evaluators.contains_key(&task.job_id) && evaluators.len() >= 4 {
+            evaluators.clear();
+        }
         let a = &task.assignment;
         let result = match evaluators.entry(task.job_id.clone()) {
             std::collections::hash_map::Entry::Occupied(e) => Ok(e.into_mut()),
@@ -85,7 +93,7 @@ pub async fn run(mut s: SlotContext) {
         let req = pb::PollWorkRequest {
             worker_id: s.worker_id.read().await.clone(),
             results: std::mem::take(&mut pending),
-            max_points: if stopping { 0 } else { 1 },
+            max_points: if stopping { 0 } else { PREFETCH },
             wait_ms: if stopping { 0 } else { 2000 },
         };
         let sent = req.results.clone();

@@ -16,9 +16,15 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
     let o = &spec.optimizer;
     let n = x0.len();
     let defaults = Stopping::default_for(n);
+    // 0 disables a tolerance rule; unset takes the default.
+    let rule = |v: Option<f64>, default: Option<f64>| match v {
+        Some(t) if t == 0.0 => None,
+        Some(t) => Some(t),
+        None => default,
+    };
     let stopping = Stopping {
-        x_tol: o.x_tol.or(defaults.x_tol),
-        f_tol: o.f_tol.or(defaults.f_tol),
+        x_tol: rule(o.x_tol, defaults.x_tol),
+        f_tol: rule(o.f_tol, defaults.f_tol),
         max_iters: o.max_iters.or(defaults.max_iters),
         max_fevals: o.max_fevals,
     };

@@ -166,7 +166,9 @@ pub struct OptimizerSpec {
     /// Nelder–Mead: evaluate the four trial points as one batch. Default: true.
     #[serde(default = "default_true")]
     pub parallel: bool,
+    /// Simplex/population size rule (scaled); 0 disables it. Default: 1e-6.
     pub x_tol: Option<f64>,
+    /// Spread of objective values rule; 0 disables it. Default: 1e-8.
     pub f_tol: Option<f64>,
     pub max_iters: Option<u64>,
     pub max_fevals: Option<u64>,
