@@ -1,4 +1,6 @@
-//! Cross-check against FMPy (installed from PyPI into a venv by `tests/fmpy/ensure_venv.sh`):
+//! Cross-checks against Python references (FMPy and SciPy, installed from PyPI into a venv by
+//! `tests/fmpy/ensure_venv.sh`). MATLAB v5 files written by SciPy's `savemat` are read back.
+//! FMPy:
 //! every example FMU passes FMPy's validation, and FMPy and fmucal simulate it to the same
 //! results on the same grid: Model Exchange at rtol 1e-8 to 1e-4 relative, Co-Simulation at the
 //! same communication step to 1e-9. "Relative" is the largest difference over the grid divided
@@ -117,5 +119,25 @@ fn inputs_are_applied_as_fmpy_applies_them() {
     let input = torque_profile(tmp.path());
     for (interface, bound) in [(Interface::ModelExchange, 1e-4), (Interface::CoSimulation, 1e-9)] {
         check(Case { model: "furuta", interface, interval: 0.01, stop: 40.0, input: Some(&input) }, bound, tmp.path());
+    }
+}
+
+#[test]
+fn matlab_v5_files_written_by_scipy_are_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let mat = dir.path().join("FurutaData.mat");
+    let script = format!(
+        "import numpy as np, scipy.io\nt = np.linspace(0, 1, 11)\nscipy.io.savemat(r'{}', {{'time': t.reshape(-1, 1), 'phi': np.sin(t).reshape(-1, 1), 'theta': np.cos(t).reshape(-1, 1)}})\n",
+        mat.display()
+    );
+    let run = Command::new(python()).args(["-c", &script]).output().unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let table = fmucal_shared::job::MeasurementTable::read(&mat, "time").unwrap();
+    assert_eq!(table.time.len(), 11);
+    assert!((table.time[10] - 1.0).abs() < 1e-15);
+    let phi = table.column("phi").unwrap();
+    let theta = table.column("theta").unwrap();
+    for (i, t) in table.time.iter().enumerate() {
+        assert!((phi[i] - t.sin()).abs() < 1e-15 && (theta[i] - t.cos()).abs() < 1e-15);
     }
 }

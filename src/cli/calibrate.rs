@@ -95,11 +95,23 @@ pub fn run(args: Args) -> Result<()> {
 
 async fn connect(url: &str, token: Option<&str>) -> Result<Client> {
     let attach = AttachToken::new(token).map_err(anyhow::Error::msg)?;
-    let channel = tonic::transport::Endpoint::from_shared(url.to_owned())?
+    let endpoint = tonic::transport::Endpoint::from_shared(url.to_owned())?
         .tcp_nodelay(true)
-        .connect()
-        .await
-        .with_context(|| format!("cannot reach the coordinator at {url}"))?;
+        .connect_timeout(Duration::from_secs(2));
+    // A coordinator started a moment ago may not listen yet: retry for a few seconds.
+    let mut attempt = 0;
+    let channel = loop {
+        match endpoint.connect().await {
+            Ok(ch) => break ch,
+            Err(e) if attempt >= 25 => {
+                return Err(anyhow::Error::new(e).context(format!("cannot reach the coordinator at {url}")));
+            }
+            Err(_) => {
+                attempt += 1;
+                tokio::time::sleep(Duration::from_millis(200)).await;
+            }
+        }
+    };
     Ok(CalibrationClient::with_interceptor(channel, attach)
         .max_encoding_message_size(256 << 20)
         .max_decoding_message_size(256 << 20))

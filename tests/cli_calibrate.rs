@@ -1,0 +1,117 @@
+//! `fmucal calibrate` through the real binary: a local run (in-process coordinator and worker
+//! processes) writes result.json, convergence.csv and fit.csv; `--coordinator URL` gives the
+//! same result on a separately started coordinator; a bad job is one clean error line.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+fn write_job(dir: &Path, extra: &str) -> std::path::PathBuf {
+    let cache = dir.join("cache");
+    let fmu = common::load_example("decay", &cache);
+    let spec = fmucal_shared::sim::SimSpec {
+        parameters: vec![("k".into(), "1.7".into())],
+        tolerance: Some(1e-10),
+        ..Default::default()
+    };
+    let r = fmucal_shared::sim::simulate(&fmu, &spec).unwrap();
+    let mut csv = String::from("time,x\n");
+    for (t, x) in r.time.iter().zip(r.column("x").unwrap()).step_by(4) {
+        csv.push_str(&format!("{t},{x}\n"));
+    }
+    std::fs::write(dir.join("data.csv"), csv).unwrap();
+    let job = dir.join("job.toml");
+    std::fs::write(
+        &job,
+        format!(
+            "[model]\npath = \"example:decay\"\n[data]\npath = \"data.csv\"\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n\
+             [[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.1\nupper = 5.0\n[simulation]\ntolerance = 1e-10\n\
+             [optimizer]\nx_tol = 1e-8\nf_tol = 1e-14\n{extra}"
+        ),
+    )
+    .unwrap();
+    job
+}
+
+fn fmucal(args: &[&str], dir: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(args)
+        .current_dir(dir)
+        .env("FMUCAL_CACHE_DIR", dir.join("cache"))
+        .output()
+        .unwrap()
+}
+
+fn result(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("result.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn local_run_writes_result_convergence_and_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = write_job(dir.path(), "");
+    let out = fmucal(&["calibrate", job.to_str().unwrap(), "--workers", "2", "--out", "out"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("k = 1.7"), "{stdout}");
+    let r = result(&dir.path().join("out"));
+    assert!((r["x_opt"]["k"].as_f64().unwrap() - 1.7).abs() < 1e-5, "{r}");
+    for field in ["f_opt", "iterations", "evaluations", "termination", "elapsed_s"] {
+        assert!(!r[field].is_null(), "result.json lacks {field}: {r}");
+    }
+    let conv = std::fs::read_to_string(dir.path().join("out/convergence.csv")).unwrap();
+    assert!(conv.starts_with("round,evaluations,best_f,batch_wall_s\n") && conv.lines().count() > 3);
+    let fit = std::fs::read_to_string(dir.path().join("out/fit.csv")).unwrap();
+    assert!(fit.starts_with("time,x:measured,x:nominal,x:optimized\n"), "{}", &fit[..80]);
+}
+
+#[test]
+fn coordinator_url_gives_the_same_result() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = write_job(dir.path(), "");
+    let local = fmucal(&["calibrate", job.to_str().unwrap(), "--workers", "1", "--out", "local"], dir.path());
+    assert!(local.status.success());
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let url = format!("http://127.0.0.1:{port}");
+    let spawn = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_fmucal"))
+            .args(args)
+            .env("FMUCAL_TOKEN", "cli-test-token")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    let data_dir = dir.path().join("coord");
+    let mut coord =
+        spawn(&["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir", data_dir.to_str().unwrap()]);
+    let mut worker = spawn(&["worker", "--coordinator", &url, "--cache-dir", dir.path().join("w").to_str().unwrap()]);
+    let out = Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(["calibrate", job.to_str().unwrap(), "--coordinator", &url, "--out", "remote"])
+        .current_dir(dir.path())
+        .env("FMUCAL_TOKEN", "cli-test-token")
+        .output()
+        .unwrap();
+    // SIGTERM both servers: they shut down cleanly.
+    for child in [&mut worker, &mut coord] {
+        let _ = Command::new("kill").args(["-TERM", &child.id().to_string()]).status();
+        let status = child.wait().unwrap();
+        assert!(status.success(), "a server did not exit cleanly on SIGTERM: {status}");
+    }
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(result(&dir.path().join("local"))["x_opt"], result(&dir.path().join("remote"))["x_opt"]);
+}
+
+#[test]
+fn a_bad_job_is_one_error_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = write_job(dir.path(), "");
+    let text = std::fs::read_to_string(&job).unwrap().replace("name = \"k\"", "name = \"kk\"");
+    std::fs::write(&job, text).unwrap();
+    let out = fmucal(&["calibrate", job.to_str().unwrap(), "--workers", "1"], dir.path());
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("parameters[0].name: unknown variable \"kk\""), "{stderr}");
+}
