@@ -91,7 +91,9 @@ pub fn worker(args: WorkerArgs) -> Result<()> {
         cache_dir,
         health_listen: args.health_listen,
     };
-    let rt = tokio::runtime::Runtime::new()?;
+    // Evaluations run on the slots' own threads; the runtime only does I/O, and one thread is
+    // enough (a pool of many workers on few cores then switches less).
+    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
     rt.block_on(fmucal_worker::run(config, terminate_signal()))?;
     Ok(())
 }
