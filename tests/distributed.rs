@@ -267,13 +267,19 @@ async fn coordinator_killed_and_restarted_resumes_the_job() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn an_fmu_that_segfaults_fails_points_not_the_job() {
+async fn an_fmu_that_segfaults_or_aborts_fails_points_not_the_job() {
+    for mode in ["segfault", "abort"] {
+        crashing_job(mode).await;
+    }
+}
+
+async fn crashing_job(mode: &str) {
     let dir = tempfile::tempdir().unwrap();
     let cache = dir.path().join("cache");
     let fmu = common::load_example("decay", &cache);
     let r = simulate(&fmu, &SimSpec { parameters: vec![("k".into(), "1.7".into())], ..Default::default() }).unwrap();
     let data = MeasurementTable { time: r.time.clone(), columns: vec![("x".into(), r.column("x").unwrap().to_vec())] };
-    // crashTime below the stop time (2 s) kills the worker process with SIGSEGV.
+    // crashTime below the stop time (2 s) kills the worker process (SIGSEGV or SIGABRT).
     let toml = format!(
         r#"
 [model]
@@ -293,7 +299,7 @@ start = 2.5
 lower = 1.0
 upper = 3.0
 [simulation]
-set = {{ crashMode = "segfault" }}
+set = {{ crashMode = "{mode}" }}
 [optimizer]
 algorithm = "differential-evolution"
 population = 8
@@ -324,9 +330,9 @@ seed = 1
         tokio::time::sleep(Duration::from_millis(100)).await;
     };
     kill_all(&mut workers);
-    assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
+    assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{mode}: {r:?}");
     let res = r.result.unwrap();
-    assert!(res.failed_evaluations > 0, "no point crashed: {res:?}");
+    assert!(res.failed_evaluations > 0, "{mode}: no point crashed: {res:?}");
     assert!(res.x_opt[1] >= 2.0, "the best point cannot be one that crashed: {res:?}");
     // The coordinator still serves.
     assert!(!c.list_jobs(pb::ListJobsRequest {}).await.unwrap().into_inner().jobs.is_empty());
@@ -410,4 +416,42 @@ async fn calls_without_the_token_are_refused() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_once_per_process_fmu_runs_on_a_multi_slot_worker() {
+    let dir = tempfile::tempdir().unwrap();
+    let once = common::with_xml("decay", dir.path(), "once.fmu", |xml| {
+        xml.replace(
+            "<CoSimulation modelIdentifier=\"Decay\"",
+            "<CoSimulation canBeInstantiatedOnlyOncePerProcess=\"true\" modelIdentifier=\"Decay\"",
+        )
+        .replace(
+            "<ModelExchange modelIdentifier=\"Decay\"",
+            "<ModelExchange canBeInstantiatedOnlyOncePerProcess=\"true\" modelIdentifier=\"Decay\"",
+        )
+    });
+    let fmu = common::load(&once, &dir.path().join("cache"));
+    let r = simulate(&fmu, &SimSpec { parameters: vec![("k".into(), "1.7".into())], ..Default::default() }).unwrap();
+    let data = MeasurementTable { time: r.time.clone(), columns: vec![("x".into(), r.column("x").unwrap().to_vec())] };
+    let toml = format!(
+        "[model]\npath = \"{}\"\n[data]\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n[[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.1\nupper = 5.0\n[optimizer]\nalgorithm = \"differential-evolution\"\npopulation = 12\nmax_iters = 3\n",
+        once.display()
+    );
+    let spec = JobSpec::from_toml(&toml, dir.path()).unwrap();
+    let coord = start_coordinator(&dir.path().join("coord")).await;
+    let mut worker = Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(["worker", "--coordinator", &coord.url, "--slots", "3", "--cache-dir"])
+        .arg(dir.path().join("w"))
+        .env("FMUCAL_TOKEN", TOKEN)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut c = client(&coord.url, Some(TOKEN)).await;
+    let job = submit(&mut c, &spec, &data).await;
+    let r = wait_done(&mut c, &job, u64::MAX, || {}).await;
+    let _ = worker.kill();
+    assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
+    assert_eq!(r.result.unwrap().failed_evaluations, 0, "a second instance was attempted");
 }

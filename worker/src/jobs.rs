@@ -17,6 +17,8 @@ use crate::Client;
 pub struct JobContext {
     pub fmu: Arc<Fmu>,
     pub job: Arc<PreparedJob>,
+    /// The FMU may be instantiated only once per process: all its points go to slot 0.
+    pub exclusive: bool,
 }
 
 pub struct JobCache {
@@ -70,7 +72,12 @@ impl JobCache {
             let fmu = Fmu::load_with(&path, &opts).map_err(|e| e.to_string())?;
             let job = PreparedJob::new(&submitted.spec, &fmu.description, &fmu.interfaces(), &submitted.data)
                 .map_err(|e| e.to_string())?;
-            Ok(JobContext { fmu: Arc::new(fmu), job: Arc::new(job) })
+            let info = match job.interface {
+                fmucal_shared::fmu::Interface::ModelExchange => fmu.description.model_exchange.as_ref(),
+                fmucal_shared::fmu::Interface::CoSimulation => fmu.description.co_simulation.as_ref(),
+            };
+            let exclusive = info.is_some_and(|i| i.can_be_instantiated_only_once_per_process);
+            Ok(JobContext { fmu: Arc::new(fmu), job: Arc::new(job), exclusive })
         })
         .await
         .map_err(|e| e.to_string())??;

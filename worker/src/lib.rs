@@ -1,7 +1,8 @@
 //! fmucal's worker: registers with a coordinator (announcing the protocol version), heartbeats,
-//! and runs `slots` evaluation slots. Each slot long-polls the coordinator with the result of
-//! its previous point (one RPC per point) and evaluates on its own OS thread, which keeps one
-//! warm FMU instance per job (FMU instances are not `Send`). Models and job data are fetched
+//! and runs `slots` evaluation slots. Each slot long-polls the coordinator with the results of
+//! its previous points and evaluates on its own OS thread, which keeps one warm FMU instance per
+//! job (FMU instances are not `Send`). Points of an FMU that may be instantiated only once per
+//! process all go to slot 0's thread. Models and job data are fetched
 //! once per job and cached; unpacked models are cached by hash. On shutdown the slots finish
 //! their current point and hand its result back before the worker exits.
 
@@ -106,9 +107,15 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
     }
 
     let jobs = Arc::new(jobs::JobCache::new(config.cache_dir.clone()));
+    let threads = (0..config.slots.max(1))
+        .map(slot::spawn_thread)
+        .collect::<std::io::Result<Vec<_>>>()
+        .map_err(|e| WorkerError::Config(format!("cannot start evaluation threads: {e}")))?;
+    let threads = Arc::new(threads);
     let mut slots = vec![];
     for k in 0..config.slots.max(1) {
         let ctx = slot::SlotContext {
+            threads: threads.clone(),
             client: client.clone(),
             worker_id: worker_id.clone(),
             jobs: jobs.clone(),

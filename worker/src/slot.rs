@@ -17,6 +17,8 @@ use crate::jobs::{JobCache, JobContext};
 const PREFETCH: u32 = 4;
 
 pub struct SlotContext {
+    /// Task queues of every slot's evaluation thread (this slot's is `threads[index]`).
+    pub threads: Arc<Vec<mpsc::Sender<Task>>>,
     pub client: Client,
     pub worker_id: Arc<RwLock<String>>,
     pub jobs: Arc<JobCache>,
@@ -24,14 +26,21 @@ pub struct SlotContext {
     pub index: usize,
 }
 
-struct Task {
+pub struct Task {
     job_id: String,
     ctx: Arc<JobContext>,
     assignment: pb::Assignment,
     reply: oneshot::Sender<pb::PointResult>,
 }
 
-/// The slot's evaluation thread.
+/// Starts an evaluation thread and returns its task queue.
+pub fn spawn_thread(index: usize) -> std::io::Result<mpsc::Sender<Task>> {
+    let (tx, rx) = mpsc::channel::<Task>();
+    std::thread::Builder::new().name(format!("fmucal-slot-{index}")).spawn(move || evaluator_thread(rx))?;
+    Ok(tx)
+}
+
+/// A slot's evaluation thread.
 fn evaluator_thread(rx: mpsc::Receiver<Task>) {
     let mut evaluators: HashMap<String, Evaluator> = HashMap::new();
     while let Ok(task) = rx.recv() {
@@ -79,13 +88,6 @@ fn failed(a: &pb::Assignment, message: String) -> pb::PointResult {
 }
 
 pub async fn run(mut s: SlotContext) {
-    let (tx, rx) = mpsc::channel::<Task>();
-    let thread =
-        std::thread::Builder::new().name(format!("fmucal-slot-{}", s.index)).spawn(move || evaluator_thread(rx));
-    if thread.is_err() {
-        tracing::error!("cannot start an evaluation thread");
-        return;
-    }
     let mut pending: Vec<pb::PointResult> = vec![];
     let mut failures = 0;
     loop {
@@ -134,8 +136,9 @@ pub async fn run(mut s: SlotContext) {
             let result = match s.jobs.get(&mut s.client, &a.job_id).await {
                 Ok(ctx) => {
                     let (reply, wait) = oneshot::channel();
+                    let thread = if ctx.exclusive { 0 } else { s.index };
                     let task = Task { job_id: a.job_id.clone(), ctx, assignment: a.clone(), reply };
-                    if tx.send(task).is_err() {
+                    if s.threads[thread].send(task).is_err() {
                         return;
                     }
                     wait.await.unwrap_or_else(|_| failed(&a, "the evaluation thread stopped".into()))
