@@ -69,3 +69,65 @@ impl BestSoFar {
         self.0.as_ref().map(|(z, f)| (space.to_user(z), *f))
     }
 }
+
+/// Counts a completed batch and offers its points as the best so far; returns its values in
+/// creation order.
+pub(crate) fn absorb(batch: &Batch, evaluations: &mut u64, best: &mut BestSoFar) -> Vec<Fitness> {
+    let values = batch.values();
+    *evaluations += values.len() as u64;
+    for (z, f) in batch.z.iter().zip(&values) {
+        best.offer(z, *f);
+    }
+    values
+}
+
+/// Implements [`super::Optimizer`] for a batch optimizer with fields `space`, `batch`, `best`,
+/// `evaluations`, `iterations` and `rounds`, a `fn done(&self) -> Option<Termination>` and a
+/// `fn advance(&mut self)` called when the batch is complete.
+macro_rules! impl_batch_optimizer {
+    ($t:ty) => {
+        impl $crate::optim::Optimizer for $t {
+            fn ask(&mut self) -> Vec<$crate::optim::Candidate> {
+                if self.done().is_some() { vec![] } else { self.batch.open() }
+            }
+
+            fn tell(
+                &mut self,
+                id: $crate::optim::CandidateId,
+                outcome: $crate::optim::Outcome,
+            ) -> Result<(), $crate::optim::OptimError> {
+                if self.done().is_some() {
+                    return Err($crate::optim::OptimError::UnknownCandidate(id));
+                }
+                if self.batch.tell(id, outcome)? {
+                    self.advance();
+                }
+                Ok(())
+            }
+
+            fn status(&self) -> $crate::optim::Status {
+                match self.done() {
+                    Some(t) => $crate::optim::Status::Done(t),
+                    None => $crate::optim::Status::Running,
+                }
+            }
+
+            fn best(&self) -> Option<(Vec<f64>, f64)> {
+                self.best.get(&self.space)
+            }
+
+            fn evaluations(&self) -> u64 {
+                self.evaluations
+            }
+
+            fn iterations(&self) -> u64 {
+                self.iterations
+            }
+
+            fn rounds(&self) -> u64 {
+                self.rounds
+            }
+        }
+    };
+}
+pub(crate) use impl_batch_optimizer;

@@ -15,11 +15,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::batch::{Batch, BestSoFar};
+use super::batch::{Batch, BestSoFar, absorb, impl_batch_optimizer};
 use super::fitness::{Fitness, spread};
 use super::random::Random;
 use super::space::Space;
-use super::{Candidate, CandidateId, OptimError, Optimizer, Outcome, Status, Stopping, Termination};
+use super::{CandidateId, OptimError, Stopping, Termination};
 
 /// Differential evolution settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -67,7 +67,8 @@ pub struct DifferentialEvolution {
     rng: Random,
     next_id: CandidateId,
     evaluations: u64,
-    generations: u64,
+    /// Generations completed.
+    iterations: u64,
     rounds: u64,
     best: BestSoFar,
 }
@@ -113,10 +114,18 @@ impl DifferentialEvolution {
             rng,
             next_id,
             evaluations: 0,
-            generations: 0,
+            iterations: 0,
             rounds: 1,
             best: BestSoFar::default(),
         })
+    }
+
+    /// Why the run ended, if it has.
+    fn done(&self) -> Option<Termination> {
+        match self.phase {
+            Phase::Done(t) => Some(t),
+            _ => None,
+        }
     }
 
     fn trial(&mut self, i: usize) -> Vec<f64> {
@@ -161,7 +170,7 @@ impl DifferentialEvolution {
         let stop = self.settings.stopping.check(
             size,
             spread(self.population.iter().map(|p| p.1)),
-            self.generations,
+            self.iterations,
             self.evaluations,
         );
         if let Some(t) = stop {
@@ -176,11 +185,7 @@ impl DifferentialEvolution {
     }
 
     fn advance(&mut self) {
-        let values = self.batch.values();
-        self.evaluations += values.len() as u64;
-        for (z, f) in self.batch.z.iter().zip(&values) {
-            self.best.offer(z, *f);
-        }
+        let values = absorb(&self.batch, &mut self.evaluations, &mut self.best);
         match self.phase {
             Phase::Initial => {
                 self.population = self.batch.z.iter().cloned().zip(values).collect();
@@ -191,7 +196,7 @@ impl DifferentialEvolution {
                         self.population[i] = (z.clone(), f);
                     }
                 }
-                self.generations += 1;
+                self.iterations += 1;
             }
             Phase::Done(_) => return,
         }
@@ -204,52 +209,13 @@ fn uniform_in(space: &Space, i: usize, rng: &mut Random) -> f64 {
     lo + rng.uniform() * (hi - lo)
 }
 
-impl Optimizer for DifferentialEvolution {
-    fn ask(&mut self) -> Vec<Candidate> {
-        match self.phase {
-            Phase::Done(_) => vec![],
-            _ => self.batch.open(),
-        }
-    }
-
-    fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<(), OptimError> {
-        if matches!(self.phase, Phase::Done(_)) {
-            return Err(OptimError::UnknownCandidate(id));
-        }
-        if self.batch.tell(id, outcome)? {
-            self.advance();
-        }
-        Ok(())
-    }
-
-    fn status(&self) -> Status {
-        match self.phase {
-            Phase::Done(t) => Status::Done(t),
-            _ => Status::Running,
-        }
-    }
-
-    fn best(&self) -> Option<(Vec<f64>, f64)> {
-        self.best.get(&self.space)
-    }
-
-    fn evaluations(&self) -> u64 {
-        self.evaluations
-    }
-
-    fn iterations(&self) -> u64 {
-        self.generations
-    }
-
-    fn rounds(&self) -> u64 {
-        self.rounds
-    }
-}
+impl_batch_optimizer!(DifferentialEvolution);
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::optim::test_problems::{self as tp, run};
+    use crate::optim::{Optimizer, Outcome};
 
     #[test]
     fn rastrigin_2d_global_basin_for_a_fixed_seed() {

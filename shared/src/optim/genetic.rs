@@ -17,11 +17,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::batch::{Batch, BestSoFar};
+use super::batch::{Batch, BestSoFar, absorb, impl_batch_optimizer};
 use super::fitness::{Fitness, spread};
 use super::random::Random;
 use super::space::Space;
-use super::{Candidate, CandidateId, OptimError, Optimizer, Outcome, Status, Stopping, Termination};
+use super::{CandidateId, OptimError, Stopping, Termination};
 
 /// Genetic algorithm settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -84,7 +84,8 @@ pub struct GeneticAlgorithm {
     rng: Random,
     next_id: CandidateId,
     evaluations: u64,
-    generations: u64,
+    /// Generations completed.
+    iterations: u64,
     rounds: u64,
     best: BestSoFar,
 }
@@ -138,12 +139,20 @@ impl GeneticAlgorithm {
             rng,
             next_id: 0,
             evaluations: 0,
-            generations: 0,
+            iterations: 0,
             rounds: 0,
             best: BestSoFar::default(),
         };
         ga.ask_children(genomes, Phase::Initial);
         Ok(ga)
+    }
+
+    /// Why the run ended, if it has.
+    fn done(&self) -> Option<Termination> {
+        match self.phase {
+            Phase::Done(t) => Some(t),
+            _ => None,
+        }
     }
 
     fn decode(&self, genes: &[u64]) -> Vec<f64> {
@@ -221,7 +230,7 @@ impl GeneticAlgorithm {
         let stop = self.settings.stopping.check(
             size,
             spread(self.population.iter().map(|p| p.f)),
-            self.generations,
+            self.iterations,
             self.evaluations,
         );
         if let Some(t) = stop {
@@ -234,11 +243,7 @@ impl GeneticAlgorithm {
     }
 
     fn advance(&mut self) {
-        let values = self.batch.values();
-        self.evaluations += values.len() as u64;
-        for (z, f) in self.batch.z.iter().zip(&values) {
-            self.best.offer(z, *f);
-        }
+        let values = absorb(&self.batch, &mut self.evaluations, &mut self.best);
         let children: Vec<Individual> = std::mem::take(&mut self.children)
             .into_iter()
             .zip(values)
@@ -249,7 +254,7 @@ impl GeneticAlgorithm {
             Phase::Generation => {
                 self.population.truncate(self.settings.elitism);
                 self.population.extend(children);
-                self.generations += 1;
+                self.iterations += 1;
             }
             Phase::Done(_) => return,
         }
@@ -261,52 +266,13 @@ fn random_bits(rng: &mut Random, bits: u32) -> u64 {
     (0..bits).fold(0u64, |acc, b| if rng.chance(0.5) { acc | (1 << b) } else { acc })
 }
 
-impl Optimizer for GeneticAlgorithm {
-    fn ask(&mut self) -> Vec<Candidate> {
-        match self.phase {
-            Phase::Done(_) => vec![],
-            _ => self.batch.open(),
-        }
-    }
-
-    fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<(), OptimError> {
-        if matches!(self.phase, Phase::Done(_)) {
-            return Err(OptimError::UnknownCandidate(id));
-        }
-        if self.batch.tell(id, outcome)? {
-            self.advance();
-        }
-        Ok(())
-    }
-
-    fn status(&self) -> Status {
-        match self.phase {
-            Phase::Done(t) => Status::Done(t),
-            _ => Status::Running,
-        }
-    }
-
-    fn best(&self) -> Option<(Vec<f64>, f64)> {
-        self.best.get(&self.space)
-    }
-
-    fn evaluations(&self) -> u64 {
-        self.evaluations
-    }
-
-    fn iterations(&self) -> u64 {
-        self.generations
-    }
-
-    fn rounds(&self) -> u64 {
-        self.rounds
-    }
-}
+impl_batch_optimizer!(GeneticAlgorithm);
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::optim::test_problems::{self as tp, run};
+    use crate::optim::{Optimizer, Outcome, Status};
 
     #[test]
     fn rastrigin_2d_global_basin_for_a_fixed_seed() {

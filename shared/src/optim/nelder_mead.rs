@@ -24,10 +24,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::batch::{Batch, BestSoFar};
+use super::batch::{Batch, BestSoFar, absorb, impl_batch_optimizer};
 use super::fitness::{Fitness, spread};
 use super::space::Space;
-use super::{Candidate, CandidateId, OptimError, Optimizer, Outcome, Status, Stopping, Termination};
+use super::{CandidateId, OptimError, Stopping, Termination};
 
 /// Nelder–Mead settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -143,6 +143,14 @@ impl NelderMead {
         })
     }
 
+    /// Why the run ended, if it has.
+    fn done(&self) -> Option<Termination> {
+        match self.phase {
+            Phase::Done(t) => Some(t),
+            _ => None,
+        }
+    }
+
     fn n(&self) -> usize {
         self.space.dim()
     }
@@ -249,11 +257,7 @@ impl NelderMead {
 
     /// Applies the batch that just completed.
     fn advance(&mut self) {
-        let values = self.batch.values();
-        self.evaluations += values.len() as u64;
-        for (z, f) in self.batch.z.iter().zip(&values) {
-            self.best.offer(z, *f);
-        }
+        let values = absorb(&self.batch, &mut self.evaluations, &mut self.best);
         let n = self.n();
         match std::mem::replace(&mut self.phase, Phase::Initial) {
             Phase::Initial => {
@@ -377,52 +381,13 @@ fn normalized_volume(simplex: &[Vertex]) -> f64 {
     det.abs() / norms
 }
 
-impl Optimizer for NelderMead {
-    fn ask(&mut self) -> Vec<Candidate> {
-        match self.phase {
-            Phase::Done(_) => vec![],
-            _ => self.batch.open(),
-        }
-    }
-
-    fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<(), OptimError> {
-        if matches!(self.phase, Phase::Done(_)) {
-            return Err(OptimError::UnknownCandidate(id));
-        }
-        if self.batch.tell(id, outcome)? {
-            self.advance();
-        }
-        Ok(())
-    }
-
-    fn status(&self) -> Status {
-        match self.phase {
-            Phase::Done(t) => Status::Done(t),
-            _ => Status::Running,
-        }
-    }
-
-    fn best(&self) -> Option<(Vec<f64>, f64)> {
-        self.best.get(&self.space)
-    }
-
-    fn evaluations(&self) -> u64 {
-        self.evaluations
-    }
-
-    fn iterations(&self) -> u64 {
-        self.iterations
-    }
-
-    fn rounds(&self) -> u64 {
-        self.rounds
-    }
-}
+impl_batch_optimizer!(NelderMead);
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::optim::test_problems::{self as tp, run};
+    use crate::optim::{Optimizer, Outcome, Status};
 
     fn minimize(f: fn(&[f64]) -> f64, lower: &[f64], upper: &[f64], x0: &[f64], settings: NmSettings) -> NelderMead {
         let mut nm = NelderMead::new(lower, upper, x0, settings).unwrap();
