@@ -64,6 +64,23 @@ fn local_run_writes_result_convergence_and_fit() {
     assert!(conv.starts_with("round,evaluations,best_f,batch_wall_s\n") && conv.lines().count() > 3);
     let fit = std::fs::read_to_string(dir.path().join("out/fit.csv")).unwrap();
     assert!(fit.starts_with("time,x:measured,x:nominal,x:optimized\n"), "{}", &fit[..80]);
+    let plots = ["fit", "error", "convergence"];
+    for name in plots {
+        let png = std::fs::read(dir.path().join(format!("out/{name}.png"))).unwrap();
+        assert!(png.starts_with(b"\x89PNG\r\n\x1a\n") && png.len() > 1000, "{name}.png is not a PNG");
+        let svg = std::fs::read_to_string(dir.path().join(format!("out/{name}.svg"))).unwrap();
+        assert!(svg.contains("<svg") && svg.contains("</svg>"), "{name}.svg is not an SVG");
+        std::fs::remove_file(dir.path().join(format!("out/{name}.png"))).unwrap();
+    }
+    // `fmucal plot` redraws them from the folder.
+    let out = fmucal(&["plot", "out"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for name in plots {
+        assert!(dir.path().join(format!("out/{name}.png")).is_file());
+    }
+    let out = fmucal(&["plot", "no-such-folder"], dir.path());
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(String::from_utf8_lossy(&out.stderr).lines().count(), 1);
 }
 
 #[test]

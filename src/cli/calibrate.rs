@@ -1,8 +1,8 @@
 //! `fmucal calibrate JOB.toml`: checks the job locally, then either starts an in-process
 //! coordinator on loopback with a generated token and N worker processes (restarted if they
 //! die), or submits to `--coordinator URL`. Follows progress with a bar, then writes
-//! `result.json`, `convergence.csv` and `fit.csv` (measured, nominal and optimized outputs) to
-//! `--out`.
+//! `result.json`, `convergence.csv` and `fit.csv` (measured, nominal and optimized outputs) and
+//! the plots (`fit`, `error`, `convergence`, as SVG and PNG) to `--out`.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -82,6 +82,7 @@ pub fn run(args: Args) -> Result<()> {
     })?;
 
     write_outputs(&args.out, &result, &fmu, &prepared, &data)?;
+    crate::report::draw_all(&args.out)?;
     println!(
         "termination: {}; f_opt = {:.6e} after {} evaluations in {:.1} s",
         result.termination, result.f_opt, result.evaluations, result.elapsed_s

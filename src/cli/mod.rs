@@ -33,6 +33,11 @@ enum Command {
     Coordinator(servers::CoordinatorArgs),
     /// Run a worker that evaluates points for a coordinator.
     Worker(servers::WorkerArgs),
+    /// Redraw the plots of a calibration result folder.
+    Plot {
+        /// A folder written by `fmucal calibrate --out`.
+        dir: std::path::PathBuf,
+    },
 }
 
 /// Runs the CLI with the process arguments.
@@ -49,6 +54,9 @@ pub fn main() -> ExitCode {
         Command::Calibrate(args) => calibrate::run(args),
         Command::Coordinator(args) => servers::coordinator(args),
         Command::Worker(args) => servers::worker(args),
+        Command::Plot { dir } => crate::report::draw_all(&dir)
+            .map_err(anyhow::Error::from)
+            .map(|()| eprintln!("wrote the plots to {}", dir.display())),
         Command::Examples => {
             for (name, path) in fmucal_models::examples() {
                 println!("{name:<14} {}", path.display());

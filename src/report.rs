@@ -1,0 +1,236 @@
+//! Plots of a calibration, drawn from the files it wrote (`fit.csv`, `convergence.csv`), as SVG
+//! and PNG with an embedded font (DejaVu Sans; no system fonts):
+//! - `fit`: measured, nominal and optimized trajectories of each output (the paper's Figures 6
+//!   and 9);
+//! - `error`: absolute error on a log scale, nominal against optimized (Figures 7 and 10);
+//! - `convergence`: best f against evaluations, one marker per completed batch.
+//!
+//! `fmucal plot DIR` calls [`draw_all`] on an existing result folder.
+
+use std::path::Path;
+use std::sync::Once;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error("cannot read {path}: {message}")]
+    Read { path: String, message: String },
+    #[error("cannot draw {path}: {message}")]
+    Draw { path: String, message: String },
+}
+
+/// One output's series from `fit.csv`.
+struct Series {
+    name: String,
+    measured: Vec<(f64, f64)>,
+    nominal: Vec<(f64, f64)>,
+    optimized: Vec<(f64, f64)>,
+}
+
+fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), ReportError> {
+    let err = |m: String| ReportError::Read { path: path.display().to_string(), message: m };
+    let mut r = csv::Reader::from_path(path).map_err(|e| err(e.to_string()))?;
+    let header: Vec<String> = r.headers().map_err(|e| err(e.to_string()))?.iter().map(String::from).collect();
+    let mut rows = vec![];
+    for rec in r.records() {
+        let rec = rec.map_err(|e| err(e.to_string()))?;
+        rows.push(rec.iter().map(|c| if c.is_empty() { f64::NAN } else { c.parse().unwrap_or(f64::NAN) }).collect());
+    }
+    Ok((header, rows))
+}
+
+fn read_fit(path: &Path) -> Result<Vec<Series>, ReportError> {
+    let (header, rows) = read_csv(path)?;
+    let mut out: Vec<Series> = vec![];
+    for (c, h) in header.iter().enumerate().skip(1) {
+        let (name, kind) = h.rsplit_once(':').unwrap_or((h, "measured"));
+        if out.last().is_none_or(|s| s.name != name) {
+            out.push(Series { name: name.to_owned(), measured: vec![], nominal: vec![], optimized: vec![] });
+        }
+        let s = out.last_mut().expect("pushed above");
+        let target = match kind {
+            "nominal" => &mut s.nominal,
+            "optimized" => &mut s.optimized,
+            _ => &mut s.measured,
+        };
+        target.extend(rows.iter().filter(|r| r[c].is_finite()).map(|r| (r[0], r[c])));
+    }
+    Ok(out)
+}
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+    });
+}
+
+fn range(points: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) =
+        points.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    let pad = ((hi - lo) * 0.05).max(1e-12);
+    (lo - pad, hi + pad)
+}
+
+type DrawResult = Result<(), Box<dyn std::error::Error>>;
+
+fn draw_fit<B: DrawingBackend>(root: DrawingArea<B, Shift>, series: &[Series]) -> DrawResult
+where
+    B::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let panels = root.split_evenly((series.len().max(1), 1));
+    for (s, area) in series.iter().zip(panels) {
+        let (t0, t1) = range(s.measured.iter().chain(&s.optimized).map(|p| p.0));
+        let (y0, y1) = range(s.measured.iter().chain(&s.nominal).chain(&s.optimized).map(|p| p.1));
+        let mut chart = ChartBuilder::on(&area)
+            .caption(&s.name, ("sans-serif", 18))
+            .margin(8)
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(t0..t1, y0..y1)?;
+        chart.configure_mesh().x_desc("time").label_style(("sans-serif", 12)).draw()?;
+        chart
+            .draw_series(LineSeries::new(s.nominal.iter().copied(), BLUE.stroke_width(1)))?
+            .label("nominal")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
+        chart
+            .draw_series(LineSeries::new(s.optimized.iter().copied(), RED.stroke_width(1)))?
+            .label("optimized")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
+        // Measurements on top, so they stay visible where the fit is good.
+        chart
+            .draw_series(s.measured.iter().map(|p| Circle::new(*p, 1, BLACK.mix(0.5).filled())))?
+            .label("measured")
+            .legend(|(x, y)| Circle::new((x + 10, y), 3, BLACK.filled()));
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 12))
+            .draw()?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+fn abs_errors(measured: &[(f64, f64)], sim: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let lookup: std::collections::HashMap<u64, f64> = sim.iter().map(|(t, v)| (t.to_bits(), *v)).collect();
+    measured.iter().filter_map(|(t, m)| lookup.get(&t.to_bits()).map(|s| (*t, (s - m).abs().max(1e-16)))).collect()
+}
+
+fn draw_error<B: DrawingBackend>(root: DrawingArea<B, Shift>, series: &[Series]) -> DrawResult
+where
+    B::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let panels = root.split_evenly((series.len().max(1), 1));
+    for (s, area) in series.iter().zip(panels) {
+        let nominal = abs_errors(&s.measured, &s.nominal);
+        let optimized = abs_errors(&s.measured, &s.optimized);
+        let (t0, t1) = range(s.measured.iter().map(|p| p.0));
+        let all = nominal.iter().chain(&optimized).map(|p| p.1);
+        let (lo, hi) = all.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+        let (lo, hi) = if lo.is_finite() && hi > 0.0 { (lo.max(1e-12) * 0.5, hi * 2.0) } else { (1e-6, 1.0) };
+        let mut chart = ChartBuilder::on(&area)
+            .caption(format!("{}: absolute error (calibration window)", s.name), ("sans-serif", 18))
+            .margin(8)
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(t0..t1, (lo..hi).log_scale())?;
+        chart
+            .configure_mesh()
+            .x_desc("time")
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .label_style(("sans-serif", 12))
+            .draw()?;
+        chart
+            .draw_series(LineSeries::new(nominal, BLUE.stroke_width(1)))?
+            .label("measurement - nominal")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
+        chart
+            .draw_series(LineSeries::new(optimized, RED.stroke_width(1)))?
+            .label("measurement - optimized")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 12))
+            .draw()?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+fn draw_convergence<B: DrawingBackend>(root: DrawingArea<B, Shift>, points: &[(f64, f64)]) -> DrawResult
+where
+    B::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let (e0, e1) = range(points.iter().map(|p| p.0));
+    let fs = points.iter().map(|p| p.1).filter(|v| v.is_finite() && *v > 0.0);
+    let (lo, hi) = fs.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+    let (lo, hi) = if lo.is_finite() { (lo * 0.5, hi * 2.0) } else { (1e-6, 1.0) };
+    let mut chart = ChartBuilder::on(&root)
+        .caption("convergence: best f after each batch", ("sans-serif", 18))
+        .margin(8)
+        .x_label_area_size(30)
+        .y_label_area_size(60)
+        .build_cartesian_2d(e0.max(0.0)..e1, (lo..hi).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("evaluations")
+        .y_desc("best f")
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .label_style(("sans-serif", 12))
+        .draw()?;
+    let positive: Vec<(f64, f64)> = points.iter().copied().filter(|p| p.1 > 0.0 && p.1.is_finite()).collect();
+    chart.draw_series(LineSeries::new(positive.iter().copied(), RED.stroke_width(1)))?;
+    chart.draw_series(positive.iter().map(|p| Circle::new(*p, 3, RED.filled())))?;
+    root.present()?;
+    Ok(())
+}
+
+/// Draws `fit`, `error` and `convergence` as SVG and PNG into `dir`.
+///
+/// # Errors
+/// [`ReportError`] if the CSV files are missing or a plot cannot be written.
+pub fn draw_all(dir: &Path) -> Result<(), ReportError> {
+    register_font();
+    let series = read_fit(&dir.join("fit.csv"))?;
+    let (_, conv) = read_csv(&dir.join("convergence.csv"))?;
+    let conv: Vec<(f64, f64)> = conv.iter().filter(|r| r.len() >= 3).map(|r| (r[1], r[2])).collect();
+    let height = 300 * series.len().max(1) as u32;
+    let fail = |name: &str, e: Box<dyn std::error::Error>| ReportError::Draw {
+        path: dir.join(name).display().to_string(),
+        message: e.to_string(),
+    };
+    for (name, ext) in [
+        ("fit", "svg"),
+        ("fit", "png"),
+        ("error", "svg"),
+        ("error", "png"),
+        ("convergence", "svg"),
+        ("convergence", "png"),
+    ] {
+        let file = format!("{name}.{ext}");
+        let path = dir.join(&file);
+        let size = if name == "convergence" { (900, 500) } else { (1000, height) };
+        let r = match (name, ext) {
+            ("fit", "svg") => draw_fit(SVGBackend::new(&path, size).into_drawing_area(), &series),
+            ("fit", _) => draw_fit(BitMapBackend::new(&path, size).into_drawing_area(), &series),
+            ("error", "svg") => draw_error(SVGBackend::new(&path, size).into_drawing_area(), &series),
+            ("error", _) => draw_error(BitMapBackend::new(&path, size).into_drawing_area(), &series),
+            (_, "svg") => draw_convergence(SVGBackend::new(&path, size).into_drawing_area(), &conv),
+            _ => draw_convergence(BitMapBackend::new(&path, size).into_drawing_area(), &conv),
+        };
+        r.map_err(|e| fail(&file, e))?;
+    }
+    Ok(())
+}
