@@ -60,6 +60,8 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 tolerance: sim.tolerance,
                 solver: sim.solver,
                 set: sim.set.into_iter().map(|(k, v)| (k, SetValue::Text(v))).collect(),
+                set_from: None,
+                validation_stop_time: None,
             },
             optimizer: OptimizerSpec {
                 algorithm: if o.algorithm.is_empty() { OptimizerSpec::default().algorithm } else { o.algorithm },

@@ -15,7 +15,10 @@ use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::calibration_client::CalibrationClient;
 use fmucal_shared::fmu::Fmu;
-use fmucal_shared::job::{CalibrationResult, Evaluator, HistoryPoint, JobSpec, MeasurementTable, PreparedJob};
+use fmucal_shared::job::result::{ErrorReport, WindowError};
+use fmucal_shared::job::{
+    CalibrationResult, Evaluator, HistoryPoint, JobSpec, MeasurementTable, PreparedJob, identifiability,
+};
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
 
@@ -63,32 +66,44 @@ pub fn run(args: Args) -> Result<()> {
     fmucal_shared::job::optimizer::build(&spec)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
 
+    let threads = args
+        .workers
+        .or(spec.workers.count)
+        .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1))
+        .max(1);
     let rt = tokio::runtime::Runtime::new()?;
-    let result = rt.block_on(async {
+    let mut result = rt.block_on(async {
         match &args.coordinator {
             Some(url) => {
                 let token = super::token::load(args.token_file.as_deref())?;
                 let client = connect(url, token.as_deref()).await?;
                 follow(client, &spec, &data, &model).await
             }
-            None => {
-                let n = args
-                    .workers
-                    .or(spec.workers.count)
-                    .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
-                run_local(&spec, &data, &model, n.max(1)).await
-            }
+            None => run_local(&spec, &data, &model, threads).await,
         }
     })?;
 
-    write_outputs(&args.out, &result, &fmu, &prepared, &data)?;
+    write_outputs(&args.out, &mut result, &fmu, &prepared, &data, threads)?;
     crate::report::draw_all(&args.out)?;
     println!(
         "termination: {}; f_opt = {:.6e} after {} evaluations in {:.1} s",
         result.termination, result.f_opt, result.evaluations, result.elapsed_s
     );
     for (name, v) in &result.x_opt {
-        println!("  {name} = {v:.6e}");
+        let se = result.identifiability.as_ref().and_then(|id| {
+            let k = id.names.iter().position(|n| n == name)?;
+            Some(format!("  (standard error {:.2e})", id.standard_errors[k]))
+        });
+        println!("  {name} = {v:.6e}{}", se.unwrap_or_default());
+    }
+    if let Some(e) = &result.errors {
+        let v = e.validation.as_ref().map(|v| format!(", validation {:.3}", v.scaled_rms)).unwrap_or_default();
+        println!("scaled RMS error (optimized / nominal): calibration {:.3}{v}", e.calibration.scaled_rms);
+    }
+    if let Some(id) = &result.identifiability
+        && id.names.len() > 1
+    {
+        println!("largest parameter correlation: {:.3}", id.max_abs_correlation());
     }
     eprintln!("wrote {}", args.out.join("result.json").display());
     Ok(())
@@ -235,31 +250,39 @@ async fn follow(
         termination: r.termination,
         elapsed_s: r.elapsed_s,
         history,
+        errors: None,
+        identifiability: None,
     })
 }
 
 fn write_outputs(
     out: &Path,
-    result: &CalibrationResult,
-    fmu: &Fmu,
+    result: &mut CalibrationResult,
+    fmu: &Arc<Fmu>,
     job: &Arc<PreparedJob>,
     data: &MeasurementTable,
+    threads: usize,
 ) -> Result<()> {
-    std::fs::write(out.join("result.json"), serde_json::to_string_pretty(result)?)?;
-    let mut conv = String::from("round,evaluations,best_f,batch_wall_s\n");
-    for h in &result.history {
-        conv.push_str(&format!("{},{},{},{}\n", h.round, h.evaluations, h.best_f, h.batch_wall_s));
-    }
-    std::fs::write(out.join("convergence.csv"), conv)?;
-
-    let (_, x0, _, _) = job.spec.parameter_vectors();
+    let spec = &job.spec;
+    let (_, x0, _, _) = spec.parameter_vectors();
     let x_opt: Vec<f64> =
         job.parameter_names.iter().map(|n| result.x_opt.get(n).copied().unwrap_or(f64::NAN)).collect();
-    let mut ev = Evaluator::new(fmu, job.clone())?;
+    // The report spans the validation window too, if the job has one.
+    let report_job = match spec.simulation.validation_stop_time {
+        Some(stop) => {
+            let mut s = spec.clone();
+            s.simulation.stop_time = Some(stop);
+            Arc::new(PreparedJob::new(&s, &fmu.description, &fmu.interfaces(), data)?)
+        }
+        None => job.clone(),
+    };
+    let mut ev = Evaluator::new(fmu, report_job.clone())?;
     let nominal = ev.simulate(&x0).ok();
     let optimized = ev.simulate(&x_opt).ok();
+    let split = job.objective.times.last().copied().unwrap_or(f64::INFINITY);
+    let obj = &report_job.objective;
     let mut header = vec!["time".to_owned()];
-    for t in &job.objective.targets {
+    for t in &obj.targets {
         header.extend([
             format!("{}:measured", t.variable),
             format!("{}:nominal", t.variable),
@@ -267,18 +290,48 @@ fn write_outputs(
         ]);
     }
     let mut text = header.join(",") + "\n";
-    for (i, t) in job.objective.times.iter().enumerate() {
+    let value = |r: &Option<fmucal_shared::sim::SimResult>, var: &str, i: usize| {
+        r.as_ref().and_then(|r| r.column(var)).map(|c| c[i])
+    };
+    // Squared errors and counts per window: [calibration, validation] x [nominal, optimized].
+    let mut sums = [[0.0f64; 2]; 2];
+    let mut counts = [0usize; 2];
+    for (i, t) in obj.times.iter().enumerate() {
+        let w = usize::from(*t > split);
         let mut row = vec![format!("{t}")];
-        for tg in &job.objective.targets {
-            let pick = |r: &Option<fmucal_shared::sim::SimResult>| {
-                r.as_ref().and_then(|r| r.column(&tg.variable)).map(|c| format!("{}", c[i])).unwrap_or_default()
-            };
+        for tg in &obj.targets {
             let m = tg.values[i];
-            row.extend([if m.is_nan() { String::new() } else { format!("{m}") }, pick(&nominal), pick(&optimized)]);
+            let (n, o) = (value(&nominal, &tg.variable, i), value(&optimized, &tg.variable, i));
+            if !m.is_nan() {
+                counts[w] += 1;
+                sums[w][0] += tg.weight * (n.unwrap_or(f64::NAN) - m).powi(2);
+                sums[w][1] += tg.weight * (o.unwrap_or(f64::NAN) - m).powi(2);
+            }
+            let cell = |v: Option<f64>| v.map(|v| format!("{v}")).unwrap_or_default();
+            row.extend([if m.is_nan() { String::new() } else { format!("{m}") }, cell(n), cell(o)]);
         }
         text.push_str(&(row.join(",") + "\n"));
     }
     std::fs::write(out.join("fit.csv"), text)?;
-    let _ = data;
+    let window = |w: usize, start: f64, stop: f64| {
+        let c = counts[w].max(1) as f64;
+        let (n, o) = ((sums[w][0] / c).sqrt(), (sums[w][1] / c).sqrt());
+        WindowError { start_time: start, stop_time: stop, rms_nominal: n, rms_optimized: o, scaled_rms: o / n }
+    };
+    let start = obj.times.first().copied().unwrap_or(0.0);
+    result.errors = Some(ErrorReport {
+        calibration: window(0, start, split),
+        validation: (counts[1] > 0).then(|| window(1, split, obj.times.last().copied().unwrap_or(split))),
+    });
+    match identifiability::analyze(fmu.clone(), job.clone(), &x_opt, threads) {
+        Ok(id) => result.identifiability = Some(id),
+        Err(e) => tracing::warn!("no identifiability analysis: {e}"),
+    }
+    std::fs::write(out.join("result.json"), serde_json::to_string_pretty(result)?)?;
+    let mut conv = String::from("round,evaluations,best_f,batch_wall_s\n");
+    for h in &result.history {
+        conv.push_str(&format!("{},{},{},{}\n", h.round, h.evaluations, h.best_f, h.batch_wall_s));
+    }
+    std::fs::write(out.join("convergence.csv"), conv)?;
     Ok(())
 }

@@ -119,5 +119,7 @@ pub fn finish(
         },
         elapsed_s,
         history,
+        errors: None,
+        identifiability: None,
     }
 }

@@ -2,10 +2,12 @@
 //! the same fields over gRPC), measurement data ([`data`]: CSV or MATLAB v5), the quadratic
 //! error objective ([`objective`], the paper's `quad_err`), one evaluation of a parameter point
 //! on a warm FMU instance ([`evaluator`]), the optimizer built from the spec ([`optimizer`]),
-//! an in-process calibration loop over threads ([`local`]) and the result ([`result`]).
+//! an in-process calibration loop over threads ([`local`]), standard errors and correlations
+//! at the optimum ([`identifiability`]) and the result ([`result`]).
 
 pub mod data;
 pub mod evaluator;
+pub mod identifiability;
 pub mod local;
 pub mod objective;
 pub mod optimizer;

@@ -29,4 +29,30 @@ pub struct CalibrationResult {
     pub termination: String,
     pub elapsed_s: f64,
     pub history: Vec<HistoryPoint>,
+    /// Root-mean-square errors, when the CLI computed them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub errors: Option<ErrorReport>,
+    /// Standard errors and correlations at the optimum, when computed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub identifiability: Option<super::identifiability::Identifiability>,
+}
+
+/// RMS errors of the nominal and the optimized model on the calibration window and, if the job
+/// has one, the validation window; "scaled" divides by the nominal model's RMS on that window.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrorReport {
+    pub calibration: WindowError,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub validation: Option<WindowError>,
+}
+
+/// RMS errors on one time window.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WindowError {
+    pub start_time: f64,
+    pub stop_time: f64,
+    pub rms_nominal: f64,
+    pub rms_optimized: f64,
+    /// rms_optimized / rms_nominal (1.0 before calibration).
+    pub scaled_rms: f64,
 }

@@ -31,6 +31,8 @@
 //! tolerance = 1e-6
 //! solver = "bdf"
 //! set = { g = 9.81 }         # fixed values of other variables
+//! set_from = "stage1/result.json"  # fix the x_opt of an earlier calibration (two-stage fits)
+//! validation_stop_time = 1800.0    # report errors on (stop_time, 1800] too (CLI)
 //!
 //! [optimizer]
 //! algorithm = "nelder-mead"  # nelder-mead | differential-evolution | genetic
@@ -136,6 +138,12 @@ pub struct SimulationSpec {
     /// Fixed values for other model variables, e.g. `{ crashMode = "abort", g = 9.81 }`.
     #[serde(default)]
     pub set: std::collections::BTreeMap<String, SetValue>,
+    /// A `result.json` of an earlier calibration whose `x_opt` values are fixed here (the
+    /// paper's two-stage fit). Read when the TOML file is loaded; `set` entries win.
+    pub set_from: Option<PathBuf>,
+    /// After calibrating up to `stop_time`, also simulate up to here and report the errors on
+    /// the validation window (stop_time, validation_stop_time]. CLI only.
+    pub validation_stop_time: Option<f64>,
 }
 
 /// A fixed value in `[simulation] set`: a number, a boolean or text (enumeration item names).
@@ -238,7 +246,18 @@ impl JobSpec {
     pub fn from_toml_file(path: &Path) -> Result<JobSpec, JobError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| JobError::Read { path: path.display().to_string(), message: e.to_string() })?;
-        JobSpec::from_toml(&text, path.parent().unwrap_or(Path::new(".")))
+        let base = path.parent().unwrap_or(Path::new("."));
+        let mut spec = JobSpec::from_toml(&text, base)?;
+        if let Some(from) = spec.simulation.set_from.take() {
+            let from = if from.is_relative() { base.join(from) } else { from };
+            let read = |m: String| JobError::Read { path: from.display().to_string(), message: m };
+            let text = std::fs::read_to_string(&from).map_err(|e| read(e.to_string()))?;
+            let result: super::CalibrationResult = serde_json::from_str(&text).map_err(|e| read(e.to_string()))?;
+            for (name, v) in result.x_opt {
+                spec.simulation.set.entry(name).or_insert(SetValue::Number(v));
+            }
+        }
+        Ok(spec)
     }
 
     /// Checks what can be checked without the model or data: names present, bounds ordered,
