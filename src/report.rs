@@ -2,7 +2,8 @@
 //! and PNG with an embedded font (DejaVu Sans; no system fonts):
 //! - `fit`: measured, nominal and optimized trajectories of each output (the paper's Figures 6
 //!   and 9);
-//! - `error`: absolute error on a log scale, nominal against optimized (Figures 7 and 10);
+//! - `error`: absolute error on a log scale, nominal against optimized, with the end of the
+//!   calibration window marked when there is a validation window (Figures 7 and 10);
 //! - `convergence`: best f against evaluations, one marker per completed batch.
 //!
 //! `fmucal plot DIR` calls [`draw_all`] on an existing result folder.
@@ -124,7 +125,7 @@ fn abs_errors(measured: &[(f64, f64)], sim: &[(f64, f64)]) -> Vec<(f64, f64)> {
     measured.iter().filter_map(|(t, m)| lookup.get(&t.to_bits()).map(|s| (*t, (s - m).abs().max(1e-16)))).collect()
 }
 
-fn draw_error<B: DrawingBackend>(root: DrawingArea<B, Shift>, series: &[Series]) -> DrawResult
+fn draw_error<B: DrawingBackend>(root: DrawingArea<B, Shift>, series: &[Series], split: Option<f64>) -> DrawResult
 where
     B::ErrorType: 'static,
 {
@@ -138,7 +139,13 @@ where
         let (lo, hi) = all.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
         let (lo, hi) = if lo.is_finite() && hi > 0.0 { (lo.max(1e-12) * 0.5, hi * 2.0) } else { (1e-6, 1.0) };
         let mut chart = ChartBuilder::on(&area)
-            .caption(format!("{}: absolute error (calibration window)", s.name), ("sans-serif", 18))
+            .caption(
+                match split {
+                    Some(_) => format!("{}: absolute error (calibration | validation)", s.name),
+                    None => format!("{}: absolute error (calibration window)", s.name),
+                },
+                ("sans-serif", 18),
+            )
             .margin(8)
             .x_label_area_size(30)
             .y_label_area_size(60)
@@ -157,6 +164,12 @@ where
             .draw_series(LineSeries::new(optimized, RED.stroke_width(1)))?
             .label("measurement - optimized")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
+        if let Some(t) = split {
+            chart
+                .draw_series(LineSeries::new([(t, lo), (t, hi)], BLACK.stroke_width(2)))?
+                .label("end of the calibration window")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+        }
         chart
             .configure_series_labels()
             .background_style(WHITE.mix(0.8))
@@ -206,6 +219,12 @@ pub fn draw_all(dir: &Path) -> Result<(), ReportError> {
     let series = read_fit(&dir.join("fit.csv"))?;
     let (_, conv) = read_csv(&dir.join("convergence.csv"))?;
     let conv: Vec<(f64, f64)> = conv.iter().filter(|r| r.len() >= 3).map(|r| (r[1], r[2])).collect();
+    // The calibration/validation split, when result.json reports a validation window.
+    let split = std::fs::read_to_string(dir.join("result.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .filter(|r| !r["errors"]["validation"].is_null())
+        .and_then(|r| r["errors"]["calibration"]["stop_time"].as_f64());
     let height = 300 * series.len().max(1) as u32;
     let fail = |name: &str, e: Box<dyn std::error::Error>| ReportError::Draw {
         path: dir.join(name).display().to_string(),
@@ -225,8 +244,8 @@ pub fn draw_all(dir: &Path) -> Result<(), ReportError> {
         let r = match (name, ext) {
             ("fit", "svg") => draw_fit(SVGBackend::new(&path, size).into_drawing_area(), &series),
             ("fit", _) => draw_fit(BitMapBackend::new(&path, size).into_drawing_area(), &series),
-            ("error", "svg") => draw_error(SVGBackend::new(&path, size).into_drawing_area(), &series),
-            ("error", _) => draw_error(BitMapBackend::new(&path, size).into_drawing_area(), &series),
+            ("error", "svg") => draw_error(SVGBackend::new(&path, size).into_drawing_area(), &series, split),
+            ("error", _) => draw_error(BitMapBackend::new(&path, size).into_drawing_area(), &series, split),
             (_, "svg") => draw_convergence(SVGBackend::new(&path, size).into_drawing_area(), &conv),
             _ => draw_convergence(BitMapBackend::new(&path, size).into_drawing_area(), &conv),
         };

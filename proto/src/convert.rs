@@ -62,6 +62,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 set: sim.set.into_iter().map(|(k, v)| (k, SetValue::Text(v))).collect(),
                 set_from: None,
                 validation_stop_time: None,
+                fixed_from_earlier_stage: vec![],
             },
             optimizer: OptimizerSpec {
                 algorithm: if o.algorithm.is_empty() { OptimizerSpec::default().algorithm } else { o.algorithm },

@@ -277,8 +277,16 @@ fn write_outputs(
         None => job.clone(),
     };
     let mut ev = Evaluator::new(fmu, report_job.clone())?;
-    let nominal = ev.simulate(&x0).ok();
     let optimized = ev.simulate(&x_opt).ok();
+    // The nominal model: start values, and the model's own values where an earlier stage fixed some.
+    let nominal = if spec.simulation.fixed_from_earlier_stage.is_empty() {
+        ev.simulate(&x0).ok()
+    } else {
+        let mut s = report_job.spec.clone();
+        s.simulation.set.retain(|k, _| !s.simulation.fixed_from_earlier_stage.contains(k));
+        let baseline = Arc::new(PreparedJob::new(&s, &fmu.description, &fmu.interfaces(), data)?);
+        Evaluator::new(fmu, baseline)?.simulate(&x0).ok()
+    };
     let split = job.objective.times.last().copied().unwrap_or(f64::INFINITY);
     let obj = &report_job.objective;
     let mut header = vec!["time".to_owned()];

@@ -144,6 +144,10 @@ pub struct SimulationSpec {
     /// After calibrating up to `stop_time`, also simulate up to here and report the errors on
     /// the validation window (stop_time, validation_stop_time]. CLI only.
     pub validation_stop_time: Option<f64>,
+    /// Names `set_from` fixed (not part of the file format): the nominal model of the error
+    /// report leaves them at the model's own values.
+    #[serde(skip)]
+    pub fixed_from_earlier_stage: Vec<String>,
 }
 
 /// A fixed value in `[simulation] set`: a number, a boolean or text (enumeration item names).
@@ -254,7 +258,10 @@ impl JobSpec {
             let text = std::fs::read_to_string(&from).map_err(|e| read(e.to_string()))?;
             let result: super::CalibrationResult = serde_json::from_str(&text).map_err(|e| read(e.to_string()))?;
             for (name, v) in result.x_opt {
-                spec.simulation.set.entry(name).or_insert(SetValue::Number(v));
+                if !spec.simulation.set.contains_key(&name) {
+                    spec.simulation.fixed_from_earlier_stage.push(name.clone());
+                    spec.simulation.set.insert(name, SetValue::Number(v));
+                }
             }
         }
         Ok(spec)
