@@ -226,30 +226,42 @@ pub fn draw_all(dir: &Path) -> Result<(), ReportError> {
         .filter(|r| !r["errors"]["validation"].is_null())
         .and_then(|r| r["errors"]["calibration"]["stop_time"].as_f64());
     let height = 300 * series.len().max(1) as u32;
-    let fail = |name: &str, e: Box<dyn std::error::Error>| ReportError::Draw {
-        path: dir.join(name).display().to_string(),
-        message: e.to_string(),
-    };
-    for (name, ext) in [
+    let fail = |name: &str, message: String| ReportError::Draw { path: dir.join(name).display().to_string(), message };
+    // Six independent files: draw them on parallel threads.
+    let files = [
         ("fit", "svg"),
         ("fit", "png"),
         ("error", "svg"),
         ("error", "png"),
         ("convergence", "svg"),
         ("convergence", "png"),
-    ] {
-        let file = format!("{name}.{ext}");
-        let path = dir.join(&file);
-        let size = if name == "convergence" { (900, 500) } else { (1000, height) };
-        let r = match (name, ext) {
-            ("fit", "svg") => draw_fit(SVGBackend::new(&path, size).into_drawing_area(), &series),
-            ("fit", _) => draw_fit(BitMapBackend::new(&path, size).into_drawing_area(), &series),
-            ("error", "svg") => draw_error(SVGBackend::new(&path, size).into_drawing_area(), &series, split),
-            ("error", _) => draw_error(BitMapBackend::new(&path, size).into_drawing_area(), &series, split),
-            (_, "svg") => draw_convergence(SVGBackend::new(&path, size).into_drawing_area(), &conv),
-            _ => draw_convergence(BitMapBackend::new(&path, size).into_drawing_area(), &conv),
-        };
-        r.map_err(|e| fail(&file, e))?;
-    }
+    ];
+    let results: Vec<Result<(), ReportError>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = files
+            .iter()
+            .map(|&(name, ext)| {
+                let (series, conv) = (&series, &conv);
+                scope.spawn(move || {
+                    let file = format!("{name}.{ext}");
+                    let path = dir.join(&file);
+                    let size = if name == "convergence" { (900, 500) } else { (1000, height) };
+                    let r = match (name, ext) {
+                        ("fit", "svg") => draw_fit(SVGBackend::new(&path, size).into_drawing_area(), series),
+                        ("fit", _) => draw_fit(BitMapBackend::new(&path, size).into_drawing_area(), series),
+                        ("error", "svg") => draw_error(SVGBackend::new(&path, size).into_drawing_area(), series, split),
+                        ("error", _) => draw_error(BitMapBackend::new(&path, size).into_drawing_area(), series, split),
+                        (_, "svg") => draw_convergence(SVGBackend::new(&path, size).into_drawing_area(), conv),
+                        _ => draw_convergence(BitMapBackend::new(&path, size).into_drawing_area(), conv),
+                    };
+                    r.map_err(|e| fail(&file, e.to_string()))
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|_| Err(fail("plots", "a drawing thread panicked".into()))))
+            .collect()
+    });
+    results.into_iter().collect::<Result<Vec<()>, _>>()?;
     Ok(())
 }

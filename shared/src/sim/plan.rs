@@ -50,6 +50,9 @@ pub struct Plan {
     pub inputs: Option<InputTable>,
     pub input_bindings: Vec<InputBinding>,
     pub outputs: Vec<VarRef>,
+    /// Value references of the Real outputs and their positions in `outputs`.
+    pub real_output_vrs: Vec<u32>,
+    pub real_output_slots: Vec<usize>,
 }
 
 fn invalid(msg: impl Into<String>) -> SimError {
@@ -143,7 +146,11 @@ impl Plan {
                 .collect::<Result<Vec<_>, _>>()?
         };
 
+        let real: Vec<(usize, u32)> =
+            outputs.iter().enumerate().filter(|(_, o)| o.var_type == VarType::Real).map(|(i, o)| (i, o.vr)).collect();
         Ok(Plan {
+            real_output_vrs: real.iter().map(|r| r.1).collect(),
+            real_output_slots: real.iter().map(|r| r.0).collect(),
             interface,
             start,
             stop,
@@ -216,19 +223,23 @@ impl Plan {
         self.input_bindings.iter().filter(|b| b.hold).map(|b| b.column).collect()
     }
 
-    /// Reads the recorded variables into `row`.
+    /// Reads the recorded variables into `row`: all Real ones in one `fmi2GetReal` call (an FMU
+    /// may compute its outputs on every call), the others one by one.
     ///
     /// # Errors
     /// [`FmuError::Call`] if a get function fails.
     pub fn read_outputs(&self, inst: &mut Instance, row: &mut [f64]) -> Result<(), FmuError> {
+        if !self.real_output_vrs.is_empty() {
+            let mut values = vec![0.0; self.real_output_vrs.len()];
+            inst.call("fmi2GetReal", |c| c.get_real(&self.real_output_vrs, &mut values))?;
+            for (slot, v) in self.real_output_slots.iter().zip(values) {
+                row[*slot] = v;
+            }
+        }
         for (out, slot) in self.outputs.iter().zip(row.iter_mut()) {
             let vr = out.vr;
             *slot = match out.var_type {
-                VarType::Real => {
-                    let mut v = [0.0];
-                    inst.call("fmi2GetReal", |c| c.get_real(&[vr], &mut v))?;
-                    v[0]
-                }
+                VarType::Real => continue,
                 VarType::Boolean => {
                     let mut v = [0];
                     inst.call("fmi2GetBoolean", |c| c.get_boolean(&[vr], &mut v))?;
