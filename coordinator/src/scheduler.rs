@@ -307,6 +307,7 @@ impl Scheduler {
             elapsed_s: 0.0,
             result: None,
             error: None,
+            evaluated: Default::default(),
         };
         self.store.create(&id, &spec.encode_to_vec(), &state)?;
         let now = Instant::now();
@@ -333,7 +334,22 @@ impl Scheduler {
         Ok(pb::GetJobResponse {
             job_id: job_id.to_owned(),
             status: j.state.status,
-            result: j.state.result.as_ref().map(|r| result_to_proto(r, &j.prepared.parameter_names)),
+            result: j.state.result.as_ref().map(|r| {
+                let mut p = result_to_proto(r, &j.prepared.parameter_names);
+                p.evaluated = j
+                    .state
+                    .evaluated
+                    .values()
+                    .map(|e| pb::EvaluatedPoint {
+                        x: e.x.clone(),
+                        ok: e.value.is_some(),
+                        value: e.value.unwrap_or(f64::NAN),
+                        residuals: e.residuals.clone(),
+                        message: e.message.clone(),
+                    })
+                    .collect();
+                p
+            }),
             error: j.state.error.clone().unwrap_or_default(),
         })
     }
@@ -435,6 +451,25 @@ impl Scheduler {
         }
     }
 
+    /// Keeps the outcome and residuals of a "points" job's point (the last attempt wins).
+    fn record_point(&mut self, r: &pb::PointResult) {
+        let Some(job) = self.jobs.get_mut(&r.job_id) else { return };
+        if job.prepared.spec.optimizer.algorithm != "points" {
+            return;
+        }
+        let Some(p) = job.open.get(&r.point_id) else { return };
+        let ok = r.status == pb::PointStatus::Ok as i32;
+        job.state.evaluated.insert(
+            r.point_id,
+            crate::store::PointRecord {
+                x: p.x.clone(),
+                value: ok.then_some(r.value),
+                residuals: r.residuals.clone(),
+                message: r.message.clone(),
+            },
+        );
+    }
+
     /// Records a failed attempt; the point is told as failed after two different workers (or
     /// three attempts), else queued again.
     fn attempt_failed(&mut self, id: &str, point: u64, worker: &str) {
@@ -464,6 +499,7 @@ impl Scheduler {
             if let Some(w) = self.workers.get_mut(&wid) {
                 w.inflight.remove(&(r.job_id.clone(), r.point_id));
             }
+            self.record_point(&r);
             if r.status == pb::PointStatus::Ok as i32 {
                 self.tell(&r.job_id, r.point_id, Outcome::Value(r.value));
             } else {
@@ -504,7 +540,8 @@ impl Scheduler {
                     continue;
                 }
                 p.assigned = Some((wid.to_owned(), Instant::now()));
-                out.push(pb::Assignment { job_id: id.clone(), point_id: pid, x: p.x.clone(), want_residuals: false });
+                let want_residuals = job.prepared.spec.optimizer.algorithm == "points";
+                out.push(pb::Assignment { job_id: id.clone(), point_id: pid, x: p.x.clone(), want_residuals });
             }
             skipped.extend(job.queue.drain(..));
             job.queue = skipped;

@@ -34,6 +34,18 @@ pub struct JobState {
     pub elapsed_s: f64,
     pub result: Option<CalibrationResult>,
     pub error: Option<String>,
+    /// For "points" jobs: each point's outcome and residuals, by candidate id.
+    #[serde(default)]
+    pub evaluated: std::collections::BTreeMap<u64, PointRecord>,
+}
+
+/// One evaluated point of a "points" job.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PointRecord {
+    pub x: Vec<f64>,
+    pub value: Option<f64>,
+    pub residuals: Vec<f64>,
+    pub message: String,
 }
 
 pub struct Store {

@@ -80,6 +80,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 crossover_rate: o.crossover_rate,
                 mutation_rate: o.mutation_rate,
                 elitism: o.elitism.map(|v| v as usize),
+                points: (!o.points.is_empty()).then(|| o.points.into_iter().map(|p| p.x).collect()),
             },
             workers: WorkersSpec::default(),
         };
@@ -139,6 +140,7 @@ pub fn job_to_proto(spec: &JobSpec, data: &MeasurementTable, model_id: &str) -> 
             crossover_rate: o.crossover_rate,
             mutation_rate: o.mutation_rate,
             elitism: o.elitism.map(|v| v as u64),
+            points: o.points.iter().flatten().map(|x| pb::Point { x: x.clone() }).collect(),
         }),
     }
 }
@@ -155,6 +157,7 @@ pub fn result_to_proto(r: &CalibrationResult, names: &[String]) -> pb::JobResult
         termination: r.termination.clone(),
         failed_evaluations: r.failed_evaluations,
         rounds: r.rounds,
+        evaluated: vec![],
     }
 }
 

@@ -15,7 +15,9 @@ use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::calibration_client::CalibrationClient;
 use fmucal_shared::fmu::Fmu;
+use fmucal_shared::job::identifiability::Identifiability;
 use fmucal_shared::job::result::{ErrorReport, WindowError};
+use fmucal_shared::job::spec::OptimizerSpec;
 use fmucal_shared::job::{
     CalibrationResult, Evaluator, HistoryPoint, JobSpec, MeasurementTable, PreparedJob, identifiability,
 };
@@ -72,18 +74,24 @@ pub fn run(args: Args) -> Result<()> {
         .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1))
         .max(1);
     let rt = tokio::runtime::Runtime::new()?;
-    let mut result = rt.block_on(async {
+    let (mut result, identified) = rt.block_on(async {
         match &args.coordinator {
             Some(url) => {
                 let token = super::token::load(args.token_file.as_deref())?;
                 let client = connect(url, token.as_deref()).await?;
-                follow(client, &spec, &data, &model).await
+                let result = follow(client.clone(), &spec, &data, &model).await?;
+                let id = identify(client, &prepared, &result, &data, &model).await;
+                Ok::<_, anyhow::Error>((result, id))
             }
-            None => run_local(&spec, &data, &model, threads).await,
+            None => run_local(&prepared, &data, &model, threads).await,
         }
     })?;
+    match identified {
+        Ok(id) => result.identifiability = Some(id),
+        Err(e) => tracing::warn!("no identifiability analysis: {e:#}"),
+    }
 
-    write_outputs(&args.out, &mut result, &fmu, &prepared, &data, threads)?;
+    write_outputs(&args.out, &mut result, &fmu, &prepared, &data)?;
     crate::report::draw_all(&args.out)?;
     println!(
         "termination: {}; f_opt = {:.6e} after {} evaluations in {:.1} s",
@@ -133,7 +141,14 @@ async fn connect(url: &str, token: Option<&str>) -> Result<Client> {
         .max_decoding_message_size(256 << 20))
 }
 
-async fn run_local(spec: &JobSpec, data: &MeasurementTable, model: &Path, workers: usize) -> Result<CalibrationResult> {
+/// Calibrates and then runs the identifiability points, on the same local cluster.
+async fn run_local(
+    job: &PreparedJob,
+    data: &MeasurementTable,
+    model: &Path,
+    workers: usize,
+) -> Result<(CalibrationResult, Result<Identifiability>)> {
+    let spec = &job.spec;
     let token = super::token::generate()?;
     let state = tempfile::tempdir()?;
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
@@ -163,13 +178,17 @@ async fn run_local(spec: &JobSpec, data: &MeasurementTable, model: &Path, worker
     let mut children =
         (0..workers).map(&spawn).collect::<std::io::Result<Vec<_>>>().context("cannot start worker processes")?;
     let client = connect(&url, Some(&token)).await?;
-    let job = follow(client, spec, data, model);
-    tokio::pin!(job);
+    let work = async {
+        let result = follow(client.clone(), spec, data, model).await?;
+        let id = identify(client, job, &result, data, model).await;
+        Ok((result, id))
+    };
+    tokio::pin!(work);
     // Supervise: a worker that dies (an FMU may crash it) is replaced.
     let mut restarts = 0;
     let result = loop {
         tokio::select! {
-            r = &mut job => break r,
+            r = &mut work => break r,
             _ = tokio::time::sleep(Duration::from_millis(200)) => {
                 for (k, c) in children.iter_mut().enumerate() {
                     if let Ok(Some(status)) = c.try_wait() {
@@ -193,23 +212,58 @@ async fn run_local(spec: &JobSpec, data: &MeasurementTable, model: &Path, worker
 }
 
 /// Uploads the model, submits the job, shows progress, and returns the result.
+/// Uploads the model (a no-op if the coordinator has it) and submits the job.
+async fn submit(client: &mut Client, spec: &JobSpec, data: &MeasurementTable, model: &Path) -> Result<String> {
+    let bytes = std::fs::read(model)?;
+    let chunks: Vec<pb::UploadModelRequest> =
+        bytes.chunks(1 << 20).map(|c| pb::UploadModelRequest { chunk: c.to_vec() }).collect();
+    let model_id =
+        client.upload_model(tokio_stream::iter(chunks)).await.context("uploading the model")?.into_inner().model_id;
+    Ok(client
+        .submit_job(pb::SubmitJobRequest { spec: Some(job_to_proto(spec, data, &model_id)) })
+        .await
+        .map_err(|s| anyhow::anyhow!("the coordinator rejected the job: {}", s.message()))?
+        .into_inner()
+        .job_id)
+}
+
+/// Standard errors and correlations at the optimum: the finite-difference points run as one
+/// batch on the workers (a `points` job), then the statistics are derived here.
+async fn identify(
+    mut client: Client,
+    job: &PreparedJob,
+    result: &CalibrationResult,
+    data: &MeasurementTable,
+    model: &Path,
+) -> Result<Identifiability> {
+    let x: Vec<f64> = job.parameter_names.iter().map(|n| result.x_opt.get(n).copied().unwrap_or(f64::NAN)).collect();
+    let plan = identifiability::difference_points(job, &x);
+    let mut spec = job.spec.clone();
+    spec.optimizer =
+        OptimizerSpec { algorithm: "points".into(), points: Some(plan.points.clone()), ..Default::default() };
+    let job_id = submit(&mut client, &spec, data, model).await?;
+    let r = loop {
+        let r = client.get_job(pb::GetJobRequest { job_id: job_id.clone() }).await?.into_inner();
+        if r.status != pb::JobStatus::Running as i32 {
+            break r;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    };
+    let evaluated = r.result.map(|r| r.evaluated).unwrap_or_default();
+    if let Some(bad) = evaluated.iter().find(|e| !e.ok) {
+        bail!("a difference point failed: {}", bad.message);
+    }
+    let residuals: Vec<Vec<f64>> = evaluated.into_iter().map(|e| e.residuals).collect();
+    Ok(identifiability::from_residuals(&job.parameter_names, &plan, &residuals)?)
+}
+
 async fn follow(
     mut client: Client,
     spec: &JobSpec,
     data: &MeasurementTable,
     model: &Path,
 ) -> Result<CalibrationResult> {
-    let bytes = std::fs::read(model)?;
-    let chunks: Vec<pb::UploadModelRequest> =
-        bytes.chunks(1 << 20).map(|c| pb::UploadModelRequest { chunk: c.to_vec() }).collect();
-    let model_id =
-        client.upload_model(tokio_stream::iter(chunks)).await.context("uploading the model")?.into_inner().model_id;
-    let job_id = client
-        .submit_job(pb::SubmitJobRequest { spec: Some(job_to_proto(spec, data, &model_id)) })
-        .await
-        .map_err(|s| anyhow::anyhow!("the coordinator rejected the job: {}", s.message()))?
-        .into_inner()
-        .job_id;
+    let job_id = submit(&mut client, spec, data, model).await?;
     let bar = indicatif::ProgressBar::new_spinner();
     bar.set_style(
         indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} {msg}").expect("valid template"),
@@ -261,7 +315,6 @@ fn write_outputs(
     fmu: &Arc<Fmu>,
     job: &Arc<PreparedJob>,
     data: &MeasurementTable,
-    threads: usize,
 ) -> Result<()> {
     let spec = &job.spec;
     let (_, x0, _, _) = spec.parameter_vectors();
@@ -331,10 +384,6 @@ fn write_outputs(
         calibration: window(0, start, split),
         validation: (counts[1] > 0).then(|| window(1, split, obj.times.last().copied().unwrap_or(split))),
     });
-    match identifiability::analyze(fmu.clone(), job.clone(), &x_opt, threads) {
-        Ok(id) => result.identifiability = Some(id),
-        Err(e) => tracing::warn!("no identifiability analysis: {e}"),
-    }
     std::fs::write(out.join("result.json"), serde_json::to_string_pretty(result)?)?;
     let mut conv = String::from("round,evaluations,best_f,batch_wall_s\n");
     for h in &result.history {

@@ -1,6 +1,6 @@
 //! Practical identifiability at the optimum: the Jacobian J of the weighted residuals by
-//! central differences (one batch of 2n+1 evaluations) with a step of 1e-3 relative — large
-//! enough that the integrator's own error (relative tolerance) does not swamp the difference — the covariance s²(JᵀJ)⁻¹ with
+//! central differences (one batch of 2n+1 points, one-sided at a bound) with a step of 1e-3
+//! relative — large enough that the integrator's own error does not swamp the difference — the covariance s²(JᵀJ)⁻¹ with
 //! s² = Σr²/(m − n), the parameters' standard errors and their correlation matrix. Correlations
 //! near ±1 mean the data cannot tell the parameters apart (the paper's over-parameterization
 //! remark about fitting both exhaust volumes at once).
@@ -22,7 +22,7 @@ pub struct Identifiability {
     pub standard_errors: Vec<f64>,
     /// Correlation matrix, rows and columns in `names` order.
     pub correlation: Vec<Vec<f64>>,
-    /// Residuals used (m) and the finite-difference steps taken.
+    /// Residuals used (m) and the finite-difference distances (x₊ − x₋) per parameter.
     pub residuals: usize,
     pub steps: Vec<f64>,
 }
@@ -38,35 +38,63 @@ impl Identifiability {
     }
 }
 
-/// Evaluates the residuals at `x` and at x + hᵢeᵢ (one batch, on `threads` threads) and derives
-/// standard errors and correlations.
-///
-/// # Errors
-/// [`JobError::Invalid`] if an evaluation fails or JᵀJ is singular.
-pub fn analyze(fmu: Arc<Fmu>, job: Arc<PreparedJob>, x: &[f64], threads: usize) -> Result<Identifiability, JobError> {
+/// The points of the finite-difference Jacobian: x first, then for each parameter a pair
+/// x ± hᵢeᵢ, kept inside the bounds (one-sided at a bound).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DifferencePlan {
+    pub points: Vec<Vec<f64>>,
+    /// Per parameter: (index of the upper point, index of the lower point, their distance).
+    pub pairs: Vec<(usize, usize, f64)>,
+}
+
+/// The points to evaluate at the optimum `x` of `job`.
+pub fn difference_points(job: &PreparedJob, x: &[f64]) -> DifferencePlan {
     let (_, _, lower, upper) = job.spec.parameter_vectors();
-    let n = x.len();
-    // A relative step (bounds are not enforced here: the model is smooth just past them).
-    let steps: Vec<f64> =
-        (0..n).map(|i| 1e-3 * x[i].abs().max(1e-3 * (upper[i] - lower[i]).abs().min(1.0)).max(1e-12)).collect();
     let mut points = vec![x.to_vec()];
-    for i in 0..n {
-        for sign in [1.0, -1.0] {
+    let mut pairs = vec![];
+    for i in 0..x.len() {
+        // A relative step, large enough that the integrator's error does not swamp it.
+        let h = 1e-3 * x[i].abs().max(1e-3 * (upper[i] - lower[i]).abs().min(1.0)).max(1e-12);
+        let hi = (x[i] + h).min(upper[i]);
+        let lo = (x[i] - h).max(lower[i]);
+        for v in [hi, lo] {
             let mut p = x.to_vec();
-            p[i] += sign * steps[i];
+            p[i] = v;
             points.push(p);
         }
+        pairs.push((points.len() - 2, points.len() - 1, hi - lo));
     }
-    let results = evaluate_batch(&fmu, &job, &points, threads)?;
-    let r0 = &results[0];
+    DifferencePlan { points, pairs }
+}
+
+/// Standard errors and correlations from the residual vectors of `plan.points`.
+///
+/// # Errors
+/// [`JobError::Invalid`] if the residual vectors do not match or JᵀJ is singular.
+pub fn from_residuals(
+    names: &[String],
+    plan: &DifferencePlan,
+    residuals: &[Vec<f64>],
+) -> Result<Identifiability, JobError> {
+    let n = plan.pairs.len();
+    if residuals.len() != plan.points.len() || residuals.iter().any(|r| r.len() != residuals[0].len()) {
+        return Err(JobError::invalid("identifiability", "the residual vectors do not match the points"));
+    }
+    let r0 = &residuals[0];
     let m = r0.len();
     if m <= n {
         return Err(JobError::invalid("identifiability", format!("{m} residuals cannot determine {n} parameters")));
     }
     let mut jac = nalgebra::DMatrix::<f64>::zeros(m, n);
-    for i in 0..n {
+    for (i, &(up, down, dist)) in plan.pairs.iter().enumerate() {
+        if dist <= 0.0 {
+            return Err(JobError::invalid(
+                "identifiability",
+                format!("parameter {} has no room for a difference step", names[i]),
+            ));
+        }
         for k in 0..m {
-            jac[(k, i)] = (results[1 + 2 * i][k] - results[2 + 2 * i][k]) / (2.0 * steps[i]);
+            jac[(k, i)] = (residuals[up][k] - residuals[down][k]) / dist;
         }
     }
     let s2 = r0.iter().map(|v| v * v).sum::<f64>() / (m - n) as f64;
@@ -77,7 +105,24 @@ pub fn analyze(fmu: Arc<Fmu>, job: Arc<PreparedJob>, x: &[f64], threads: usize) 
     let cov = inv * s2;
     let se: Vec<f64> = (0..n).map(|i| cov[(i, i)].max(0.0).sqrt()).collect();
     let correlation = (0..n).map(|i| (0..n).map(|j| cov[(i, j)] / (se[i] * se[j])).collect()).collect();
-    Ok(Identifiability { names: job.parameter_names.clone(), standard_errors: se, correlation, residuals: m, steps })
+    Ok(Identifiability {
+        names: names.to_vec(),
+        standard_errors: se,
+        correlation,
+        residuals: m,
+        steps: plan.pairs.iter().map(|p| p.2).collect(),
+    })
+}
+
+/// The whole analysis in this process, on `threads` threads (the CLI runs the points on the
+/// workers instead, through a `points` job).
+///
+/// # Errors
+/// [`JobError::Invalid`] if an evaluation fails or JᵀJ is singular.
+pub fn analyze(fmu: Arc<Fmu>, job: Arc<PreparedJob>, x: &[f64], threads: usize) -> Result<Identifiability, JobError> {
+    let plan = difference_points(&job, x);
+    let residuals = evaluate_batch(&fmu, &job, &plan.points, threads)?;
+    from_residuals(&job.parameter_names, &plan, &residuals)
 }
 
 /// Residual vectors of `points`, evaluated on `threads` threads with one warm instance each.

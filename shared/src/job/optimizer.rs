@@ -4,7 +4,7 @@
 use super::spec::JobSpec;
 use crate::optim::{
     AnyOptimizer, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, NelderMead, NmSettings, OptimError,
-    Stopping,
+    PointBatch, Stopping,
 };
 
 /// The optimizer of `spec`, starting at the parameters' start values.
@@ -39,6 +39,10 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
                 stopping,
             };
             AnyOptimizer::DifferentialEvolution(DifferentialEvolution::new(&lower, &upper, Some(&x0), s)?)
+        }
+        "points" => {
+            let points = o.points.as_deref().unwrap_or_default();
+            AnyOptimizer::Points(PointBatch::new(&lower, &upper, points)?)
         }
         "genetic" => {
             let d = GaSettings::new(n);

@@ -203,6 +203,8 @@ pub struct OptimizerSpec {
     pub mutation_rate: Option<f64>,
     /// GA elitism.
     pub elitism: Option<usize>,
+    /// For algorithm `points`: the points to evaluate (one batch, no optimization).
+    pub points: Option<Vec<Vec<f64>>>,
 }
 
 fn default_algorithm() -> String {
@@ -316,7 +318,8 @@ impl JobSpec {
                 ));
             }
         }
-        if !matches!(self.optimizer.algorithm.as_str(), "nelder-mead" | "differential-evolution" | "genetic") {
+        if !matches!(self.optimizer.algorithm.as_str(), "nelder-mead" | "differential-evolution" | "genetic" | "points")
+        {
             return Err(JobError::invalid(
                 "optimizer.algorithm",
                 format!("{:?} is not nelder-mead, differential-evolution or genetic", self.optimizer.algorithm),

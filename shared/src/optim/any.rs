@@ -4,7 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::{
-    Candidate, CandidateId, DifferentialEvolution, GeneticAlgorithm, NelderMead, OptimError, Optimizer, Outcome, Status,
+    Candidate, CandidateId, DifferentialEvolution, GeneticAlgorithm, NelderMead, OptimError, Optimizer, Outcome,
+    PointBatch, Status,
 };
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -12,6 +13,7 @@ pub enum AnyOptimizer {
     NelderMead(NelderMead),
     DifferentialEvolution(DifferentialEvolution),
     Genetic(GeneticAlgorithm),
+    Points(PointBatch),
 }
 
 impl AnyOptimizer {
@@ -20,6 +22,7 @@ impl AnyOptimizer {
             AnyOptimizer::NelderMead(o) => o,
             AnyOptimizer::DifferentialEvolution(o) => o,
             AnyOptimizer::Genetic(o) => o,
+            AnyOptimizer::Points(o) => o,
         }
     }
 
@@ -28,6 +31,7 @@ impl AnyOptimizer {
             AnyOptimizer::NelderMead(o) => o,
             AnyOptimizer::DifferentialEvolution(o) => o,
             AnyOptimizer::Genetic(o) => o,
+            AnyOptimizer::Points(o) => o,
         }
     }
 }

@@ -14,6 +14,7 @@
 //! - [`nelder_mead`]: Nelder–Mead with bounds, parallel (batches of 4) or sequential.
 //! - [`differential_evolution`]: DE rand/1/bin.
 //! - [`genetic`]: a bit-string genetic algorithm, as the paper describes it.
+//! - [`point_batch`]: one batch of given points (for analyses that choose their own points).
 
 pub mod any;
 mod batch;
@@ -21,6 +22,7 @@ pub mod differential_evolution;
 pub mod fitness;
 pub mod genetic;
 pub mod nelder_mead;
+pub mod point_batch;
 mod random;
 mod serde_float;
 pub mod space;
@@ -33,6 +35,7 @@ pub use differential_evolution::{DeSettings, DifferentialEvolution};
 pub use fitness::Fitness;
 pub use genetic::{GaSettings, GeneticAlgorithm};
 pub use nelder_mead::{NelderMead, NmSettings};
+pub use point_batch::PointBatch;
 pub use space::Space;
 
 /// Identifies a candidate between `ask` and `tell`; unique within one optimizer run.

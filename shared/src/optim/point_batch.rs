@@ -1,0 +1,92 @@
+//! A trivial ask/tell "optimizer" that asks a given list of points as one batch and stops: the
+//! way to have the workers evaluate points chosen outside an optimizer, such as the
+//! finite-difference points of an identifiability analysis.
+
+use serde::{Deserialize, Serialize};
+
+use super::batch::{Batch, BestSoFar, absorb, impl_batch_optimizer};
+use super::space::Space;
+use super::{CandidateId, OptimError, Termination};
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PointBatch {
+    space: Space,
+    batch: Batch,
+    done: bool,
+    next_id: CandidateId,
+    evaluations: u64,
+    iterations: u64,
+    rounds: u64,
+    best: BestSoFar,
+}
+
+impl PointBatch {
+    /// The points (user units) to evaluate, each within `[lower, upper]`.
+    ///
+    /// # Errors
+    /// [`OptimError::Setting`] naming `points` if the list is empty or a point is outside the
+    /// bounds or of the wrong length.
+    pub fn new(lower: &[f64], upper: &[f64], points: &[Vec<f64>]) -> Result<Self, OptimError> {
+        if points.is_empty() {
+            return Err(OptimError::setting("points", "at least one point is needed"));
+        }
+        let space = Space::new(lower, upper, None, None)?;
+        for (k, p) in points.iter().enumerate() {
+            if p.len() != lower.len() {
+                return Err(OptimError::setting(
+                    "points",
+                    format!("point {k} has {} values for {} parameters", p.len(), lower.len()),
+                ));
+            }
+            if p.iter().zip(lower.iter().zip(upper)).any(|(x, (l, u))| !(x >= l && x <= u)) {
+                return Err(OptimError::setting("points", format!("point {k} is outside the bounds")));
+            }
+        }
+        let mut next_id = 0;
+        let batch = Batch::new(points.iter().map(|p| space.to_scaled(p)).collect(), &space, &mut next_id);
+        Ok(PointBatch {
+            space,
+            batch,
+            done: false,
+            next_id,
+            evaluations: 0,
+            iterations: 0,
+            rounds: 1,
+            best: BestSoFar::default(),
+        })
+    }
+
+    fn done(&self) -> Option<Termination> {
+        self.done.then_some(Termination::MaxIters)
+    }
+
+    fn advance(&mut self) {
+        absorb(&self.batch, &mut self.evaluations, &mut self.best);
+        self.iterations = 1;
+        self.done = true;
+        let _ = self.next_id;
+    }
+}
+
+impl_batch_optimizer!(PointBatch);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optim::{Optimizer, Outcome, Status};
+
+    #[test]
+    fn asks_the_points_once_then_stops() {
+        let pts = vec![vec![0.5, 1.0], vec![0.25, 2.0]];
+        let mut pb = PointBatch::new(&[0.0, 0.0], &[1.0, 2.0], &pts).unwrap();
+        let asked = pb.ask();
+        assert_eq!(asked.iter().map(|c| c.x.clone()).collect::<Vec<_>>(), pts);
+        for c in asked {
+            pb.tell(c.id, Outcome::Value(c.x[0])).unwrap();
+        }
+        assert_eq!(pb.status(), Status::Done(Termination::MaxIters));
+        assert!(pb.ask().is_empty());
+        assert_eq!(pb.best().unwrap().1, 0.25);
+        assert!(PointBatch::new(&[0.0], &[1.0], &[vec![2.0]]).is_err());
+    }
+}
