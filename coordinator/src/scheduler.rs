@@ -71,6 +71,23 @@ struct Job {
     batch_started: Instant,
 }
 
+impl Job {
+    /// A job with nothing queued yet; its clocks start now.
+    fn new(spec: pb::JobSpec, prepared: Arc<PreparedJob>, state: JobState) -> Self {
+        let now = Instant::now();
+        Job {
+            spec,
+            prepared,
+            state,
+            open: BTreeMap::new(),
+            queue: VecDeque::new(),
+            watchers: vec![],
+            started: now,
+            batch_started: now,
+        }
+    }
+}
+
 struct WorkerInfo {
     slots: usize,
     last_seen: Instant,
@@ -136,16 +153,7 @@ impl Scheduler {
                 }
             };
             let running = is_running(state.status);
-            let job = Job {
-                spec,
-                prepared,
-                state,
-                open: BTreeMap::new(),
-                queue: VecDeque::new(),
-                watchers: vec![],
-                started: Instant::now(),
-                batch_started: Instant::now(),
-            };
+            let job = Job::new(spec, prepared, state);
             s.jobs.insert(id.clone(), job);
             if running {
                 // Tell the logged results of the open batch instead of evaluating them again.
@@ -310,20 +318,7 @@ impl Scheduler {
             evaluated: Default::default(),
         };
         self.store.create(&id, &spec.encode_to_vec(), &state)?;
-        let now = Instant::now();
-        self.jobs.insert(
-            id.clone(),
-            Job {
-                spec,
-                prepared,
-                state,
-                open: BTreeMap::new(),
-                queue: VecDeque::new(),
-                watchers: vec![],
-                started: now,
-                batch_started: now,
-            },
-        );
+        self.jobs.insert(id.clone(), Job::new(spec, prepared, state));
         tracing::info!(job = %id, "job submitted");
         self.refill(&id)?;
         Ok(id)

@@ -16,7 +16,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::batch::{Batch, BestSoFar, absorb, impl_batch_optimizer};
-use super::fitness::{Fitness, spread};
+use super::fitness::Fitness;
 use super::random::Random;
 use super::space::Space;
 use super::{CandidateId, OptimError, Stopping, Termination};
@@ -161,15 +161,11 @@ impl DifferentialEvolution {
     }
 
     fn check_and_continue(&mut self) {
-        let best = self.population.iter().min_by(|a, b| a.1.cmp(&b.1)).map(|p| p.0.clone()).unwrap_or_default();
-        let size = self
-            .population
-            .iter()
-            .map(|(z, _)| z.iter().zip(&best).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max))
-            .fold(0.0, f64::max);
-        let stop = self.settings.stopping.check(
-            size,
-            spread(self.population.iter().map(|p| p.1)),
+        let best = self.population.iter().min_by(|a, b| a.1.cmp(&b.1)).map(|p| p.0.as_slice()).unwrap_or_default();
+        let stop = self.settings.stopping.check_set(
+            best,
+            self.population.iter().map(|p| p.0.as_slice()),
+            self.population.iter().map(|p| p.1),
             self.iterations,
             self.evaluations,
         );

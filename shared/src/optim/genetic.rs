@@ -18,7 +18,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::batch::{Batch, BestSoFar, absorb, impl_batch_optimizer};
-use super::fitness::{Fitness, spread};
+use super::fitness::Fitness;
 use super::random::Random;
 use super::space::Space;
 use super::{CandidateId, OptimError, Stopping, Termination};
@@ -221,15 +221,11 @@ impl GeneticAlgorithm {
 
     fn check_and_continue(&mut self) {
         self.population.sort_by(|a, b| a.f.cmp(&b.f));
-        let best = self.decode(&self.population[0].genes);
-        let size = self
-            .population
-            .iter()
-            .map(|ind| self.decode(&ind.genes).iter().zip(&best).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max))
-            .fold(0.0, f64::max);
-        let stop = self.settings.stopping.check(
-            size,
-            spread(self.population.iter().map(|p| p.f)),
+        let decoded: Vec<Vec<f64>> = self.population.iter().map(|ind| self.decode(&ind.genes)).collect();
+        let stop = self.settings.stopping.check_set(
+            &decoded[0],
+            decoded.iter().map(Vec::as_slice),
+            self.population.iter().map(|p| p.f),
             self.iterations,
             self.evaluations,
         );

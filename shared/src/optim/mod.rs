@@ -129,6 +129,19 @@ impl Stopping {
         Ok(())
     }
 
+    /// The rules applied to a simplex or population: its scaled points (in any order), their
+    /// values and its best point.
+    pub(crate) fn check_set<'a>(
+        &self,
+        best: &[f64],
+        points: impl IntoIterator<Item = &'a [f64]>,
+        values: impl IntoIterator<Item = Fitness>,
+        iterations: u64,
+        evaluations: u64,
+    ) -> Option<Termination> {
+        self.check(extent(best, points), fitness::spread(values), iterations, evaluations)
+    }
+
     /// The first rule that holds, checked in the order x_tol, f_tol, max_iters, max_fevals.
     pub(crate) fn check(&self, x_size: f64, f_spread: f64, iterations: u64, evaluations: u64) -> Option<Termination> {
         if self.x_tol.is_some_and(|t| x_size <= t) {
@@ -143,6 +156,11 @@ impl Stopping {
             None
         }
     }
+}
+
+/// Largest ∞-norm distance of `points` from `best`: the size the x_tol rule measures.
+pub(crate) fn extent<'a>(best: &[f64], points: impl IntoIterator<Item = &'a [f64]>) -> f64 {
+    points.into_iter().map(|z| z.iter().zip(best).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)).fold(0.0, f64::max)
 }
 
 /// Errors of optimizer construction and of `tell`.

@@ -25,7 +25,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::batch::{Batch, BestSoFar, absorb, impl_batch_optimizer};
-use super::fitness::{Fitness, spread};
+use super::fitness::Fitness;
 use super::space::Space;
 use super::{CandidateId, OptimError, Stopping, Termination};
 
@@ -163,19 +163,16 @@ impl NelderMead {
 
     /// Largest ∞-norm distance of a vertex from the best one.
     fn size(&self) -> f64 {
-        let b = &self.simplex[0].z;
-        self.simplex[1..]
-            .iter()
-            .map(|v| v.z.iter().zip(b).map(|(a, c)| (a - c).abs()).fold(0.0, f64::max))
-            .fold(0.0, f64::max)
+        super::extent(&self.simplex[0].z, self.simplex.iter().map(|v| v.z.as_slice()))
     }
 
     /// Sorts the simplex and either stops or asks the next trial points.
     fn start_iteration(&mut self) {
         self.simplex.sort_by(|a, b| a.f.cmp(&b.f));
-        let stop = self.settings.stopping.check(
-            self.size(),
-            spread(self.simplex.iter().map(|v| v.f)),
+        let stop = self.settings.stopping.check_set(
+            &self.simplex[0].z,
+            self.simplex.iter().map(|v| v.z.as_slice()),
+            self.simplex.iter().map(|v| v.f),
             self.iterations,
             self.evaluations,
         );
