@@ -1,7 +1,8 @@
 //! Compiles the example models' C sources into shared libraries with the `cc` crate's compiler
 //! and packages each into a real `.fmu` (zip with modelDescription.xml, binaries/linux64,
-//! sources/ and resources/). Also builds the broken fixture FMUs the tests need
-//! (MissingSymbol.fmu, ResetFails.fmu).
+//! sources/ and resources/). Also builds the fixture FMUs the tests need: broken ones
+//! (MissingSymbol.fmu, ResetFails.fmu) and ones that behave as tool-exported FMUs do
+//! (StickSlip.fmu, InputKinds.fmu, Threshold.fmu, DerivativeAttributes.fmu).
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -25,6 +26,13 @@ const MODELS: &[Model] = &[
     Model { identifier: "ExhaustPipe", source: "exhaust_pipe.c", resources: &[], extra_platforms: false },
 ];
 
+/// Conformance fixtures: built like the examples, not listed as examples.
+const FIXTURES: &[Model] = &[
+    Model { identifier: "StickSlip", source: "stick_slip.c", resources: &[], extra_platforms: false },
+    Model { identifier: "InputKinds", source: "input_kinds.c", resources: &[], extra_platforms: false },
+    Model { identifier: "Threshold", source: "threshold.c", resources: &[], extra_platforms: false },
+];
+
 const FRAMEWORK: &[&str] = &["fmi2.h", "fmu_framework.h", "fmu_framework.c"];
 
 fn main() {
@@ -35,7 +43,7 @@ fn main() {
         println!("cargo:rerun-if-changed={}", root.join(dir).display());
     }
 
-    for model in MODELS {
+    for model in MODELS.iter().chain(FIXTURES) {
         let so = out.join(format!("{}.so", model.identifier));
         compile(&root.join("c").join(model.source), &so, &[]);
         let xml = fs::read(root.join("xml").join(format!("{}.xml", model.identifier))).unwrap();
@@ -53,6 +61,13 @@ fn main() {
     let so = out.join("ResetFails.so");
     compile(&root.join("c").join(decay.source), &so, &["-DFMUCAL_RESET_FAILS"]);
     package(&root, decay, &xml, &so, &out.join("ResetFails.fmu"));
+
+    // Fixture: the bouncing ball described as tools export it, with `derivative` attributes on
+    // aliases and on variables that are not continuous states (FMI 2.0 allows them; only
+    // ModelStructure/Derivatives defines the states).
+    let ball = &MODELS[1];
+    let xml = fs::read(root.join("xml").join("DerivativeAttributes.xml")).unwrap();
+    package(&root, ball, &xml, &out.join("BouncingBall.so"), &out.join("DerivativeAttributes.fmu"));
 }
 
 fn compile(source: &Path, output: &Path, defines: &[&str]) {

@@ -1,10 +1,16 @@
 //! Cross-checks against Python references (FMPy and SciPy, installed from PyPI into a venv by
 //! `tests/fmpy/ensure_venv.sh`). MATLAB v5 files written by SciPy's `savemat` are read back.
 //! FMPy:
-//! every example FMU passes FMPy's validation, and FMPy and fmucal simulate it to the same
-//! results on the same grid: Model Exchange at rtol 1e-8 to 1e-4 relative, Co-Simulation at the
-//! same communication step to 1e-9. "Relative" is the largest difference over the grid divided
-//! by the largest magnitude of the FMPy result.
+//! every example and conformance fixture FMU passes FMPy's validation, and FMPy and fmucal
+//! simulate it to the same outputs and states, ending at the same time: Model Exchange at rtol
+//! 1e-8 to 1e-4 relative, Co-Simulation at the same communication step to 1e-9. "Relative" is
+//! the largest difference over the grid divided by the largest magnitude of the FMPy result.
+//!
+//! Inputs of every kind are covered (continuous Real, discrete Real, Integer, Boolean). FMPy's
+//! Model Exchange driver holds continuous inputs constant between output points, while fmucal
+//! interpolates them inside each step; for ME with continuous inputs the comparison with FMPy
+//! runs on a fine grid (1 ms) with a bound that allows for FMPy's hold, and the tight reference
+//! is analytic or fmucal at a thousandth of the step (`fmi2_conformance.rs`).
 
 mod common;
 
@@ -13,6 +19,7 @@ use std::process::Command;
 use std::sync::OnceLock;
 
 use fmucal_shared::fmu::Interface;
+use fmucal_shared::fmu::schema::{ModelDescription, VarType};
 use fmucal_shared::sim::{OutputTimes, SimSpec, csv_io, simulate};
 
 fn python() -> &'static Path {
@@ -26,53 +33,106 @@ fn python() -> &'static Path {
 }
 
 struct Case<'a> {
-    model: &'a str,
+    fmu: PathBuf,
     interface: Interface,
     interval: f64,
     stop: f64,
     input: Option<&'a Path>,
+    /// Start values, NAME=VALUE.
+    set: &'a [(&'a str, &'a str)],
+    /// ME only: fmucal's largest step (FMPy's is its own).
+    max_step: Option<f64>,
 }
 
-fn fmpy(case: &Case, outputs: &[String], dir: &Path) -> fmucal_shared::sim::InputTable {
-    let out = dir.join(format!("fmpy-{}-{:?}.csv", case.model, case.interface));
+impl Case<'_> {
+    fn example(model: &str, interface: Interface, interval: f64, stop: f64) -> Case<'static> {
+        Case { fmu: common::example(model), interface, interval, stop, input: None, set: &[], max_step: None }
+    }
+
+    fn label(&self) -> String {
+        format!("{} {:?}", self.fmu.file_stem().unwrap().to_string_lossy(), self.interface)
+    }
+}
+
+fn fmpy(case: &Case, variables: &[String], dir: &Path) -> fmucal_shared::sim::InputTable {
+    let out = dir.join(format!("fmpy-{}.csv", case.label().replace(' ', "-")));
     let mut cmd = Command::new(python());
     cmd.arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmpy/simulate.py"))
-        .args(["--fmu", common::example(case.model).to_str().unwrap()])
+        .args(["--fmu", case.fmu.to_str().unwrap()])
         .args(["--interface", if case.interface == Interface::ModelExchange { "me" } else { "cs" }])
         .args(["--rtol", "1e-8", "--interval", &case.interval.to_string(), "--stop", &case.stop.to_string()])
         .args(["--out", out.to_str().unwrap()]);
-    for o in outputs {
-        cmd.args(["--output", o]);
+    for v in variables {
+        cmd.args(["--output", v]);
+    }
+    for (name, value) in case.set {
+        cmd.args(["--set", &format!("{name}={value}")]);
     }
     if let Some(input) = case.input {
         cmd.args(["--input", input.to_str().unwrap()]);
     }
     let run = cmd.output().unwrap();
-    assert!(run.status.success(), "FMPy on {}: {}", case.model, String::from_utf8_lossy(&run.stderr));
+    assert!(run.status.success(), "FMPy on {}: {}", case.label(), String::from_utf8_lossy(&run.stderr));
     csv_io::read_table(&out).unwrap()
 }
 
-fn check(case: Case, bound: f64, dir: &Path) {
-    let fmu = common::load_example(case.model, &dir.join("cache"));
+/// What a cross-check compares: the outputs and the continuous states (a model without
+/// outputs is still checked, and states catch what outputs may hide).
+fn compared_variables(md: &ModelDescription) -> Vec<String> {
+    let mut names: Vec<String> =
+        md.outputs().into_iter().filter(|v| v.var_type != VarType::String).map(|v| v.name.clone()).collect();
+    for (state, _) in md.states() {
+        if !names.contains(&state.name) {
+            names.push(state.name.clone());
+        }
+    }
+    names
+}
+
+/// Simulates `case` with fmucal and FMPy and returns the largest relative difference over the
+/// compared variables. Fails if the runs end at different times or their grids differ. FMPy
+/// rows off fmucal's grid (it also records at input events in Co-Simulation) are left out,
+/// after the end times are compared.
+fn compare(case: &Case, dir: &Path) -> f64 {
+    let fmu = common::load(&case.fmu, &dir.join("cache"));
+    let variables = compared_variables(&fmu.description);
     let spec = SimSpec {
         interface: Some(case.interface),
         stop_time: Some(case.stop),
         output_times: Some(OutputTimes::Interval(case.interval)),
         tolerance: Some(1e-8),
         inputs: case.input.map(|p| csv_io::read_table(p).unwrap()),
+        parameters: case.set.iter().map(|(n, v)| (n.to_string(), v.to_string())).collect(),
+        outputs: variables.clone(),
+        max_step: case.max_step,
         ..Default::default()
     };
     let ours = simulate(&fmu, &spec).unwrap();
-    let theirs = fmpy(&case, &ours.names, dir);
-    assert_eq!(ours.time.len(), theirs.time.len(), "{} {:?}: grid sizes differ", case.model, case.interface);
-    for (a, b) in ours.time.iter().zip(&theirs.time) {
-        assert!((a - b).abs() < 1e-9, "{} {:?}: grid times differ: {a} vs {b}", case.model, case.interface);
-    }
+    let theirs = fmpy(case, &variables, dir);
+    let (ours_end, theirs_end) = (*ours.time.last().unwrap(), *theirs.time.last().unwrap());
+    assert!((ours_end - theirs_end).abs() < 1e-9, "{}: fmucal ends at {ours_end}, FMPy at {theirs_end}", case.label());
+    let rows: Vec<usize> = ours
+        .time
+        .iter()
+        .map(|t| {
+            theirs.time.iter().position(|x| (x - t).abs() < 1e-9).unwrap_or_else(|| {
+                panic!("{}: FMPy has no row at t={t}", case.label());
+            })
+        })
+        .collect();
+    let mut worst = 0.0f64;
     for (i, name) in ours.names.iter().enumerate() {
-        let d = common::rel_max_diff(&ours.columns[i], &theirs.columns[i].1);
-        println!("{:<14} {:?} {:<20} relative difference {d:.2e}", case.model, case.interface, name);
-        assert!(d <= bound, "{} {:?} {name}: fmucal and FMPy differ by {d:e} > {bound:e}", case.model, case.interface);
+        let theirs: Vec<f64> = rows.iter().map(|&r| theirs.columns[i].1[r]).collect();
+        let d = common::rel_max_diff(&ours.columns[i], &theirs);
+        println!("{:<28} {name:<22} relative difference {d:.2e}", case.label());
+        worst = worst.max(d);
     }
+    worst
+}
+
+fn check(case: Case, bound: f64, dir: &Path) {
+    let d = compare(&case, dir);
+    assert!(d <= bound, "{}: fmucal and FMPy differ by {d:e} > {bound:e}", case.label());
 }
 
 /// A staircase torque on the arm and a pulse on the pendulum, written with repeated time stamps
@@ -108,7 +168,7 @@ fn every_example_matches_fmpy_in_both_interfaces() {
     ];
     for (model, interval, stop) in examples {
         for (interface, bound) in [(Interface::ModelExchange, 1e-4), (Interface::CoSimulation, 1e-9)] {
-            check(Case { model, interface, interval, stop, input: None }, bound, tmp.path());
+            check(Case::example(model, interface, interval, stop), bound, tmp.path());
         }
     }
 }
@@ -118,7 +178,71 @@ fn inputs_are_applied_as_fmpy_applies_them() {
     let tmp = tempfile::tempdir().unwrap();
     let input = torque_profile(tmp.path());
     for (interface, bound) in [(Interface::ModelExchange, 1e-4), (Interface::CoSimulation, 1e-9)] {
-        check(Case { model: "furuta", interface, interval: 0.01, stop: 40.0, input: Some(&input) }, bound, tmp.path());
+        check(Case { input: Some(&input), ..Case::example("furuta", interface, 0.01, 40.0) }, bound, tmp.path());
+    }
+}
+
+#[test]
+fn inputs_of_every_kind_are_applied_as_fmpy_applies_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let input = tmp.path().join("kinds.csv");
+    common::write_input_csv(&common::every_kind_of_input(), &input);
+    let case = |interface, interval| Case {
+        input: Some(&input),
+        ..Case { fmu: fmucal_models::input_kinds_fixture(), ..Case::example("decay", interface, interval, 4.0) }
+    };
+    // Same communication points and the same held values: equal to round-off.
+    check(case(Interface::CoSimulation, 0.01), 1e-9, tmp.path());
+    // FMPy holds uc over each 1 ms output interval, fmucal interpolates it: x differs by about
+    // |uc'| · 1 ms · t / 2 (analytic check of fmucal in fmi2_conformance.rs).
+    check(case(Interface::ModelExchange, 1e-3), 1e-3, tmp.path());
+}
+
+#[test]
+fn stick_slip_friction_matches_fmpy() {
+    let tmp = tempfile::tempdir().unwrap();
+    let input = tmp.path().join("force.csv");
+    common::write_input_csv(&common::sine_force(), &input);
+    let case = |interface, interval| Case {
+        input: Some(&input),
+        ..Case { fmu: fmucal_models::stick_slip_fixture(), ..Case::example("decay", interface, interval, 20.0) }
+    };
+    check(case(Interface::CoSimulation, 0.01), 1e-9, tmp.path());
+    // FMPy holds F over each output interval (here 1 ms); stick and slip times move by up to that.
+    check(case(Interface::ModelExchange, 1e-3), 2e-3, tmp.path());
+}
+
+#[test]
+fn a_model_without_states_matches_fmpy_in_co_simulation() {
+    let tmp = tempfile::tempdir().unwrap();
+    let input = tmp.path().join("u.csv");
+    let u = common::table(vec![0.0, 1.0, 1.205, 1.41, 3.0], vec![("u", vec![0.0, 0.0, 2.0, 0.0, 0.0])]);
+    common::write_input_csv(&u, &input);
+    // Model Exchange is checked against the analytic switch times in fmi2_conformance.rs: FMPy
+    // holds u between output points there, which moves the switches to output points.
+    let case = Case {
+        input: Some(&input),
+        ..Case { fmu: fmucal_models::threshold_fixture(), ..Case::example("decay", Interface::CoSimulation, 0.01, 3.0) }
+    };
+    check(case, 1e-9, tmp.path());
+}
+
+#[test]
+fn tool_style_derivative_attributes_match_fmpy() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (interface, bound) in [(Interface::ModelExchange, 1e-4), (Interface::CoSimulation, 1e-9)] {
+        let fmu = fmucal_models::derivative_attributes_fixture();
+        check(Case { fmu, ..Case::example("bouncing-ball", interface, 0.01, 3.0) }, bound, tmp.path());
+    }
+}
+
+#[test]
+fn a_terminating_fmu_ends_where_fmpy_ends() {
+    let tmp = tempfile::tempdir().unwrap();
+    let set = [("terminateTime", "0.555")];
+    // CS: the last row is at fmi2LastSuccessfulTime (0.555); ME: at the last output time.
+    for (interface, bound) in [(Interface::ModelExchange, 1e-4), (Interface::CoSimulation, 1e-9)] {
+        check(Case { set: &set, ..Case::example("decay", interface, 0.1, 1.0) }, bound, tmp.path());
     }
 }
 

@@ -44,6 +44,19 @@ static int check_vr(Model *m, const char *fn, fmi2ValueReference vr, int count) 
     return 1;
 }
 
+/* FMI 2.0 section 3.2.3: discrete variables (all Integer and Boolean ones, and Real ones of
+ * variability "discrete") may change only at events, so they cannot be set in Continuous-Time
+ * Mode. Exported FMUs enforce this; so do these. */
+static int check_discrete_settable(Model *m, const char *fn, fmi2ValueReference vr) {
+    if (m->mode == MODE_CONTINUOUS) {
+        fmu_log(m, fmi2Error, "logStatusError",
+                "%s: discrete variable %u can only be set after instantiation, in initialization mode "
+                "or event mode", fn, vr);
+        return 0;
+    }
+    return 1;
+}
+
 FMI2_EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
 FMI2_EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
 
@@ -87,6 +100,14 @@ FMI2_EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tolDefin
     (void)tolDefined; (void)tol; (void)stopDefined; (void)stopTime;
     Model *m = (Model *)c;
     if (!m) return fmi2Error;
+#ifdef TOLERANCE_VR
+    m->r[TOLERANCE_VR] = tolDefined ? tol : 0.0;
+#endif
+#ifdef WARN_TOLERANCE_IN_ME
+    if (tolDefined && m->type == fmi2ModelExchange)
+        fmu_log(m, fmi2Warning, "logStatusWarning",
+                "fmi2SetupExperiment: the tolerance is ignored in Model Exchange (the importer integrates)");
+#endif
     m->time = startTime;
     m->lastSuccessfulTime = startTime;
     return fmi2OK;
@@ -187,6 +208,7 @@ FMI2_EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[
     if (!m) return fmi2Error;
     for (size_t k = 0; k < nvr; k++) {
         if (!check_vr(m, "fmi2SetReal", vr[k], N_REAL)) return fmi2Error;
+        if (IS_DISCRETE_REAL(vr[k]) && !check_discrete_settable(m, "fmi2SetReal", vr[k])) return fmi2Error;
         m->r[vr[k]] = value[k];
     }
     return fmi2OK;
@@ -197,6 +219,7 @@ FMI2_EXPORT fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference 
     if (!m) return fmi2Error;
     for (size_t k = 0; k < nvr; k++) {
         if (!check_vr(m, "fmi2SetInteger", vr[k], N_INTEGER)) return fmi2Error;
+        if (!check_discrete_settable(m, "fmi2SetInteger", vr[k])) return fmi2Error;
         m->i[vr[k]] = value[k];
     }
     return fmi2OK;
@@ -207,6 +230,7 @@ FMI2_EXPORT fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference 
     if (!m) return fmi2Error;
     for (size_t k = 0; k < nvr; k++) {
         if (!check_vr(m, "fmi2SetBoolean", vr[k], N_BOOLEAN)) return fmi2Error;
+        if (!check_discrete_settable(m, "fmi2SetBoolean", vr[k])) return fmi2Error;
         m->b[vr[k]] = value[k] ? 1 : 0;
     }
     return fmi2OK;
@@ -272,6 +296,9 @@ FMI2_EXPORT fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean 
     if (!m) return fmi2Error;
     if (enterEventMode) *enterEventMode = fmi2False;
     if (terminateSimulation) *terminateSimulation = m->terminateSimulation;
+#ifdef COMPLETED_STEPS_VR
+    m->i[COMPLETED_STEPS_VR]++;
+#endif
     return fmi2OK;
 }
 

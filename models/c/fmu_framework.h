@@ -6,6 +6,16 @@
  *   NX, NZ                          number of continuous states and event indicators
  *   CS_STEP                         internal step of the Co-Simulation integrator
  *   CS_IMPLICIT                     1: L-stable SDIRK2 (stiff models), 0: classic RK4
+ * and optionally, to behave as some exporting tools do:
+ *   IS_DISCRETE_REAL(vr)            1 for Real value references of variability "discrete";
+ *                                   setting them in Continuous-Time Mode is an error (FMI 2.0
+ *                                   section 3.2.3), as it always is for Integer and Boolean
+ *   TOLERANCE_VR                    Real value reference that receives the tolerance passed to
+ *                                   fmi2SetupExperiment (0 when toleranceDefined is false)
+ *   WARN_TOLERANCE_IN_ME            log a warning when a Model Exchange instance is given a
+ *                                   tolerance (it has no integrator to use it)
+ *   COMPLETED_STEPS_VR              Integer value reference counting fmi2CompletedIntegratorStep
+ *                                   calls (FMUs with dynamic state selection act on every one)
  * then implements the model_* hooks declared below and includes fmu_framework.c. */
 #ifndef FMUCAL_FMU_FRAMEWORK_H
 #define FMUCAL_FMU_FRAMEWORK_H
@@ -16,6 +26,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#ifndef IS_DISCRETE_REAL
+#define IS_DISCRETE_REAL(vr) 0
+#endif
 
 #define NX_ALLOC (NX > 0 ? NX : 1)
 #define NZ_ALLOC (NZ > 0 ? NZ : 1)

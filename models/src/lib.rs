@@ -38,3 +38,27 @@ pub fn missing_symbol_fixture() -> PathBuf {
 pub fn reset_fails_fixture() -> PathBuf {
     fmu_dir().join("ResetFails.fmu")
 }
+
+/// Conformance fixture: a stick-slip friction oscillator driven by a continuous input `F`
+/// (stiction, Coulomb friction, event indicators on the velocity and on the force balance).
+pub fn stick_slip_fixture() -> PathBuf {
+    fmu_dir().join("StickSlip.fmu")
+}
+
+/// Conformance fixture: a continuous Real, a discrete Real, an Integer and a Boolean input,
+/// with the FMI rule that discrete inputs cannot be set in Continuous-Time Mode enforced.
+pub fn input_kinds_fixture() -> PathBuf {
+    fmu_dir().join("InputKinds.fmu")
+}
+
+/// Conformance fixture: a comparator without continuous states whose one event indicator only
+/// its continuous input `u` moves.
+pub fn threshold_fixture() -> PathBuf {
+    fmu_dir().join("Threshold.fmu")
+}
+
+/// Conformance fixture: the bouncing ball with `derivative` attributes on variables that
+/// `ModelStructure/Derivatives` does not list (aliases, non-state velocities).
+pub fn derivative_attributes_fixture() -> PathBuf {
+    fmu_dir().join("DerivativeAttributes.fmu")
+}

@@ -1,9 +1,11 @@
-//! `fmucal inspect`: version, interfaces, generation tool, default experiment, and a table of
-//! parameters, inputs, outputs and states with start values and units.
+//! `fmucal inspect`: version, interfaces, generation tool, default experiment, the platforms
+//! the archive has binaries for, and a table of parameters, inputs, outputs and states with
+//! start values and units. It reads the description only and never loads the binary, so it
+//! works on FMUs built for other platforms and runs no model code.
 
 use anyhow::{Context, Result};
-use fmucal_shared::fmu::Fmu;
 use fmucal_shared::fmu::schema::{Causality, ModelDescription, ScalarVariable};
+use fmucal_shared::fmu::{Described, LoadOptions, PLATFORM, describe};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -16,17 +18,17 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let path = super::model_arg::resolve(&args.model)?;
-    let fmu = Fmu::load(&path).with_context(|| format!("cannot load {}", path.display()))?;
-    let md = &fmu.description;
+    let fmu = describe(&path, &LoadOptions::default()).with_context(|| format!("cannot read {}", path.display()))?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(md.as_ref())?);
+        println!("{}", serde_json::to_string_pretty(fmu.description.as_ref())?);
         return Ok(());
     }
-    print!("{}", render(md));
+    print!("{}", render(&fmu));
     Ok(())
 }
 
-fn render(md: &ModelDescription) -> String {
+fn render(fmu: &Described) -> String {
+    let md: &ModelDescription = &fmu.description;
     let mut s = String::new();
     let mut line = |k: &str, v: String| s.push_str(&format!("{k:<18} {v}\n"));
     line("Model", md.model_name.clone());
@@ -42,6 +44,18 @@ fn render(md: &ModelDescription) -> String {
     }
     line("Interfaces", interfaces.join(", "));
     line("Event indicators", md.number_of_event_indicators.to_string());
+    let platforms = if fmu.platforms.is_empty() { "none".to_owned() } else { fmu.platforms.join(", ") };
+    if fmu.missing_binaries.is_empty() {
+        line("Binaries", platforms);
+    } else {
+        line(
+            "Binaries",
+            format!(
+                "{platforms} (no {PLATFORM} binary {}: it cannot be simulated on this machine)",
+                fmu.missing_binaries.join(", ")
+            ),
+        );
+    }
     if let Some(de) = &md.default_experiment {
         let f = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_else(|| "-".into());
         line(

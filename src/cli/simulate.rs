@@ -42,7 +42,8 @@ pub struct Args {
     /// Model Exchange integrator: bdf (default), esdirk34, tr-bdf2 or tsit45.
     #[arg(long, default_value = "bdf")]
     solver: Solver,
-    /// Largest step: the integrator's (ME) or fmi2DoStep's (CS).
+    /// Largest step: the integrator's (ME; default (stop - start) / 50, as FMPy) or fmi2DoStep's
+    /// (CS; default none: one step per output interval).
     #[arg(long)]
     max_step: Option<f64>,
     /// Give up after this many seconds of wall time.

@@ -6,6 +6,7 @@ use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
 use fmucal_shared::fmu::{ArchiveLimits, Fmu, LoadOptions};
+use fmucal_shared::sim::InputTable;
 
 pub fn example(name: &str) -> PathBuf {
     fmucal_models::example(name).unwrap_or_else(|| panic!("no example {name}"))
@@ -66,4 +67,47 @@ pub fn rel_max_diff(a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len(), "series lengths differ");
     let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
     a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+}
+
+/// An input table from (column name, samples) pairs.
+pub fn table(time: Vec<f64>, columns: Vec<(&str, Vec<f64>)>) -> InputTable {
+    InputTable { time, columns: columns.into_iter().map(|(n, v)| (n.to_owned(), v)).collect() }
+}
+
+/// F = 2.2 sin(0.8 t), sampled every 0.05 s: several stick and slip phases in both directions.
+pub fn sine_force() -> InputTable {
+    let time: Vec<f64> = (0..=400).map(|k| k as f64 * 0.05).collect();
+    let force = time.iter().map(|t| 2.2 * (0.8 * t).sin()).collect();
+    table(time, vec![("F", force)])
+}
+
+/// uc ramps (continuous); ud, n and b change between output points (held).
+pub fn every_kind_of_input() -> InputTable {
+    table(
+        vec![0.0, 0.7005, 1.5005, 2.2505, 3.0005, 4.0],
+        vec![
+            ("uc", vec![0.0, 0.7005, 1.5005, 0.5, 3.0, -1.0]),
+            ("ud", vec![0.5, -1.0, -1.0, 2.0, 2.0, 2.0]),
+            ("n", vec![0.0, 0.0, 3.0, 3.0, -2.0, -2.0]),
+            ("b", vec![0.0, 1.0, 1.0, 0.0, 0.0, 0.0]),
+        ],
+    )
+}
+
+/// Writes `table` as a CSV file with a `time` column, as `fmucal simulate --input` and FMPy
+/// read it.
+pub fn write_input_csv(table: &InputTable, path: &Path) {
+    let mut text = String::from("time");
+    for (name, _) in &table.columns {
+        text.push_str(&format!(",{name}"));
+    }
+    text.push('\n');
+    for (i, t) in table.time.iter().enumerate() {
+        text.push_str(&format!("{t}"));
+        for (_, values) in &table.columns {
+            text.push_str(&format!(",{}", values[i]));
+        }
+        text.push('\n');
+    }
+    std::fs::write(path, text).unwrap();
 }

@@ -1,5 +1,7 @@
 """Simulates an FMU with FMPy on a given grid and writes CSV (time first), for fmucal's
-cross-checks. Exits with status 3 and prints the problems if FMPy's validation fails."""
+cross-checks. Exits with status 3 and prints the problems if FMPy's validation fails.
+FMPy's recorder keeps every row it samples: on the grid, at input events in Co-Simulation,
+and at the last successful time of a terminated Co-Simulation; all are written."""
 import argparse
 import sys
 
@@ -16,6 +18,7 @@ def main():
     p.add_argument("--interval", type=float, required=True)
     p.add_argument("--stop", type=float, required=True)
     p.add_argument("--input", help="CSV with a time column and one column per input")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="start value (repeatable)")
     p.add_argument("--output", action="append", required=True)
     p.add_argument("--out", required=True)
     a = p.parse_args()
@@ -30,6 +33,10 @@ def main():
     if a.input:
         raw = np.genfromtxt(a.input, delimiter=",", names=True, deletechars="")
         signals = np.array(raw, dtype=[(n, np.float64) for n in raw.dtype.names])
+    start_values = {}
+    for item in a.set:
+        name, value = item.split("=", 1)
+        start_values[name] = float(value)
     result = simulate_fmu(
         a.fmu,
         fmi_type="ModelExchange" if a.interface == "me" else "CoSimulation",
@@ -38,13 +45,14 @@ def main():
         relative_tolerance=a.rtol,
         output_interval=a.interval,
         input=signals,
+        start_values=start_values,
         output=a.output,
         record_events=False,
         validate=True,
     )
     names = ["time"] + a.output
-    np.savetxt(a.out, np.column_stack([result[n] for n in names]), delimiter=",", header=",".join(names),
-               comments="", fmt="%.17g")
+    np.savetxt(a.out, np.column_stack([np.asarray(result[n], dtype=np.float64) for n in names]), delimiter=",",
+               header=",".join(names), comments="", fmt="%.17g")
 
 
 if __name__ == "__main__":

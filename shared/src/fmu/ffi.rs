@@ -3,13 +3,14 @@
 //! All of the project's `unsafe` lives in this module. Status codes are returned raw here and
 //! mapped to `Result` by [`crate::fmu::instance`].
 
-use std::collections::VecDeque;
 use std::ffi::{CStr, CString, c_char, c_int, c_uint, c_void};
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, Once};
+use std::sync::{Arc, Once};
+
+use super::log::InstanceLog;
 
 /// FMI 2.0 status code (`fmi2Status`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Status {
     Ok,
     Warning,
@@ -76,29 +77,6 @@ unsafe extern "C" {
     fn fmucal_free(p: *mut c_void);
 }
 
-/// Messages an FMU logged, kept so errors can quote what the model said.
-#[derive(Debug, Default)]
-pub struct LogBuffer {
-    messages: Mutex<VecDeque<String>>,
-}
-
-impl LogBuffer {
-    const KEEP: usize = 16;
-
-    fn push(&self, msg: String) {
-        let mut m = self.messages.lock().unwrap_or_else(|p| p.into_inner());
-        if m.len() == Self::KEEP {
-            m.pop_front();
-        }
-        m.push_back(msg);
-    }
-
-    /// Takes the messages logged since the last call.
-    pub fn drain(&self) -> Vec<String> {
-        self.messages.lock().unwrap_or_else(|p| p.into_inner()).drain(..).collect()
-    }
-}
-
 fn lossy(p: *const c_char) -> String {
     if p.is_null() {
         return String::new();
@@ -115,24 +93,16 @@ extern "C" fn log_sink(
     message: *const c_char,
 ) {
     let (instance, category, message) = (lossy(instance), lossy(category), lossy(message));
-    match Status::from_raw(status) {
-        Status::Ok | Status::Pending => {
-            tracing::debug!(target: "fmu", %instance, %category, "{message}")
-        }
-        Status::Warning | Status::Discard => {
-            tracing::warn!(target: "fmu", %instance, %category, "{message}")
-        }
-        // Error messages also travel in the returned FmuError::Call; log them quietly here.
-        Status::Error | Status::Fatal => {
-            tracing::info!(target: "fmu", %instance, %category, "{message}")
-        }
+    let status = Status::from_raw(status);
+    if env.is_null() {
+        // The FMU did not pass back our environment: no per-instance log to count repeats in.
+        super::log::emit(status, &instance, &category, &message);
+        return;
     }
-    if !env.is_null() && Status::from_raw(status) >= Status::Warning {
-        // SAFETY: env is the LogBuffer owned by the Component that is calling into the FMU; it
-        // lives until after fmi2FreeInstance returns.
-        let buffer = unsafe { &*(env as *const LogBuffer) };
-        buffer.push(message);
-    }
+    // SAFETY: env is the InstanceLog owned by the Component that is calling into the FMU; it
+    // lives until after fmi2FreeInstance returns.
+    let log = unsafe { &*(env as *const InstanceLog) };
+    log.receive(status, &instance, &category, &message);
 }
 
 fn install_log_sink() {
@@ -328,7 +298,7 @@ impl Api {
 pub struct Component {
     api: Arc<Api>,
     raw: *mut c_void,
-    log: Box<LogBuffer>,
+    log: Box<InstanceLog>,
     // Keeps the callback struct alive: FMUs may keep its address.
     _callbacks: Box<CallbackFunctions>,
 }
@@ -360,13 +330,13 @@ impl Component {
     ) -> Result<Self, Vec<String>> {
         let to_c = |s: &str| CString::new(s.replace('\0', "")).expect("NUL bytes removed");
         let (name, guid, uri) = (to_c(instance_name), to_c(guid), to_c(resource_uri));
-        let log = Box::new(LogBuffer::default());
+        let log = Box::new(InstanceLog::default());
         let callbacks = Box::new(CallbackFunctions {
             logger: fmucal_logger as *const c_void,
             allocate_memory: fmucal_calloc,
             free_memory: fmucal_free,
             step_finished: std::ptr::null(),
-            component_environment: &*log as *const LogBuffer as *mut c_void,
+            component_environment: &*log as *const InstanceLog as *mut c_void,
         });
         let Some(f) = api.instantiate else {
             return Err(vec!["fmi2Instantiate not resolved".into()]);
@@ -498,5 +468,6 @@ impl Drop for Component {
             // SAFETY: raw came from fmi2Instantiate of this binary and is freed exactly once.
             unsafe { f(self.raw) };
         }
+        self.log.summarize();
     }
 }

@@ -1,10 +1,12 @@
 //! Loading FMI 2.0 FMUs: [`archive`] unpacks the zip safely, [`schema`] reads
-//! `modelDescription.xml`, [`ffi`] loads the platform binary and holds every `unsafe` call, and
-//! [`instance`] wraps one live FMU instance with `Drop` and `reset()`.
+//! `modelDescription.xml`, [`ffi`] loads the platform binary and holds every `unsafe` call,
+//! [`log`] takes what an instance logs, and [`instance`] wraps one live FMU instance with `Drop`
+//! and `reset()`.
 
 pub mod archive;
 pub mod ffi;
 pub mod instance;
+pub mod log;
 pub mod schema;
 
 use std::path::{Path, PathBuf};
@@ -202,6 +204,11 @@ pub struct Described {
     pub sha256: String,
     /// Interfaces declared in the description, Model Exchange first.
     pub interfaces: Vec<Interface>,
+    /// Platform folders under `binaries/` that hold at least one file, sorted.
+    pub platforms: Vec<String>,
+    /// The binaries this build would load (`binaries/<PLATFORM>/<modelIdentifier>.<ext>`, one
+    /// per declared model identifier) that the archive lacks.
+    pub missing_binaries: Vec<String>,
 }
 
 /// Unpacks (or reuses) `path` and parses its model description; no native code is loaded.
@@ -222,7 +229,38 @@ pub fn describe(path: &Path, opts: &LoadOptions) -> Result<Described, FmuError> 
     if description.co_simulation.is_some() {
         interfaces.push(Interface::CoSimulation);
     }
-    Ok(Described { description, sha256: unpacked.sha256, interfaces })
+    let platforms = platforms(&unpacked.dir);
+    let mut missing_binaries: Vec<String> = [&description.model_exchange, &description.co_simulation]
+        .into_iter()
+        .flatten()
+        .filter_map(|info| binary_path(&unpacked.dir, &info.model_identifier).err())
+        .filter_map(|e| match e {
+            FmuError::NoPlatformBinary { expected, .. } => Some(expected),
+            _ => None,
+        })
+        .collect();
+    missing_binaries.dedup();
+    Ok(Described { description, sha256: unpacked.sha256, interfaces, platforms, missing_binaries })
+}
+
+/// Platform folders under `dir/binaries` that hold at least one regular file (an empty
+/// `binaries/linux64/` counts as absent), sorted.
+fn platforms(dir: &Path) -> Vec<String> {
+    let has_file = |p: &Path| {
+        std::fs::read_dir(p)
+            .map(|rd| rd.filter_map(|e| e.ok()).any(|e| e.file_type().is_ok_and(|t| t.is_file())))
+            .unwrap_or(false)
+    };
+    let mut found: Vec<String> = std::fs::read_dir(dir.join("binaries"))
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .filter(|e| e.file_type().is_ok_and(|t| t.is_dir()) && has_file(&e.path()))
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    found.sort();
+    found
 }
 
 fn binary_path(dir: &Path, identifier: &str) -> Result<PathBuf, FmuError> {
@@ -231,15 +269,7 @@ fn binary_path(dir: &Path, identifier: &str) -> Result<PathBuf, FmuError> {
     if path.is_file() {
         return Ok(path);
     }
-    let mut present: Vec<String> = std::fs::read_dir(dir.join("binaries"))
-        .map(|rd| {
-            rd.filter_map(|e| e.ok())
-                .filter(|e| e.path().is_dir())
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
-    present.sort();
+    let present = platforms(dir);
     let present = if present.is_empty() { "none".to_owned() } else { present.join(", ") };
     Err(FmuError::NoPlatformBinary { platform: PLATFORM, expected, present })
 }

@@ -692,16 +692,21 @@ fn finish(md: &mut ModelDescription) -> Result<(), SchemaError> {
                 .iter()
                 .find(|t| &t.name == tname)
                 .ok_or_else(|| err_invalid(format!("variable {:?}: unknown declaredType {tname:?}", var.name)))?;
-            if st.base_type != var.var_type {
-                return Err(err_invalid(format!(
-                    "variable {:?}: declaredType {tname:?} is a {:?}, not a {:?}",
-                    var.name, st.base_type, var.var_type
-                )));
+            if st.base_type == var.var_type {
+                var.unit = var.unit.take().or_else(|| st.unit.clone());
+                var.min = var.min.or(st.min);
+                var.max = var.max.or(st.max);
+                var.nominal = var.nominal.or(st.nominal);
+            } else {
+                // The XML schema cannot express this rule and `fmpy validate` does not check
+                // it, so such FMUs exist: keep the variable, without the type's attributes.
+                tracing::warn!(
+                    variable = %var.name,
+                    "declaredType {tname:?} is a {:?}, not a {:?}; its attributes are ignored",
+                    st.base_type,
+                    var.var_type
+                );
             }
-            var.unit = var.unit.take().or_else(|| st.unit.clone());
-            var.min = var.min.or(st.min);
-            var.max = var.max.or(st.max);
-            var.nominal = var.nominal.or(st.nominal);
         }
         if let Some(d) = var.derivative
             && (d == 0 || d > n)
@@ -722,6 +727,9 @@ fn finish(md: &mut ModelDescription) -> Result<(), SchemaError> {
             }
         }
     }
+    // Only ModelStructure/Derivatives defines the continuous states (FMI 2.0.4 section 2.2.8).
+    // Tools also put `derivative` on aliases and on variables that are not states; those are
+    // valid, so the converse is not checked (neither does `fmpy validate`).
     for u in &ms.derivatives {
         if md.variables[u.index - 1].derivative.is_none() {
             return Err(err_invalid(format!(
@@ -729,9 +737,6 @@ fn finish(md: &mut ModelDescription) -> Result<(), SchemaError> {
                 md.variables[u.index - 1].name
             )));
         }
-    }
-    if ms.derivatives.len() != md.variables.iter().filter(|v| v.derivative.is_some()).count() {
-        return Err(err_invalid("ModelStructure/Derivatives does not list every variable with a derivative attribute"));
     }
     Ok(())
 }
@@ -780,6 +785,43 @@ mod tests {
             "{:?}",
             ModelDescription::parse(cut)
         );
+    }
+
+    #[test]
+    fn derivative_attributes_outside_model_structure_are_accepted() {
+        // An alias of the state carrying `derivative` (as tools export it) is not a state.
+        let xml = MINIMAL.replace(
+            "</ModelVariables>",
+            r#"<ScalarVariable name="der(x)Alias" valueReference="1"><Real derivative="1"/></ScalarVariable>
+<ScalarVariable name="y" valueReference="2"><Real/></ScalarVariable>
+<ScalarVariable name="w" valueReference="3"><Real derivative="4"/></ScalarVariable>
+</ModelVariables>"#,
+        );
+        let md = ModelDescription::parse(&xml).unwrap();
+        let states = md.states();
+        assert_eq!(states.len(), 1);
+        assert_eq!((states[0].0.name.as_str(), states[0].1.name.as_str()), ("x", "der(x)"));
+        assert_eq!(md.variable("w").unwrap().derivative, Some(4));
+    }
+
+    #[test]
+    fn a_derivatives_entry_without_derivative_attribute_is_invalid() {
+        let xml = MINIMAL.replace("<Real derivative=\"1\"/>", "<Real/>");
+        let err = ModelDescription::parse(&xml).unwrap_err().to_string();
+        assert!(err.contains("has no derivative attribute"), "{err}");
+    }
+
+    #[test]
+    fn declared_type_of_another_base_type_is_ignored_not_refused() {
+        let xml = MINIMAL
+            .replace(
+                "<ModelVariables>",
+                r#"<TypeDefinitions><SimpleType name="Count"><Integer min="0" max="9"/></SimpleType></TypeDefinitions><ModelVariables>"#,
+            )
+            .replace("<Real start=\"2\"/>", "<Real declaredType=\"Count\" start=\"2\"/>");
+        let md = ModelDescription::parse(&xml).unwrap();
+        let x = md.variable("x").unwrap();
+        assert_eq!((x.min, x.max), (None, None));
     }
 
     #[test]

@@ -64,7 +64,12 @@ impl Evaluator {
                 None => Evaluation {
                     value: None,
                     residuals: None,
-                    error: Some("non-finite simulation output".into()),
+                    error: Some(if sim.terminated_early {
+                        let end = sim.time.last().copied().unwrap_or(f64::NAN);
+                        format!("the FMU terminated the simulation at t={end}, before the stop time")
+                    } else {
+                        "non-finite simulation output".into()
+                    }),
                     wall,
                 },
             },

@@ -36,8 +36,12 @@ pub struct Objective {
 
 impl Objective {
     /// Weighted residuals √w_j (y_sim − y_meas), output by output, skipping missing values.
-    /// `None` if the simulation lacks an output or produced a non-finite value.
+    /// `None` if the simulation lacks an output, ended before the stop time (its last row may
+    /// then be off the measurement times) or produced a non-finite value.
     pub fn residuals(&self, sim: &SimResult) -> Option<Vec<f64>> {
+        if sim.terminated_early {
+            return None;
+        }
         let mut r = Vec::with_capacity(self.times.len() * self.targets.len());
         for t in &self.targets {
             let y = sim.column(&t.variable)?;

@@ -1,7 +1,10 @@
 //! Co-Simulation driver (FMI 2.0 section 4): steps with `fmi2DoStep` so that every output time
 //! is a communication point, splitting intervals longer than the maximum step. Inputs are set
-//! at the start of each step. `fmi2Discard` ends the run early if the FMU terminated, or resumes
-//! from `fmi2LastSuccessfulTime`; `fmi2Error`/`fmi2Fatal` are errors naming the time.
+//! at the start of each step; if the FMU can handle variable communication steps, a step also
+//! ends where an input jumps or a held input changes, so the change applies on time (as FMPy
+//! does). `fmi2Discard` ends the run early if the FMU terminated (with a
+//! last row at `fmi2LastSuccessfulTime`, as FMPy records it), or resumes from
+//! `fmi2LastSuccessfulTime`; `fmi2Error`/`fmi2Fatal` are errors naming the time.
 
 use super::plan::Plan;
 use super::spec::{SimError, SimResult};
@@ -14,9 +17,20 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
     let mut t = plan.start;
     let mut steps: u64 = 0;
     let eps = |x: f64| 1e-12 * x.abs().max(1.0);
+    let variable_steps =
+        inst.description().co_simulation.as_ref().is_some_and(|cs| cs.can_handle_variable_communication_step_size);
+    let held = plan.held_columns();
+    let input_event_after = |t: f64| match &plan.inputs {
+        Some(table) if variable_steps => table.next_breakpoint(t, &held),
+        _ => None,
+    };
     for &target in &plan.grid {
         while t < target - eps(target) {
-            let remaining = target - t;
+            let step_end = match input_event_after(t) {
+                Some(b) if b < target - eps(target) => b,
+                _ => target,
+            };
+            let remaining = step_end - t;
             let h = match plan.max_step {
                 Some(m) if remaining > m * (1.0 + 1e-12) => m,
                 _ => remaining,
@@ -28,11 +42,19 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
             let status = inst.call("fmi2DoStep", |c| c.do_step(t, h))?;
             if status == Status::Discard {
                 let c = inst.component()?;
+                let last_successful = c.last_successful_time();
                 if c.terminated().unwrap_or(false) {
-                    tracing::info!(time = t, "the FMU terminated the simulation");
+                    // The values at the last successful time are the FMU's last word.
+                    let recorded = rec.time.last().copied().unwrap_or(f64::NEG_INFINITY);
+                    if let Some(last) = last_successful.filter(|&l| l > recorded + eps(l) && l <= target + eps(target))
+                    {
+                        inst.set_error_time(last);
+                        rec.record(inst, plan, last)?;
+                    }
+                    tracing::info!(time = last_successful.unwrap_or(t), "the FMU terminated the simulation");
                     return Ok(rec.finish(steps, 0, true));
                 }
-                match c.last_successful_time() {
+                match last_successful {
                     Some(last) if last > t => {
                         t = last;
                         continue;
@@ -45,7 +67,7 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
                     }
                 }
             }
-            t = if h == remaining { target } else { t + h };
+            t = if h == remaining { step_end } else { t + h };
         }
         t = t.max(target);
         rec.record(inst, plan, target)?;

@@ -98,6 +98,13 @@ impl InputTable {
         v[i] + w * (v[i + 1] - v[i])
     }
 
+    /// The first sample time strictly after `t` (beyond round-off); the Model Exchange driver
+    /// never steps past one while continuous inputs are interpolated.
+    pub fn next_sample(&self, t: f64) -> Option<f64> {
+        let eps = time_eps(t);
+        self.time.get(self.time.partition_point(|&x| x <= t + eps)).copied()
+    }
+
     /// Sample times strictly after `t` where a held value may change or a jump occurs; the
     /// Model Exchange driver stops the integrator there.
     pub fn next_breakpoint(&self, t: f64, discrete_columns: &[usize]) -> Option<f64> {
@@ -165,6 +172,15 @@ mod tests {
         let mut t = table();
         t.columns[0].1[1] = f64::NAN;
         assert!(t.validate().unwrap_err().to_string().contains("row 2"));
+    }
+
+    #[test]
+    fn next_sample_is_strictly_later_beyond_round_off() {
+        let t = table();
+        assert_eq!(t.next_sample(-1.0), Some(0.0));
+        assert_eq!(t.next_sample(0.0), Some(1.0));
+        assert_eq!(t.next_sample(1.0 - f64::EPSILON), Some(3.0));
+        assert_eq!(t.next_sample(3.0), None);
     }
 
     #[test]

@@ -8,8 +8,21 @@
 //! - step events (`fmi2CompletedIntegratorStep` asks for event mode),
 //! - jumps and changes of held inputs, and the stop time.
 //!
-//! At each event the FMU goes through event mode and `fmi2NewDiscreteStates` until no new
-//! discrete states are needed; if states changed the integrator restarts from the new states.
+//! Within a segment no step is longer than the plan's maximum step (default (stop − start)/50,
+//! as FMPy; like CVODE's, a cap on the step size, not a grid of stops) and none steps past a
+//! sample of a continuous input in a model with event indicators: an input can move an event
+//! indicator while the states stand still (a body stuck by stiction while the force on it
+//! grows), and a step that spans the whole excursion would see no sign change. The samples are
+//! sub-stops the solver lands on; a time within round-off of the next stop is that stop. (A
+//! model without event indicators steps over samples: it has no event to miss, and each sample
+//! of a piecewise-linear input is a kink that would cost BDF several steps.) Every completed step, also one that ends at a stop,
+//! is reported with `fmi2CompletedIntegratorStep`. A model without states but with event
+//! indicators is integrated on a stand-in state with derivative 0, so its roots are found.
+//!
+//! At each event the FMU enters Event Mode before the inputs are set to their values after the
+//! event (discrete inputs may change only in Event Mode, FMI 2.0.4 section 3.2.3), then goes
+//! through `fmi2NewDiscreteStates` until no new discrete states are needed; if states changed
+//! the integrator restarts from the new states.
 //! Outputs at the requested times come from diffsol's dense output, pushed into the FMU before
 //! reading. The Jacobian the implicit methods need is a forward finite difference of
 //! `fmi2GetDerivatives`.
@@ -18,7 +31,7 @@ use std::cell::{Cell, RefCell};
 
 use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeEquations, OdeSolverMethod, OdeSolverStopReason, Vector};
 
-use super::inputs::Side;
+use super::inputs::{InputTable, Side};
 use super::plan::Plan;
 use super::spec::{SimError, SimResult, Solver};
 use super::{Recorder, initialize};
@@ -71,6 +84,11 @@ impl Model<'_> {
             dx.fill(f64::NAN);
             return;
         }
+        if self.nx == 0 {
+            // The stand-in state of a model without states (see `integrate`) stands still.
+            dx.fill(0.0);
+            return;
+        }
         self.rhs_evaluations.set(self.rhs_evaluations.get() + 1);
         let mut inst = self.inst.borrow_mut();
         let r = self
@@ -108,7 +126,7 @@ impl Model<'_> {
         }
         let mut inst = self.inst.borrow_mut();
         let r = self
-            .set_point(&mut inst, t, x)
+            .set_point(&mut inst, t, &x[..self.nx])
             .and_then(|_| inst.call("fmi2GetEventIndicators", |c| c.get_event_indicators(z)).map(|_| ()));
         self.keep(r, z);
     }
@@ -183,7 +201,9 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
             stop = stop.min(b);
         }
         model.segment_end.set(stop);
-        let end = if nx == 0 {
+        // Without states and event indicators nothing happens between events; without states
+        // but with indicators the integrator still runs, on a stand-in state, to find roots.
+        let end = if (nx == 0 && nz == 0) || same_instant(p.t, stop) {
             jump_without_states(&model, &mut rec, &mut p, stop)?
         } else {
             integrate(&model, &mut rec, &mut p, stop, &nominals, step_event_check)?
@@ -201,8 +221,8 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
         {
             let mut inst = model.inst.borrow_mut();
             model.set_point(&mut inst, p.t, &p.x)?;
-            plan.set_inputs(&mut inst, p.t)?;
             inst.call("fmi2EnterEventMode", |c| c.enter_event_mode())?;
+            plan.set_inputs(&mut inst, p.t)?;
         }
         rec.event_times.push(p.t);
         info = event_iteration(&model, p.t)?;
@@ -279,11 +299,100 @@ fn record_due(
     Ok(())
 }
 
+/// Whether two times are the same instant up to round-off (looser than diffsol's own test, so
+/// a stop time this close is never handed to the integrator).
+fn same_instant(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1.0)
+}
+
+/// The integrator's intermediate stop times within one segment: the samples of continuous
+/// inputs (in a model with event indicators), then the segment's stop.
+struct SubStops<'a> {
+    /// Input samples to land on, if any.
+    samples: Option<&'a InputTable>,
+}
+
+impl SubStops<'_> {
+    /// The first sub-stop after `t`, or `stop`; one within round-off of `stop` is `stop`.
+    fn next(&self, t: f64, stop: f64) -> f64 {
+        let next = self.samples.and_then(|table| table.next_sample(t)).map_or(stop, |s| s.min(stop));
+        if same_instant(next, stop) { stop } else { next }
+    }
+}
+
+/// The stop time to give the solver before its next step from `t`, whose size it proposes to be
+/// `h`, or `None` if that step needs none. The step may not pass `sub_stop` nor be longer than
+/// `max_step`. Near the sub-stop (less than two steps away) the stop is halfway to it, so that
+/// no step shrinks by more than half and none is left with a sliver. The solver learns of a stop
+/// only this late because diffsol shrinks its step as soon as it knows, rescaling the history
+/// that the outputs inside the previous step are interpolated from; a large shrink loses
+/// accuracy.
+fn stop_for_next_step(t: f64, sub_stop: f64, h: f64, max_step: Option<f64>) -> Option<f64> {
+    let h_allowed = max_step.map_or(h, |m| h.min(m));
+    let d = sub_stop - t;
+    if d <= h_allowed {
+        Some(sub_stop)
+    } else if d < 2.0 * h_allowed {
+        Some(t + 0.5 * d)
+    } else if h > h_allowed {
+        Some(t + h_allowed)
+    } else {
+        None
+    }
+}
+
+/// Asks the solver to stop at `t_stop`. Returns false if the solver is already there (within
+/// its own round-off), in which case the stop counts as reached.
+fn set_stop<'a, Eqn, S>(solver: &mut S, t_stop: f64) -> Result<bool, diffsol::DiffsolError>
+where
+    Eqn: OdeEquations<T = f64> + 'a,
+    S: OdeSolverMethod<'a, Eqn>,
+{
+    use diffsol::error::{DiffsolError, OdeSolverError};
+    match solver.set_stop_time(t_stop) {
+        Ok(()) => Ok(true),
+        Err(DiffsolError::OdeSolverError(OdeSolverError::StopTimeAtCurrentTime)) => Ok(false),
+        Err(e) => Err(e),
+    }
+}
+
 /// No continuous states: time advances straight to `stop`, recording outputs on the way.
 fn jump_without_states(model: &Model, rec: &mut Recorder, p: &mut Progress, stop: f64) -> Result<SegmentEnd, SimError> {
     record_due(model, rec, p, stop, None)?;
     p.t = stop;
     Ok(SegmentEnd::Stop)
+}
+
+/// Tells the FMU that a step ended at `p.t` (`fmi2CompletedIntegratorStep`, after every step,
+/// also one that ends at a stop time), unless it declared it does not need to know. Returns how
+/// the segment ends if the FMU asks for Event Mode or to terminate.
+fn completed_step(model: &Model, p: &Progress, step_event_check: bool) -> Result<Option<SegmentEnd>, SimError> {
+    if !step_event_check {
+        return Ok(None);
+    }
+    let mut inst = model.inst.borrow_mut();
+    model.set_point(&mut inst, p.t, &p.x)?;
+    let mut out = (crate::fmu::Status::Ok, false, false);
+    inst.call("fmi2CompletedIntegratorStep", |c| {
+        out = c.completed_integrator_step();
+        out.0
+    })?;
+    Ok(if out.2 {
+        Some(SegmentEnd::Terminate)
+    } else if out.1 {
+        Some(SegmentEnd::Event)
+    } else {
+        None
+    })
+}
+
+/// The FMU's states within the integrator's vector (which holds one stand-in state, with
+/// derivative 0, for a model without states, so that diffsol can still locate the roots of its
+/// event indicators, as FMPy does).
+fn fmu_states(y: &impl Vector<T = f64>, nx: usize) -> Vec<f64> {
+    let mut x = y.clone_as_vec();
+    x.truncate(nx);
+    x
 }
 
 /// Integrates from `p.t` to `stop` (or the first event), recording outputs on the way.
@@ -296,14 +405,16 @@ fn integrate(
     step_event_check: bool,
 ) -> Result<SegmentEnd, SimError> {
     let plan = model.plan;
-    let atol: Vec<f64> = nominals.iter().map(|n| plan.tolerance * n.abs().max(1e-10)).collect();
-    let x0 = p.x.clone();
+    let n = model.nx.max(1);
+    let atol: Vec<f64> = (0..n).map(|i| plan.tolerance * nominals.get(i).map_or(1.0, |n| n.abs().max(1e-10))).collect();
+    let mut x0 = p.x.clone();
+    x0.resize(n, 0.0);
     let problem = OdeBuilder::<NalgebraMat<f64>>::new()
         .t0(p.t)
         .rtol(plan.tolerance)
         .atol(atol)
         .rhs_implicit(|x, _p, t, y| model.rhs(x, t, y), |x, _p, t, v, y| model.jac_vec(x, t, v, y))
-        .init(move |_p, _t, y| y.copy_from_slice(&x0), model.nx)
+        .init(move |_p, _t, y| y.copy_from_slice(&x0), n)
         .root(|x, _p, t, y| model.indicators(x, t, y), model.nz.max(1))
         .build()
         .map_err(|e| SimError::Solver { time: p.t, message: e.to_string() })?;
@@ -340,9 +451,35 @@ where
     let fail = |e: diffsol::DiffsolError, t: f64| {
         model.take_error().err().unwrap_or(SimError::Solver { time: t, message: e.to_string() })
     };
-    let mut sub_stop = next_sub_stop(p.t, stop, plan.max_step);
-    solver.set_stop_time(sub_stop).map_err(|e| fail(e, p.t))?;
+    // Samples matter to event detection only: a model without event indicators has nothing to
+    // miss, and landing on every sample of a piecewise-linear input (a kink in the derivative
+    // each time) costs a multistep method several steps per sample.
+    let lands_on_samples = model.nz > 0 && plan.input_bindings.iter().any(|b| !b.hold);
+    let sub_stops = SubStops { samples: plan.inputs.as_ref().filter(|_| lands_on_samples) };
+    let mut sub_stop = sub_stops.next(p.t, stop);
+    // The stop time handed to the solver, if any (see `stop_for_next_step`).
+    let mut solver_stop: Option<f64> = None;
     loop {
+        if solver_stop.is_none() {
+            let reached = same_instant(p.t, sub_stop)
+                || match stop_for_next_step(p.t, sub_stop, solver.state().h, plan.max_step) {
+                    Some(t) => {
+                        let set = set_stop(&mut solver, t).map_err(|e| fail(e, p.t))?;
+                        solver_stop = set.then_some(t);
+                        !set
+                    }
+                    None => false,
+                };
+            if reached {
+                record_due(model, rec, p, sub_stop, None)?;
+                p.t = sub_stop;
+                if sub_stop >= stop {
+                    return Ok(SegmentEnd::Stop);
+                }
+                sub_stop = sub_stops.next(sub_stop, stop);
+                continue;
+            }
+        }
         p.steps += 1;
         plan.check_budget(p.steps, p.t)?;
         let reason = solver.step().map_err(|e| fail(e, p.t))?;
@@ -353,57 +490,75 @@ where
         let interp = |t: f64| -> Result<Vec<f64>, SimError> {
             solver
                 .interpolate(t.min(t_now))
-                .map(|v| v.clone_as_vec())
+                .map(|v| fmu_states(&v, model.nx))
                 .map_err(|e| SimError::Solver { time: t, message: e.to_string() })
         };
         match reason {
             OdeSolverStopReason::InternalTimestep => {
                 record_due(model, rec, p, t_now, Some(&interp))?;
                 p.t = t_now;
-                p.x = solver.state().y.clone_as_vec();
+                p.x = fmu_states(solver.state().y, model.nx);
                 check_finite(md_state_names(model), &p.x, p.t)?;
-                if step_event_check {
-                    let mut inst = model.inst.borrow_mut();
-                    model.set_point(&mut inst, p.t, &p.x)?;
-                    let mut out = (crate::fmu::Status::Ok, false, false);
-                    inst.call("fmi2CompletedIntegratorStep", |c| {
-                        out = c.completed_integrator_step();
-                        out.0
-                    })?;
-                    if out.2 {
-                        return Ok(SegmentEnd::Terminate);
-                    }
-                    if out.1 {
-                        return Ok(SegmentEnd::Event);
-                    }
+                if let Some(end) = completed_step(model, p, step_event_check)? {
+                    return Ok(end);
                 }
             }
             OdeSolverStopReason::RootFound(t_root, _) => {
                 record_due(model, rec, p, t_root, Some(&interp))?;
                 solver.state_mut_back(t_root).map_err(|e| fail(e, t_root))?;
                 p.t = t_root;
-                p.x = solver.state().y.clone_as_vec();
+                p.x = fmu_states(solver.state().y, model.nx);
                 check_finite(md_state_names(model), &p.x, p.t)?;
                 return Ok(SegmentEnd::Event);
             }
             OdeSolverStopReason::TstopReached => {
-                record_due(model, rec, p, sub_stop, Some(&interp))?;
-                p.t = sub_stop;
-                p.x = solver.state().y.clone_as_vec();
+                let reached = solver_stop.take().unwrap_or(t_now);
+                record_due(model, rec, p, reached, Some(&interp))?;
+                p.t = reached;
+                p.x = fmu_states(solver.state().y, model.nx);
                 check_finite(md_state_names(model), &p.x, p.t)?;
-                if sub_stop >= stop {
-                    return Ok(SegmentEnd::Stop);
+                if let Some(end) = completed_step(model, p, step_event_check)? {
+                    return Ok(end);
                 }
-                sub_stop = next_sub_stop(p.t, stop, plan.max_step);
-                solver.set_stop_time(sub_stop).map_err(|e| fail(e, p.t))?;
+                if reached == sub_stop {
+                    if sub_stop >= stop {
+                        return Ok(SegmentEnd::Stop);
+                    }
+                    sub_stop = sub_stops.next(sub_stop, stop);
+                }
             }
         }
     }
 }
 
-fn next_sub_stop(t: f64, stop: f64, max_step: Option<f64>) -> f64 {
-    match max_step {
-        Some(h) if t + h < stop => t + h,
-        _ => stop,
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sub_stops_are_continuous_input_samples_then_the_stop() {
+        let table = InputTable { time: vec![0.0, 0.25, 0.3, 2.0], columns: vec![("u".into(), vec![0.0; 4])] };
+        let subs = SubStops { samples: Some(&table) };
+        let seen: Vec<f64> =
+            std::iter::successors(Some(0.0), |&t| (t < 1.0).then(|| subs.next(t, 1.0))).skip(1).collect();
+        assert_eq!(seen, [0.25, 0.3, 1.0]);
+        // A sample within round-off of the stop is the stop.
+        assert_eq!(SubStops { samples: None }.next(0.5, 1.0), 1.0);
+        let near = InputTable { time: vec![0.0, 1.0 - 1e-15], columns: vec![("u".into(), vec![0.0; 2])] };
+        assert_eq!(SubStops { samples: Some(&near) }.next(0.5, 1.0), 1.0);
+    }
+
+    #[test]
+    fn the_solver_hears_of_a_stop_only_before_the_step_that_needs_it() {
+        // Far from the sub-stop and within the maximum step: no stop.
+        assert_eq!(stop_for_next_step(0.0, 1.0, 0.3, None), None);
+        assert_eq!(stop_for_next_step(0.0, 1.0, 0.3, Some(0.4)), None);
+        // Within two steps: halfway; within one: the sub-stop.
+        assert_eq!(stop_for_next_step(0.0, 1.0, 0.6, None), Some(0.5));
+        assert_eq!(stop_for_next_step(0.0, 1.0, 1.5, None), Some(1.0));
+        // A proposed step longer than the maximum step is capped, with the same rules near the stop.
+        assert_eq!(stop_for_next_step(0.0, 1.0, 0.5, Some(0.1)), Some(0.1));
+        assert_eq!(stop_for_next_step(0.0, 1.0, 5.0, Some(0.6)), Some(0.5));
+        assert_eq!(stop_for_next_step(0.0, 1.0, 5.0, Some(2.0)), Some(1.0));
     }
 }

@@ -85,10 +85,14 @@ pub fn simulate(fmu: &Fmu, spec: &SimSpec) -> Result<SimResult, SimError> {
 }
 
 /// Common start of both drivers: experiment setup, parameters, inputs at the start time, and
-/// initialisation mode.
+/// initialisation mode. The tolerance goes to Co-Simulation FMUs only, as FMPy does. FMI 2.0
+/// lets a Model Exchange FMU use it for its internal solvers (algebraic loops), but exported ME
+/// FMUs warn about it at every run, and those solvers keep their own defaults without it: the
+/// trade-off FMPy makes.
 fn initialize(inst: &mut Instance, plan: &Plan) -> Result<(), SimError> {
     inst.set_error_time(plan.start);
-    inst.call("fmi2SetupExperiment", |c| c.setup_experiment(Some(plan.tolerance), plan.start, Some(plan.stop)))?;
+    let tolerance = (plan.interface == Interface::CoSimulation).then_some(plan.tolerance);
+    inst.call("fmi2SetupExperiment", |c| c.setup_experiment(tolerance, plan.start, Some(plan.stop)))?;
     plan.apply_settings(inst)?;
     plan.set_inputs(inst, plan.start)?;
     inst.call("fmi2EnterInitializationMode", |c| c.enter_initialization_mode())?;

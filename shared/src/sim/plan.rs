@@ -157,7 +157,9 @@ impl Plan {
             grid,
             tolerance,
             solver: spec.solver,
-            max_step: spec.max_step,
+            // FMPy's default for Model Exchange: without it a step can span a whole input
+            // excursion. Co-Simulation steps only where asked.
+            max_step: spec.max_step.or((interface == Interface::ModelExchange).then_some((stop - start) / 50.0)),
             max_steps: spec.max_steps.unwrap_or(10_000_000),
             deadline: spec.timeout.map(|d| Instant::now() + d),
             settings,
@@ -376,5 +378,31 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
             _ => Err(invalid(format!("{name} = {text:?} is not a boolean (true/false)"))),
         },
         VarType::String => Err(invalid(format!("setting String variable {name:?} is not supported"))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BOTH: &str = r#"<?xml version="1.0"?>
+<fmiModelDescription fmiVersion="2.0" modelName="M" guid="{g}">
+  <ModelExchange modelIdentifier="M"/>
+  <CoSimulation modelIdentifier="M"/>
+  <ModelVariables>
+    <ScalarVariable name="x" valueReference="0" causality="output" initial="exact"><Real start="1"/></ScalarVariable>
+    <ScalarVariable name="der(x)" valueReference="1"><Real derivative="1"/></ScalarVariable>
+  </ModelVariables>
+  <ModelStructure><Outputs><Unknown index="1"/></Outputs><Derivatives><Unknown index="2"/></Derivatives></ModelStructure>
+</fmiModelDescription>"#;
+
+    #[test]
+    fn model_exchange_default_max_step_is_a_fiftieth_of_the_span_as_in_fmpy() {
+        let md = ModelDescription::parse(BOTH).unwrap();
+        let both = [Interface::ModelExchange, Interface::CoSimulation];
+        let spec = |i, max_step| SimSpec { interface: Some(i), stop_time: Some(10.0), max_step, ..Default::default() };
+        assert_eq!(Plan::new(&md, &both, &spec(both[0], None)).unwrap().max_step, Some(0.2));
+        assert_eq!(Plan::new(&md, &both, &spec(both[0], Some(0.5))).unwrap().max_step, Some(0.5));
+        assert_eq!(Plan::new(&md, &both, &spec(both[1], None)).unwrap().max_step, None);
     }
 }

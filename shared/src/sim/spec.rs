@@ -66,7 +66,8 @@ pub struct SimSpec {
     /// Model Exchange integrator. Default: BDF.
     pub solver: Solver,
     /// Co-Simulation: largest `fmi2DoStep` size; output intervals are split to respect it.
-    /// Model Exchange: largest integrator step. Default: none.
+    /// Default: none.
+    /// Model Exchange: largest integrator step. Default: (stop − start) / 50, as FMPy.
     pub max_step: Option<f64>,
     /// Most integrator steps (ME) or `fmi2DoStep` calls (CS) before giving up. Default: 10,000,000.
     pub max_steps: Option<u64>,
