@@ -40,13 +40,15 @@ struct Case<'a> {
     input: Option<&'a Path>,
     /// Start values, NAME=VALUE.
     set: &'a [(&'a str, &'a str)],
-    /// ME only: fmucal's largest step (FMPy's is its own).
-    max_step: Option<f64>,
 }
 
 impl Case<'_> {
+    fn new(fmu: PathBuf, interface: Interface, interval: f64, stop: f64) -> Case<'static> {
+        Case { fmu, interface, interval, stop, input: None, set: &[] }
+    }
+
     fn example(model: &str, interface: Interface, interval: f64, stop: f64) -> Case<'static> {
-        Case { fmu: common::example(model), interface, interval, stop, input: None, set: &[], max_step: None }
+        Case::new(common::example(model), interface, interval, stop)
     }
 
     fn label(&self) -> String {
@@ -104,7 +106,6 @@ fn compare(case: &Case, dir: &Path) -> f64 {
         inputs: case.input.map(|p| csv_io::read_table(p).unwrap()),
         parameters: case.set.iter().map(|(n, v)| (n.to_string(), v.to_string())).collect(),
         outputs: variables.clone(),
-        max_step: case.max_step,
         ..Default::default()
     };
     let ours = simulate(&fmu, &spec).unwrap();
@@ -128,6 +129,13 @@ fn compare(case: &Case, dir: &Path) -> f64 {
         worst = worst.max(d);
     }
     worst
+}
+
+/// Writes `table` as `dir/name` for both simulators to read.
+fn input_file(dir: &Path, name: &str, table: &fmucal_shared::sim::InputTable) -> PathBuf {
+    let path = dir.join(name);
+    common::write_input_csv(table, &path);
+    path
 }
 
 fn check(case: Case, bound: f64, dir: &Path) {
@@ -185,11 +193,10 @@ fn inputs_are_applied_as_fmpy_applies_them() {
 #[test]
 fn inputs_of_every_kind_are_applied_as_fmpy_applies_them() {
     let tmp = tempfile::tempdir().unwrap();
-    let input = tmp.path().join("kinds.csv");
-    common::write_input_csv(&common::every_kind_of_input(), &input);
+    let input = input_file(tmp.path(), "kinds.csv", &common::every_kind_of_input());
     let case = |interface, interval| Case {
         input: Some(&input),
-        ..Case { fmu: fmucal_models::input_kinds_fixture(), ..Case::example("decay", interface, interval, 4.0) }
+        ..Case::new(fmucal_models::input_kinds_fixture(), interface, interval, 4.0)
     };
     // Same communication points and the same held values: equal to round-off.
     check(case(Interface::CoSimulation, 0.01), 1e-9, tmp.path());
@@ -201,11 +208,10 @@ fn inputs_of_every_kind_are_applied_as_fmpy_applies_them() {
 #[test]
 fn stick_slip_friction_matches_fmpy() {
     let tmp = tempfile::tempdir().unwrap();
-    let input = tmp.path().join("force.csv");
-    common::write_input_csv(&common::sine_force(), &input);
+    let input = input_file(tmp.path(), "force.csv", &common::sine_force());
     let case = |interface, interval| Case {
         input: Some(&input),
-        ..Case { fmu: fmucal_models::stick_slip_fixture(), ..Case::example("decay", interface, interval, 20.0) }
+        ..Case::new(fmucal_models::stick_slip_fixture(), interface, interval, 20.0)
     };
     check(case(Interface::CoSimulation, 0.01), 1e-9, tmp.path());
     // FMPy holds F over each output interval (here 1 ms); stick and slip times move by up to that.
@@ -215,24 +221,19 @@ fn stick_slip_friction_matches_fmpy() {
 #[test]
 fn a_model_without_states_matches_fmpy_in_co_simulation() {
     let tmp = tempfile::tempdir().unwrap();
-    let input = tmp.path().join("u.csv");
     let u = common::table(vec![0.0, 1.0, 1.205, 1.41, 3.0], vec![("u", vec![0.0, 0.0, 2.0, 0.0, 0.0])]);
-    common::write_input_csv(&u, &input);
+    let input = input_file(tmp.path(), "u.csv", &u);
     // Model Exchange is checked against the analytic switch times in fmi2_conformance.rs: FMPy
     // holds u between output points there, which moves the switches to output points.
-    let case = Case {
-        input: Some(&input),
-        ..Case { fmu: fmucal_models::threshold_fixture(), ..Case::example("decay", Interface::CoSimulation, 0.01, 3.0) }
-    };
-    check(case, 1e-9, tmp.path());
+    let case = Case::new(fmucal_models::threshold_fixture(), Interface::CoSimulation, 0.01, 3.0);
+    check(Case { input: Some(&input), ..case }, 1e-9, tmp.path());
 }
 
 #[test]
 fn tool_style_derivative_attributes_match_fmpy() {
     let tmp = tempfile::tempdir().unwrap();
     for (interface, bound) in [(Interface::ModelExchange, 1e-4), (Interface::CoSimulation, 1e-9)] {
-        let fmu = fmucal_models::derivative_attributes_fixture();
-        check(Case { fmu, ..Case::example("bouncing-ball", interface, 0.01, 3.0) }, bound, tmp.path());
+        check(Case::new(fmucal_models::derivative_attributes_fixture(), interface, 0.01, 3.0), bound, tmp.path());
     }
 }
 
