@@ -132,3 +132,21 @@ fn a_bad_job_is_one_error_line() {
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(stderr.contains("parameters[0].name: unknown variable \"kk\""), "{stderr}");
 }
+
+#[test]
+fn an_output_with_weight_zero_leaves_the_result_unchanged() {
+    // Stopped early, so the objective is far from zero and an extra output would show in it.
+    let plain = tempfile::tempdir().unwrap();
+    let job = write_job(plain.path(), "max_iters = 3\n");
+    let out = fmucal(&["calibrate", job.to_str().unwrap(), "--workers", "1", "--out", "out"], plain.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let zero = tempfile::tempdir().unwrap();
+    let extra = "max_iters = 3\n[[outputs]]\nvariable = \"xAlias\"\ncolumn = \"x\"\nweight = 0.0\n";
+    let job = write_job(zero.path(), extra);
+    let out = fmucal(&["calibrate", job.to_str().unwrap(), "--workers", "1", "--out", "out"], zero.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (a, b) = (result(&plain.path().join("out")), result(&zero.path().join("out")));
+    assert!(a["f_opt"].as_f64().unwrap() > 1e-3, "{a}");
+    assert_eq!(a["f_opt"], b["f_opt"]);
+    assert_eq!(a["x_opt"], b["x_opt"]);
+}

@@ -42,11 +42,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
             outputs: p
                 .outputs
                 .into_iter()
-                .map(|o| OutputMap {
-                    variable: o.variable,
-                    column: o.column,
-                    weight: if o.weight == 0.0 { 1.0 } else { o.weight },
-                })
+                .map(|o| OutputMap { variable: o.variable, column: o.column, weight: o.weight.unwrap_or(1.0) })
                 .collect(),
             inputs: p.inputs.into_iter().map(|i| InputMap { column: i.column, variable: i.variable }).collect(),
             parameters: p
@@ -59,7 +55,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 stop_time: sim.stop_time,
                 tolerance: sim.tolerance,
                 solver: sim.solver,
-                set: sim.set.into_iter().map(|(k, v)| (k, SetValue::Text(v))).collect(),
+                set: sim.set.into_iter().map(|(k, v)| (k, SetValue::from_text(v))).collect(),
                 set_from: None,
                 validation_stop_time: None,
                 fixed_from_earlier_stage: vec![],
@@ -105,7 +101,7 @@ pub fn job_to_proto(spec: &JobSpec, data: &MeasurementTable, model_id: &str) -> 
         outputs: spec
             .outputs
             .iter()
-            .map(|o| pb::OutputMap { variable: o.variable.clone(), column: o.column.clone(), weight: o.weight })
+            .map(|o| pb::OutputMap { variable: o.variable.clone(), column: o.column.clone(), weight: Some(o.weight) })
             .collect(),
         inputs: spec
             .inputs

@@ -159,6 +159,23 @@ pub enum SetValue {
     Text(String),
 }
 
+impl SetValue {
+    /// The canonical value of a text: a number or a boolean when the text is exactly how that
+    /// value prints, else text. The protocol carries set values as text and a TOML file may
+    /// quote a number; both read back through here, so one setting has one form in the job
+    /// model, and what the FMU is given (`Display`) is the same text either way.
+    pub fn from_text(text: String) -> SetValue {
+        match text.as_str() {
+            "true" => SetValue::Bool(true),
+            "false" => SetValue::Bool(false),
+            _ => match text.parse::<f64>() {
+                Ok(v) if v.to_string() == text => SetValue::Number(v),
+                _ => SetValue::Text(text),
+            },
+        }
+    }
+}
+
 impl std::fmt::Display for SetValue {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
@@ -236,6 +253,11 @@ impl JobSpec {
     pub fn from_toml(text: &str, base_dir: &Path) -> Result<JobSpec, JobError> {
         let mut spec: JobSpec =
             toml::from_str(text).map_err(|e| JobError::invalid("toml", e.to_string().trim().replace('\n', " ")))?;
+        for value in spec.simulation.set.values_mut() {
+            if let SetValue::Text(t) = value {
+                *value = SetValue::from_text(std::mem::take(t));
+            }
+        }
         for p in [&mut spec.model.path, &mut spec.data.path].into_iter().flatten() {
             // `example:NAME` names a built-in example FMU and is left as written.
             if p.is_relative() && !p.to_string_lossy().starts_with("example:") {

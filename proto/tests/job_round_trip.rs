@@ -1,0 +1,170 @@
+//! Property: any valid job survives TOML → protocol → job unchanged (issue #14). A job crosses
+//! the protocol on every run, local ones too, so a default slipped in at the join (an output
+//! weight of 0 became 1) changes results. Fields the protocol does not carry by design (file
+//! paths, `set_from`, `validation_stop_time`, the local worker count) are left at their
+//! defaults by the generator; the model is named by its upload id.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use fmucal_proto::convert::{SubmittedJob, job_to_proto};
+use fmucal_shared::job::spec::{
+    DataRef, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec, WorkersSpec,
+};
+use fmucal_shared::job::{JobSpec, MeasurementTable};
+use proptest::prelude::*;
+
+fn name() -> impl Strategy<Value = String> {
+    "[a-z][a-zA-Z0-9_]{0,6}(\\.[a-z][a-z0-9]{0,4})?"
+}
+
+fn finite() -> impl Strategy<Value = f64> {
+    prop_oneof![Just(0.0), Just(1.0), -1e6..1e6f64, 1e-12..1e-3f64]
+}
+
+fn output() -> impl Strategy<Value = OutputMap> {
+    (name(), name(), prop_oneof![Just(0.0), Just(1.0), 0.0..1e3f64]).prop_map(|(variable, column, weight)| OutputMap {
+        variable,
+        column,
+        weight,
+    })
+}
+
+fn parameters() -> impl Strategy<Value = Vec<ParameterSpec>> {
+    prop::collection::btree_map(name(), (finite(), 0.0..1.0f64, 1e-9..1e3f64), 1..5)
+        .prop_map(|m| {
+            m.into_iter()
+                .map(|(name, (lower, at, width))| ParameterSpec {
+                    name,
+                    start: lower + at * width,
+                    lower,
+                    upper: lower + width,
+                })
+                .filter(|p| p.start >= p.lower && p.start <= p.upper)
+                .collect::<Vec<_>>()
+        })
+        .prop_filter("at least one parameter", |v| !v.is_empty())
+}
+
+fn set_value() -> impl Strategy<Value = SetValue> {
+    prop_oneof![
+        finite().prop_map(SetValue::Number),
+        any::<bool>().prop_map(SetValue::Bool),
+        // Text that reads as a number or a boolean is that number or boolean (canonical form).
+        "[a-z][a-z_]{0,8}".prop_filter_map("text", |t| match SetValue::from_text(t) {
+            SetValue::Text(t) => Some(SetValue::Text(t)),
+            _ => None,
+        }),
+    ]
+}
+
+fn simulation() -> impl Strategy<Value = SimulationSpec> {
+    (
+        prop::option::of(0.0..10.0f64),
+        prop::option::of(10.0..100.0f64),
+        prop::option::of(1e-10..1e-2f64),
+        prop::option::of(prop_oneof![Just("bdf"), Just("esdirk34"), Just("tr-bdf2"), Just("tsit45")]),
+        prop::collection::btree_map(name(), set_value(), 0..4),
+    )
+        .prop_map(|(start_time, stop_time, tolerance, solver, set)| SimulationSpec {
+            start_time,
+            stop_time,
+            tolerance,
+            solver: solver.map(str::to_owned),
+            set: set.into_iter().collect::<BTreeMap<_, _>>(),
+            ..Default::default()
+        })
+}
+
+fn optimizer(n: usize) -> impl Strategy<Value = OptimizerSpec> {
+    let algorithm = prop_oneof![Just("nelder-mead"), Just("differential-evolution"), Just("genetic"), Just("points")];
+    let opt_f = || prop::option::of(1e-9..1.0f64);
+    (
+        (algorithm, any::<bool>(), opt_f(), opt_f(), prop::option::of(1..10_000u64), prop::option::of(1..10_000u64)),
+        // TOML integers are signed 64-bit.
+        (0..=i64::MAX as u64, opt_f(), prop::option::of(4..200usize), opt_f(), opt_f(), prop::option::of(4..32u32)),
+        (opt_f(), opt_f(), prop::option::of(0..4usize)),
+        prop::collection::vec(prop::collection::vec(finite(), n), 1..4),
+    )
+        .prop_map(
+            |(
+                (algorithm, parallel, x_tol, f_tol, max_iters, max_fevals),
+                (seed, initial_step, population, weight, crossover, bits),
+                (crossover_rate, mutation_rate, elitism),
+                points,
+            )| OptimizerSpec {
+                points: (algorithm == "points").then_some(points),
+                algorithm: algorithm.to_owned(),
+                parallel,
+                x_tol,
+                f_tol,
+                max_iters,
+                max_fevals,
+                seed,
+                initial_step,
+                population,
+                weight,
+                crossover,
+                bits,
+                crossover_rate,
+                mutation_rate,
+                elitism,
+            },
+        )
+}
+
+fn job() -> impl Strategy<Value = JobSpec> {
+    (
+        "[0-9a-f]{8}",
+        prop::option::of(prop_oneof![Just("me"), Just("cs")]),
+        prop::collection::vec(output(), 1..4),
+        prop::collection::vec((name(), name()).prop_map(|(column, variable)| InputMap { column, variable }), 0..3),
+        parameters(),
+        simulation(),
+    )
+        .prop_flat_map(|(id, interface, outputs, inputs, parameters, simulation)| {
+            let n = parameters.len();
+            optimizer(n).prop_map(move |optimizer| JobSpec {
+                model: ModelRef { path: None, id: Some(id.clone()), interface: interface.map(str::to_owned) },
+                data: DataRef { path: None, time_column: "time".into() },
+                outputs: outputs.clone(),
+                inputs: inputs.clone(),
+                parameters: parameters.clone(),
+                simulation: simulation.clone(),
+                optimizer,
+                workers: WorkersSpec::default(),
+            })
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(512))]
+
+    #[test]
+    fn any_valid_job_survives_toml_protocol_and_back(spec in job()) {
+        let text = toml::to_string(&spec).expect("a job serializes to TOML");
+        let parsed = JobSpec::from_toml(&text, Path::new(".")).expect("its TOML parses");
+        prop_assert!(parsed.validate().is_ok(), "{:?}", parsed.validate());
+        prop_assert_eq!(&parsed, &spec);
+        let data = MeasurementTable { time: vec![0.0, 1.0], columns: vec![("y".into(), vec![1.0, f64::NAN])] };
+        let id = spec.model.id.clone().unwrap();
+        let back = SubmittedJob::try_from(job_to_proto(&parsed, &data, &id)).expect("converts back");
+        prop_assert_eq!(back.spec, parsed);
+    }
+}
+
+#[test]
+fn an_output_weight_of_zero_stays_zero() {
+    let spec = JobSpec::from_toml(
+        "[model]\nid = \"m\"\n[data]\n[[outputs]]\nvariable = \"y\"\ncolumn = \"y\"\nweight = 0.0\n[[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n",
+        Path::new("."),
+    )
+    .unwrap();
+    let data = MeasurementTable { time: vec![0.0], columns: vec![("y".into(), vec![1.0])] };
+    let back = SubmittedJob::try_from(job_to_proto(&spec, &data, "m")).unwrap();
+    assert_eq!(back.spec.outputs[0].weight, 0.0);
+    // A message without a weight (an older or minimal client) means 1.
+    let mut message = job_to_proto(&spec, &data, "m");
+    message.outputs[0].weight = None;
+    assert_eq!(SubmittedJob::try_from(message).unwrap().spec.outputs[0].weight, 1.0);
+}
