@@ -27,7 +27,8 @@ fn python() -> &'static Path {
     PY.get_or_init(|| {
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmpy/ensure_venv.sh");
         let out = Command::new("bash").arg(&script).output().expect("run ensure_venv.sh");
-        assert!(out.status.success(), "creating the FMPy venv failed:\n{}", String::from_utf8_lossy(&out.stderr));
+        // ensure_venv.sh says in one line why it failed (for example: PyPI unreachable).
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr).trim());
         PathBuf::from(String::from_utf8(out.stdout).unwrap().trim())
     })
 }
@@ -245,6 +246,30 @@ fn a_terminating_fmu_ends_where_fmpy_ends() {
     for (interface, bound) in [(Interface::ModelExchange, 1e-4), (Interface::CoSimulation, 1e-9)] {
         check(Case { set: &set, ..Case::example("decay", interface, 0.1, 1.0) }, bound, tmp.path());
     }
+}
+
+#[test]
+fn an_unreachable_package_registry_is_one_clear_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmpy/ensure_venv.sh");
+    // A registry on a loopback port where nothing listens, and no local wheels.
+    let out = Command::new("bash")
+        .arg(&script)
+        .env("FMUCAL_PYENV", tmp.path().join("venv"))
+        .env("PIP_INDEX_URL", "http://127.0.0.1:9/simple")
+        .env("PIP_FIND_LINKS", tmp.path())
+        .env("PIP_RETRIES", "0")
+        .env("PIP_DEFAULT_TIMEOUT", "2")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("cannot install") && stderr.contains("fmpy==0.3.32") && stderr.contains("PyPI"),
+        "{stderr}"
+    );
+    assert!(!tmp.path().join("venv").exists(), "a half-made venv is left behind");
 }
 
 #[test]

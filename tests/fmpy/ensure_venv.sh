@@ -2,6 +2,8 @@
 # Creates (once) the Python venv that fmucal's cross-checks and benchmarks use, with FMPy and
 # SciPy from PyPI, and prints the path of its python. Safe to run concurrently (flock).
 # Location: $FMUCAL_PYENV, else <repo>/target/pyenv.
+# If the packages cannot be installed (no route to the package registry, say), it prints one
+# line saying so, with the path of pip's full log, and exits 1.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 repo="$(cd "$here/../.." && pwd)"
@@ -13,8 +15,12 @@ exec 9>"$venv.lock"
 flock 9
 if [ ! -f "$stamp" ]; then
   rm -rf "$venv"
-  python3 -m venv "$venv" >&2
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$req" >&2
+  log="$venv.pip.log"
+  if ! { python3 -m venv "$venv" && "$venv/bin/python" -m pip install --disable-pip-version-check -r "$req"; } >"$log" 2>&1; then
+    echo "fmucal: cannot install the Python reference tools ($(tr '\n' ' ' <"$req" | grep -o '[a-z]*==[0-9.]*' | head -1) and others) from PyPI: is the package registry reachable? pip's log: $log" >&2
+    rm -rf "$venv"
+    exit 1
+  fi
   touch "$stamp"
 fi
 echo "$venv/bin/python"
