@@ -88,11 +88,13 @@ pub async fn run(
     tonic::transport::Server::builder()
         .add_service(health_service)
         .add_service(InterceptedService::new(
-            pb::calibration_server::CalibrationServer::new(handlers.clone()).max_decoding_message_size(256 << 20),
+            pb::calibration_server::CalibrationServer::new(handlers.clone())
+                .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES),
             move |r| a1.check(r),
         ))
         .add_service(InterceptedService::new(
-            pb::worker_pool_server::WorkerPoolServer::new(handlers).max_decoding_message_size(256 << 20),
+            pb::worker_pool_server::WorkerPoolServer::new(handlers)
+                .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES),
             move |r| a2.check(r),
         ))
         .serve_with_incoming_shutdown(TcpIncoming::from(listener).with_nodelay(Some(true)), shutdown)

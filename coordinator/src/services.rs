@@ -14,7 +14,6 @@ use crate::scheduler::Command;
 
 /// Largest model accepted by `UploadModel`.
 pub const MAX_MODEL_BYTES: usize = 1 << 30;
-const CHUNK: usize = 1 << 20;
 
 /// Runs `f` on the model store (call from a blocking thread).
 fn with_models<T>(
@@ -129,7 +128,7 @@ impl pb::worker_pool_server::WorkerPool for Handlers {
             .map_err(|e| Status::internal(e.to_string()))??;
         let (tx, rx) = mpsc::channel(4);
         tokio::spawn(async move {
-            for chunk in bytes.chunks(CHUNK) {
+            for chunk in bytes.chunks(fmucal_proto::MODEL_CHUNK_BYTES) {
                 if tx.send(Ok(pb::FetchModelResponse { chunk: chunk.to_vec() })).await.is_err() {
                     break;
                 }

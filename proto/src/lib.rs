@@ -10,6 +10,13 @@ pub mod convert;
 /// Version a worker must announce at registration; a mismatch is rejected.
 pub const PROTOCOL_VERSION: u32 = 1;
 
+/// Largest gRPC message any fmucal client or server encodes or decodes (a job with its data,
+/// a batch of points, a result): 256 MiB.
+pub const MAX_MESSAGE_BYTES: usize = 256 << 20;
+
+/// Size of the chunks a model travels in (`UploadModel`, `DownloadModel`): 1 MiB.
+pub const MODEL_CHUNK_BYTES: usize = 1 << 20;
+
 /// Generated messages and services.
 pub mod v1 {
     tonic::include_proto!("fmucal.v1");

@@ -137,8 +137,8 @@ async fn connect(url: &str, token: Option<&str>) -> Result<Client> {
         }
     };
     Ok(CalibrationClient::with_interceptor(channel, attach)
-        .max_encoding_message_size(256 << 20)
-        .max_decoding_message_size(256 << 20))
+        .max_encoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES)
+        .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES))
 }
 
 /// Calibrates and then runs the identifiability points, on the same local cluster.
@@ -216,7 +216,7 @@ async fn run_local(
 async fn submit(client: &mut Client, spec: &JobSpec, data: &MeasurementTable, model: &Path) -> Result<String> {
     let bytes = std::fs::read(model)?;
     let chunks: Vec<pb::UploadModelRequest> =
-        bytes.chunks(1 << 20).map(|c| pb::UploadModelRequest { chunk: c.to_vec() }).collect();
+        bytes.chunks(fmucal_proto::MODEL_CHUNK_BYTES).map(|c| pb::UploadModelRequest { chunk: c.to_vec() }).collect();
     let model_id =
         client.upload_model(tokio_stream::iter(chunks)).await.context("uploading the model")?.into_inner().model_id;
     Ok(client

@@ -60,8 +60,8 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
     let attach = AttachToken::new(config.token.as_deref()).map_err(WorkerError::Config)?;
     let channel = connect(&config.coordinator).await?;
     let mut client: Client = WorkerPoolClient::with_interceptor(channel, attach)
-        .max_decoding_message_size(256 << 20)
-        .max_encoding_message_size(256 << 20);
+        .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES)
+        .max_encoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES);
 
     let (health_reporter, health_service) = tonic_health::server::health_reporter();
     health_reporter.set_not_serving::<pb::worker_pool_server::WorkerPoolServer<Unused>>().await;

@@ -99,7 +99,7 @@ impl InputTable {
     }
 
     /// The first sample time strictly after `t` (beyond round-off); the Model Exchange driver
-    /// never steps past one while continuous inputs are interpolated.
+    /// never steps past one in a model with event indicators.
     pub fn next_sample(&self, t: f64) -> Option<f64> {
         let eps = time_eps(t);
         self.time.get(self.time.partition_point(|&x| x <= t + eps)).copied()

@@ -15,9 +15,12 @@
 //! grows), and a step that spans the whole excursion would see no sign change. The samples are
 //! sub-stops the solver lands on; a time within round-off of the next stop is that stop. (A
 //! model without event indicators steps over samples: it has no event to miss, and each sample
-//! of a piecewise-linear input is a kink that would cost BDF several steps.) Every completed step, also one that ends at a stop,
-//! is reported with `fmi2CompletedIntegratorStep`. A model without states but with event
-//! indicators is integrated on a stand-in state with derivative 0, so its roots are found.
+//! of a piecewise-linear input is a kink that would cost BDF several steps.) Events count
+//! against the step budget along with the steps.
+//!
+//! Every completed step is reported with `fmi2CompletedIntegratorStep`: one that ends at a stop
+//! time or at a root too. A model without states but with event indicators is integrated on a
+//! stand-in state with derivative 0 (never shown to the FMU), so the roots are still found.
 //!
 //! At each event the FMU enters Event Mode before the inputs are set to their values after the
 //! event (discrete inputs may change only in Event Mode, FMI 2.0.4 section 3.2.3), then goes
@@ -185,12 +188,15 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
             inst.call("fmi2GetNominalsOfContinuousStates", |c| c.get_nominals_of_continuous_states(&mut nominals))?;
         }
     }
-    check_finite(md_state_names(&model), &p.x, p.t)?;
+    check_finite(&model, &p.x, p.t)?;
     record_due(&model, &mut rec, &mut p, plan.start, None)?;
 
     let held = plan.held_columns();
     let mut terminated = false;
     while p.t < plan.stop && info.terminate_simulation == 0 {
+        // Events count against the step budget too: a model that only jumps from event to event
+        // (or a period driven towards zero) must still stop.
+        plan.check_budget(p.steps + rec.event_times.len() as u64, p.t)?;
         let mut stop = plan.stop;
         if info.next_event_time_defined != 0 && info.next_event_time > p.t {
             stop = stop.min(info.next_event_time);
@@ -211,7 +217,7 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
         model.take_error()?;
         match end {
             SegmentEnd::Terminate => {
-                terminated = true;
+                terminated = p.t < plan.stop && !same_instant(p.t, plan.stop);
                 break;
             }
             SegmentEnd::Stop if p.t >= plan.stop => break,
@@ -235,7 +241,7 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
             inst.call("fmi2GetNominalsOfContinuousStates", |c| c.get_nominals_of_continuous_states(&mut nominals))?;
         }
         drop(inst);
-        check_finite(md_state_names(&model), &p.x, p.t)?;
+        check_finite(&model, &p.x, p.t)?;
     }
     if info.terminate_simulation != 0 && p.t < plan.stop {
         terminated = true;
@@ -244,14 +250,13 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
     Ok(rec.finish(p.steps, evals, terminated))
 }
 
-fn md_state_names(model: &Model) -> Vec<String> {
-    model.inst.borrow().description().states().iter().map(|(s, _)| s.name.clone()).collect()
-}
-
-fn check_finite(names: Vec<String>, x: &[f64], t: f64) -> Result<(), SimError> {
+/// Fails naming the first state that is not finite.
+fn check_finite(model: &Model, x: &[f64], t: f64) -> Result<(), SimError> {
     match x.iter().position(|v| !v.is_finite()) {
         Some(i) => {
-            Err(SimError::NonFinite { time: t, variable: names.get(i).cloned().unwrap_or_default(), value: x[i] })
+            let states =
+                model.inst.borrow().description().states().iter().map(|(s, _)| s.name.clone()).collect::<Vec<_>>();
+            Err(SimError::NonFinite { time: t, variable: states.get(i).cloned().unwrap_or_default(), value: x[i] })
         }
         None => Ok(()),
     }
@@ -299,8 +304,8 @@ fn record_due(
     Ok(())
 }
 
-/// Whether two times are the same instant up to round-off (looser than diffsol's own test, so
-/// a stop time this close is never handed to the integrator).
+/// Whether two times are the same instant up to round-off (1e-12 relative: looser than
+/// diffsol's own test unless its step is far longer than the time; `set_stop` catches that).
 fn same_instant(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1.0)
 }
@@ -465,6 +470,15 @@ where
                 || match stop_for_next_step(p.t, sub_stop, solver.state().h, plan.max_step) {
                     Some(t) => {
                         let set = set_stop(&mut solver, t).map_err(|e| fail(e, p.t))?;
+                        if !set && t != sub_stop {
+                            // A cap or halfway stop inside the solver's round-off of its time.
+                            return Err(SimError::Invalid(format!(
+                                "max step {} is below the time resolution at t={} (about {:e})",
+                                plan.max_step.unwrap_or(f64::NAN),
+                                p.t,
+                                100.0 * f64::EPSILON * p.t.abs()
+                            )));
+                        }
                         solver_stop = set.then_some(t);
                         !set
                     }
@@ -498,7 +512,7 @@ where
                 record_due(model, rec, p, t_now, Some(&interp))?;
                 p.t = t_now;
                 p.x = fmu_states(solver.state().y, model.nx);
-                check_finite(md_state_names(model), &p.x, p.t)?;
+                check_finite(model, &p.x, p.t)?;
                 if let Some(end) = completed_step(model, p, step_event_check)? {
                     return Ok(end);
                 }
@@ -508,15 +522,21 @@ where
                 solver.state_mut_back(t_root).map_err(|e| fail(e, t_root))?;
                 p.t = t_root;
                 p.x = fmu_states(solver.state().y, model.nx);
-                check_finite(md_state_names(model), &p.x, p.t)?;
-                return Ok(SegmentEnd::Event);
+                check_finite(model, &p.x, p.t)?;
+                // The step is complete up to the root, as FMPy and the standard's loop have it.
+                let end = completed_step(model, p, step_event_check)?;
+                return Ok(if matches!(end, Some(SegmentEnd::Terminate)) {
+                    SegmentEnd::Terminate
+                } else {
+                    SegmentEnd::Event
+                });
             }
             OdeSolverStopReason::TstopReached => {
                 let reached = solver_stop.take().unwrap_or(t_now);
                 record_due(model, rec, p, reached, Some(&interp))?;
                 p.t = reached;
                 p.x = fmu_states(solver.state().y, model.nx);
-                check_finite(md_state_names(model), &p.x, p.t)?;
+                check_finite(model, &p.x, p.t)?;
                 if let Some(end) = completed_step(model, p, step_event_check)? {
                     return Ok(end);
                 }

@@ -285,9 +285,13 @@ fn build_grid(start: f64, stop: f64, times: &OutputTimes) -> Result<Vec<f64>, Si
                 return Err(invalid(format!("output interval {dt} gives more than 1e8 output times")));
             }
             let n = n as usize;
-            let mut grid: Vec<f64> = (0..=n).map(|i| start + i as f64 * dt).collect();
+            // start + n·dt may land a round-off past the stop time (7 · 0.1 = 0.7000000000000001):
+            // the last time is then the stop time itself, which every driver reaches.
+            let mut grid: Vec<f64> = (0..=n).map(|i| (start + i as f64 * dt).min(stop)).collect();
             if stop - grid[n] > 1e-9 * dt {
                 grid.push(stop);
+            } else {
+                grid[n] = stop;
             }
             Ok(grid)
         }
@@ -308,7 +312,12 @@ fn build_grid(start: f64, stop: f64, times: &OutputTimes) -> Result<Vec<f64>, Si
                     )));
                 }
             }
-            Ok(list.clone())
+            // Times within round-off outside [start, stop] are the start or the stop time.
+            let clamped: Vec<f64> = list.iter().map(|t| t.clamp(start, stop)).collect();
+            if let Some(i) = clamped.windows(2).position(|w| w[1] <= w[0]) {
+                return Err(invalid(format!("output times {} and {} are the same instant", list[i], list[i + 1])));
+            }
+            Ok(clamped)
         }
     }
 }
@@ -395,6 +404,17 @@ mod tests {
   </ModelVariables>
   <ModelStructure><Outputs><Unknown index="1"/></Outputs><Derivatives><Unknown index="2"/></Derivatives></ModelStructure>
 </fmiModelDescription>"#;
+
+    #[test]
+    fn the_last_output_time_is_the_stop_time_not_a_round_off_past_it() {
+        for (stop, dt) in [(0.7, 0.1), (0.3, 0.1), (2.3, 0.1), (1.0, 0.1)] {
+            let grid = build_grid(0.0, stop, &OutputTimes::Interval(dt)).unwrap();
+            assert_eq!(*grid.last().unwrap(), stop, "stop {stop}, dt {dt}: {grid:?}");
+            assert_eq!(grid.len(), (stop / dt).round() as usize + 1);
+        }
+        let listed = build_grid(0.0, 1.0, &OutputTimes::Times(vec![0.5, 1.0 + 1e-13])).unwrap();
+        assert_eq!(listed, [0.5, 1.0]);
+    }
 
     #[test]
     fn model_exchange_default_max_step_is_a_fiftieth_of_the_span_as_in_fmpy() {
