@@ -210,3 +210,27 @@ fn bad_simulation_settings() {
     }
     assert_fails(&fmucal(&["simulate", "no-such-model"], tmp.path(), &[]), &["no such file \"no-such-model\""]);
 }
+
+#[test]
+fn built_in_examples_come_from_the_binary_itself() {
+    // A copy of the binary far from its build tree, as after `cargo install` or in an image.
+    let tmp = tempfile::tempdir().unwrap();
+    let bin = tmp.path().join("fmucal");
+    std::fs::copy(env!("CARGO_BIN_EXE_fmucal"), &bin).unwrap();
+    let cache = tmp.path().join("cache");
+    let run = |args: &[&str]| Command::new(&bin).args(args).env("FMUCAL_CACHE_DIR", &cache).output().unwrap();
+    let out = run(&["examples"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let listing = String::from_utf8_lossy(&out.stdout);
+    for (name, built) in fmucal_models::examples() {
+        let line = listing.lines().find(|l| l.split_whitespace().next() == Some(name)).unwrap_or_else(|| panic!("{listing}"));
+        let path = PathBuf::from(line.split_whitespace().nth(1).unwrap());
+        assert!(path.starts_with(cache.join("examples")), "{name} at {}", path.display());
+        assert_eq!(std::fs::read(&path).unwrap(), std::fs::read(&built).unwrap(), "{name}");
+    }
+    let out = run(&["inspect", "example:decay"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("kickTime"));
+    let out = run(&["simulate", "example:nonesuch", "-o", "/dev/null"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("examples: furuta, bouncing-ball, decay"));
+}

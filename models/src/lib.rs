@@ -2,29 +2,70 @@
 //! examples (Furuta pendulum, diesel exhaust pipe), a bouncing ball (state events), Robertson
 //! kinetics (stiff), and Decay (resources, declared types, aliases, time events, failures).
 //! Each offers Model Exchange and Co-Simulation with a linux64 binary.
+//!
+//! The examples' bytes are embedded in every binary that links this crate, so `example:NAME`
+//! works from `cargo install` or a container image: [`install_example`] writes one into a
+//! folder the first time it is asked for. [`example`] and the fixtures point into the build
+//! tree, for tests and benchmarks.
 
-use std::path::PathBuf;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 
-/// Folder holding the built `.fmu` files.
+/// Folder holding the built `.fmu` files (exists only where this crate was built).
 pub fn fmu_dir() -> PathBuf {
     PathBuf::from(env!("OUT_DIR")).join("fmus")
 }
 
-/// The example models: (short name, path of the `.fmu`).
-pub fn examples() -> Vec<(&'static str, PathBuf)> {
-    [
-        ("furuta", "Furuta"),
-        ("bouncing-ball", "BouncingBall"),
-        ("decay", "Decay"),
-        ("robertson", "Robertson"),
-        ("exhaust-pipe", "ExhaustPipe"),
-    ]
-    .into_iter()
-    .map(|(name, id)| (name, fmu_dir().join(format!("{id}.fmu"))))
-    .collect()
+macro_rules! embedded {
+    ($($name:literal => $id:literal),* $(,)?) => {
+        /// (short name, model identifier, archive bytes) of each example.
+        const EMBEDDED: &[(&str, &str, &[u8])] = &[
+            $(($name, $id, include_bytes!(concat!(env!("OUT_DIR"), "/fmus/", $id, ".fmu")))),*
+        ];
+    };
 }
 
-/// Path of an example by its short name (`furuta`, `bouncing-ball`, ...), if it exists.
+embedded! {
+    "furuta" => "Furuta",
+    "bouncing-ball" => "BouncingBall",
+    "decay" => "Decay",
+    "robertson" => "Robertson",
+    "exhaust-pipe" => "ExhaustPipe",
+}
+
+/// The examples' short names (`furuta`, `bouncing-ball`, ...).
+pub fn example_names() -> Vec<&'static str> {
+    EMBEDDED.iter().map(|(name, _, _)| *name).collect()
+}
+
+/// Writes the example `name` as `dir/<ModelIdentifier>.fmu`, unless an identical file is there
+/// already, and returns its path; `None` if there is no such example. The file is written to
+/// a temporary name and renamed, so concurrent callers never see half a file.
+///
+/// # Errors
+/// The I/O error of creating `dir` or writing the file.
+pub fn install_example(name: &str, dir: &Path) -> std::io::Result<Option<PathBuf>> {
+    let Some((_, id, bytes)) = EMBEDDED.iter().find(|(n, _, _)| *n == name) else {
+        return Ok(None);
+    };
+    let path = dir.join(format!("{id}.fmu"));
+    if std::fs::read(&path).is_ok_and(|have| have == *bytes) {
+        return Ok(Some(path));
+    }
+    std::fs::create_dir_all(dir)?;
+    let tmp = dir.join(format!(".{id}.fmu.{}.tmp", std::process::id()));
+    std::fs::File::create(&tmp)?.write_all(bytes)?;
+    std::fs::rename(&tmp, &path)?;
+    Ok(Some(path))
+}
+
+/// The example models in the build tree: (short name, path of the `.fmu`). For tests and
+/// benchmarks; binaries use [`install_example`].
+pub fn examples() -> Vec<(&'static str, PathBuf)> {
+    EMBEDDED.iter().map(|(name, id, _)| (*name, fmu_dir().join(format!("{id}.fmu")))).collect()
+}
+
+/// Path of an example in the build tree by its short name, if it exists.
 pub fn example(name: &str) -> Option<PathBuf> {
     examples().into_iter().find(|(n, _)| *n == name).map(|(_, p)| p)
 }

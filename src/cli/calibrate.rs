@@ -49,7 +49,7 @@ fn model_path(spec: &JobSpec) -> Result<PathBuf> {
     let p = spec.model.path.as_ref().context("the job's [model] needs a path for the CLI")?;
     let text = p.to_string_lossy();
     if let Some(name) = text.strip_prefix("example:") {
-        return fmucal_models::example(name).with_context(|| format!("no built-in example {name:?}"));
+        return super::model_arg::example(name)?.with_context(|| format!("no built-in example {name:?}"));
     }
     anyhow::ensure!(p.is_file(), "model file {} does not exist", p.display());
     Ok(p.clone())

@@ -10,6 +10,7 @@ mod token;
 
 use std::process::ExitCode;
 
+use anyhow::Context;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
@@ -57,12 +58,11 @@ pub fn main() -> ExitCode {
         Command::Plot { dir } => crate::report::draw_all(&dir)
             .map_err(anyhow::Error::from)
             .map(|()| eprintln!("wrote the plots to {}", dir.display())),
-        Command::Examples => {
-            for (name, path) in fmucal_models::examples() {
-                println!("{name:<14} {}", path.display());
-            }
+        Command::Examples => fmucal_models::example_names().into_iter().try_for_each(|name| {
+            let path = model_arg::example(name)?.context("an embedded example")?;
+            println!("{name:<14} {}", path.display());
             Ok(())
-        }
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
