@@ -223,7 +223,8 @@ fn built_in_examples_come_from_the_binary_itself() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let listing = String::from_utf8_lossy(&out.stdout);
     for (name, built) in fmucal_models::examples() {
-        let line = listing.lines().find(|l| l.split_whitespace().next() == Some(name)).unwrap_or_else(|| panic!("{listing}"));
+        let line =
+            listing.lines().find(|l| l.split_whitespace().next() == Some(name)).unwrap_or_else(|| panic!("{listing}"));
         let path = PathBuf::from(line.split_whitespace().nth(1).unwrap());
         assert!(path.starts_with(cache.join("examples")), "{name} at {}", path.display());
         assert_eq!(std::fs::read(&path).unwrap(), std::fs::read(&built).unwrap(), "{name}");

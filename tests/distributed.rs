@@ -138,7 +138,14 @@ async fn submit(c: &mut Client, spec: &JobSpec, data: &MeasurementTable) -> Stri
 }
 
 /// Polls until the job leaves RUNNING; `during` runs once the job has completed `after_rounds`.
-async fn wait_done(c: &mut Client, job: &str, after_rounds: u64, mut during: impl FnMut()) -> pb::GetJobResponse {
+/// Polls the job until it ends; `during` runs once, while the job is still running, after
+/// `after_rounds` × 4 evaluations. Returns the final state and whether `during` ran.
+async fn wait_done(
+    c: &mut Client,
+    job: &str,
+    after_rounds: u64,
+    mut during: impl FnMut(),
+) -> (pb::GetJobResponse, bool) {
     let deadline = Instant::now() + Duration::from_secs(300);
     let mut fired = false;
     loop {
@@ -146,7 +153,7 @@ async fn wait_done(c: &mut Client, job: &str, after_rounds: u64, mut during: imp
         if let Ok(r) = c.get_job(pb::GetJobRequest { job_id: job.into() }).await {
             let r = r.into_inner();
             if r.status != pb::JobStatus::Running as i32 {
-                return r;
+                return (r, fired);
             }
         }
         if !fired {
@@ -183,7 +190,7 @@ async fn one_and_three_workers_give_the_in_process_result() {
             (0..n).map(|_| start_worker(&coord.url, &dir.path().join("wcache"), TOKEN)).collect();
         let mut c = client(&coord.url, Some(TOKEN)).await;
         let job = submit(&mut c, &spec, &data).await;
-        let r = wait_done(&mut c, &job, u64::MAX, || {}).await;
+        let (r, _) = wait_done(&mut c, &job, u64::MAX, || {}).await;
         kill_all(&mut workers);
         assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
         assert_eq!(x_opt(&r), want_x, "{n} workers");
@@ -194,17 +201,21 @@ async fn one_and_three_workers_give_the_in_process_result() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn killing_a_worker_mid_job_changes_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let (spec, data) = furuta_job(dir.path(), 25);
+    // Long enough (60 iterations) that the kill after 8 evaluations lands while it runs.
+    let (spec, data) = furuta_job(dir.path(), 60);
     let want = reference(&spec, &data, dir.path());
     let coord = start_coordinator(&dir.path().join("coord")).await;
     let mut workers: Vec<Child> = (0..3).map(|_| start_worker(&coord.url, &dir.path().join("wcache"), TOKEN)).collect();
     let mut c = client(&coord.url, Some(TOKEN)).await;
     let job = submit(&mut c, &spec, &data).await;
     let victim = workers[1].id();
-    let r = wait_done(&mut c, &job, 5, || {
+    let (r, killed_mid_job) = wait_done(&mut c, &job, 2, || {
         sigkill(victim);
     })
     .await;
+    assert!(killed_mid_job, "the job ended before the worker was killed");
+    let status = workers[1].wait().unwrap();
+    assert_eq!(std::os::unix::process::ExitStatusExt::signal(&status), Some(9), "victim {status:?}");
     kill_all(&mut workers);
     assert_eq!(r.status, pb::JobStatus::Succeeded as i32);
     assert_eq!(x_opt(&r), vec![want.x_opt["armFriction"], want.x_opt["pendulumFriction"]]);
@@ -258,7 +269,7 @@ async fn coordinator_killed_and_restarted_resumes_the_job() {
     let mut coord = start();
     tokio::time::sleep(Duration::from_millis(500)).await;
     let mut c = client(&url, Some(TOKEN)).await;
-    let r = wait_done(&mut c, &job, u64::MAX, || {}).await;
+    let (r, _) = wait_done(&mut c, &job, u64::MAX, || {}).await;
     kill_all(&mut workers);
     let _ = coord.kill();
     assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
@@ -450,7 +461,7 @@ async fn a_once_per_process_fmu_runs_on_a_multi_slot_worker() {
         .unwrap();
     let mut c = client(&coord.url, Some(TOKEN)).await;
     let job = submit(&mut c, &spec, &data).await;
-    let r = wait_done(&mut c, &job, u64::MAX, || {}).await;
+    let (r, _) = wait_done(&mut c, &job, u64::MAX, || {}).await;
     let _ = worker.kill();
     assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
     assert_eq!(r.result.unwrap().failed_evaluations, 0, "a second instance was attempted");
