@@ -69,7 +69,8 @@ pub struct SimSpec {
     /// Default: none.
     /// Model Exchange: largest integrator step. Default: (stop − start) / 50, as FMPy.
     pub max_step: Option<f64>,
-    /// Most integrator steps (ME) or `fmi2DoStep` calls (CS) before giving up. Default: 10,000,000.
+    /// Most integrator steps and events (ME) or `fmi2DoStep` calls (CS) before giving up.
+    /// Default: 10,000,000.
     pub max_steps: Option<u64>,
     /// Wall-clock budget. Default: none.
     pub timeout: Option<Duration>,
