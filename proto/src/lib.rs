@@ -14,7 +14,7 @@ pub const PROTOCOL_VERSION: u32 = 1;
 /// a batch of points, a result): 256 MiB.
 pub const MAX_MESSAGE_BYTES: usize = 256 << 20;
 
-/// Size of the chunks a model travels in (`UploadModel`, `DownloadModel`): 1 MiB.
+/// Size of the chunks a model travels in (`UploadModel`, `FetchModel`): 1 MiB.
 pub const MODEL_CHUNK_BYTES: usize = 1 << 20;
 
 /// Generated messages and services.
