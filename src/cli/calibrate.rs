@@ -242,19 +242,34 @@ async fn identify(
     spec.optimizer =
         OptimizerSpec { algorithm: "points".into(), points: Some(plan.points.clone()), ..Default::default() };
     let job_id = submit(&mut client, &spec, data, model).await?;
-    let r = loop {
-        let r = client.get_job(pb::GetJobRequest { job_id: job_id.clone() }).await?.into_inner();
-        if r.status != pb::JobStatus::Running as i32 {
-            break r;
-        }
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    };
+    let r = wait_for_end(&mut client, &job_id, |_| {}).await?;
     let evaluated = r.result.map(|r| r.evaluated).unwrap_or_default();
     if let Some(bad) = evaluated.iter().find(|e| !e.ok) {
         bail!("a difference point failed: {}", bad.message);
     }
     let residuals: Vec<Vec<f64>> = evaluated.into_iter().map(|e| e.residuals).collect();
     Ok(identifiability::from_residuals(&job.parameter_names, &plan, &residuals)?)
+}
+
+/// Follows a job's `WatchJob` stream (one event per completed batch, the first at once),
+/// handing each event to `on_event`, until the job has ended; then returns its final state.
+async fn wait_for_end(
+    client: &mut Client,
+    job_id: &str,
+    mut on_event: impl FnMut(&pb::WatchJobResponse),
+) -> Result<pb::GetJobResponse> {
+    let ended = |status: i32| {
+        [pb::JobStatus::Succeeded, pb::JobStatus::Failed, pb::JobStatus::Cancelled].iter().any(|s| *s as i32 == status)
+    };
+    let mut stream = client.watch_job(pb::WatchJobRequest { job_id: job_id.to_owned() }).await?.into_inner();
+    // The stream also ends when the coordinator has sent the last event of a finished job.
+    while let Some(ev) = stream.message().await? {
+        on_event(&ev);
+        if ended(ev.status) {
+            break;
+        }
+    }
+    Ok(client.get_job(pb::GetJobRequest { job_id: job_id.to_owned() }).await?.into_inner())
 }
 
 async fn follow(
@@ -269,9 +284,8 @@ async fn follow(
         indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} {msg}").expect("valid template"),
     );
     bar.enable_steady_tick(Duration::from_millis(200));
-    let mut stream = client.watch_job(pb::WatchJobRequest { job_id: job_id.clone() }).await?.into_inner();
     let mut history = vec![];
-    while let Some(ev) = stream.message().await? {
+    let job = wait_for_end(&mut client, &job_id, |ev| {
         bar.set_message(format!(
             "iteration {}  evaluations {}  best f {:.6e}",
             ev.iteration, ev.evaluations, ev.best_f
@@ -284,12 +298,9 @@ async fn follow(
                 batch_wall_s: ev.batch_wall_s,
             });
         }
-        if ev.status != pb::JobStatus::Running as i32 {
-            break;
-        }
-    }
+    })
+    .await?;
     bar.finish_and_clear();
-    let job = client.get_job(pb::GetJobRequest { job_id }).await?.into_inner();
     if job.status == pb::JobStatus::Failed as i32 {
         bail!("the job failed: {}", job.error);
     }
