@@ -310,19 +310,12 @@ fn same_instant(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1.0)
 }
 
-/// The integrator's intermediate stop times within one segment: the samples of continuous
-/// inputs (in a model with event indicators), then the segment's stop.
-struct SubStops<'a> {
-    /// Input samples to land on, if any.
-    samples: Option<&'a InputTable>,
-}
-
-impl SubStops<'_> {
-    /// The first sub-stop after `t`, or `stop`; one within round-off of `stop` is `stop`.
-    fn next(&self, t: f64, stop: f64) -> f64 {
-        let next = self.samples.and_then(|table| table.next_sample(t)).map_or(stop, |s| s.min(stop));
-        if same_instant(next, stop) { stop } else { next }
-    }
+/// The integrator's next intermediate stop after `t` within a segment ending at `stop`: the
+/// next sample of `samples` (the continuous inputs, in a model with event indicators), else
+/// `stop`; one within round-off of `stop` is `stop`.
+fn next_sub_stop(samples: Option<&InputTable>, t: f64, stop: f64) -> f64 {
+    let next = samples.and_then(|table| table.next_sample(t)).map_or(stop, |s| s.min(stop));
+    if same_instant(next, stop) { stop } else { next }
 }
 
 /// The stop time to give the solver before its next step from `t`, whose size it proposes to be
@@ -389,6 +382,14 @@ fn completed_step(model: &Model, p: &Progress, step_event_check: bool) -> Result
     } else {
         None
     })
+}
+
+/// Moves the run's progress to the end of a step: time `t`, the FMU's states from the
+/// integrator's vector `y`, which must be finite.
+fn arrive(model: &Model, p: &mut Progress, t: f64, y: &impl Vector<T = f64>) -> Result<(), SimError> {
+    p.t = t;
+    p.x = fmu_states(y, model.nx);
+    check_finite(model, &p.x, p.t)
 }
 
 /// The FMU's states within the integrator's vector (which holds one stand-in state, with
@@ -460,8 +461,8 @@ where
     // miss, and landing on every sample of a piecewise-linear input (a kink in the derivative
     // each time) costs a multistep method several steps per sample.
     let lands_on_samples = model.nz > 0 && plan.input_bindings.iter().any(|b| !b.hold);
-    let sub_stops = SubStops { samples: plan.inputs.as_ref().filter(|_| lands_on_samples) };
-    let mut sub_stop = sub_stops.next(p.t, stop);
+    let samples = plan.inputs.as_ref().filter(|_| lands_on_samples);
+    let mut sub_stop = next_sub_stop(samples, p.t, stop);
     // The stop time handed to the solver, if any (see `stop_for_next_step`).
     let mut solver_stop: Option<f64> = None;
     loop {
@@ -490,7 +491,7 @@ where
                 if sub_stop >= stop {
                     return Ok(SegmentEnd::Stop);
                 }
-                sub_stop = sub_stops.next(sub_stop, stop);
+                sub_stop = next_sub_stop(samples, sub_stop, stop);
                 continue;
             }
         }
@@ -510,9 +511,7 @@ where
         match reason {
             OdeSolverStopReason::InternalTimestep => {
                 record_due(model, rec, p, t_now, Some(&interp))?;
-                p.t = t_now;
-                p.x = fmu_states(solver.state().y, model.nx);
-                check_finite(model, &p.x, p.t)?;
+                arrive(model, p, t_now, solver.state().y)?;
                 if let Some(end) = completed_step(model, p, step_event_check)? {
                     return Ok(end);
                 }
@@ -520,9 +519,7 @@ where
             OdeSolverStopReason::RootFound(t_root, _) => {
                 record_due(model, rec, p, t_root, Some(&interp))?;
                 solver.state_mut_back(t_root).map_err(|e| fail(e, t_root))?;
-                p.t = t_root;
-                p.x = fmu_states(solver.state().y, model.nx);
-                check_finite(model, &p.x, p.t)?;
+                arrive(model, p, t_root, solver.state().y)?;
                 // The step is complete up to the root, as FMPy and the standard's loop have it.
                 let end = completed_step(model, p, step_event_check)?;
                 return Ok(if matches!(end, Some(SegmentEnd::Terminate)) {
@@ -534,9 +531,7 @@ where
             OdeSolverStopReason::TstopReached => {
                 let reached = solver_stop.take().unwrap_or(t_now);
                 record_due(model, rec, p, reached, Some(&interp))?;
-                p.t = reached;
-                p.x = fmu_states(solver.state().y, model.nx);
-                check_finite(model, &p.x, p.t)?;
+                arrive(model, p, reached, solver.state().y)?;
                 if let Some(end) = completed_step(model, p, step_event_check)? {
                     return Ok(end);
                 }
@@ -544,7 +539,7 @@ where
                     if sub_stop >= stop {
                         return Ok(SegmentEnd::Stop);
                     }
-                    sub_stop = sub_stops.next(sub_stop, stop);
+                    sub_stop = next_sub_stop(samples, sub_stop, stop);
                 }
             }
         }
@@ -558,14 +553,15 @@ mod tests {
     #[test]
     fn sub_stops_are_continuous_input_samples_then_the_stop() {
         let table = InputTable { time: vec![0.0, 0.25, 0.3, 2.0], columns: vec![("u".into(), vec![0.0; 4])] };
-        let subs = SubStops { samples: Some(&table) };
         let seen: Vec<f64> =
-            std::iter::successors(Some(0.0), |&t| (t < 1.0).then(|| subs.next(t, 1.0))).skip(1).collect();
+            std::iter::successors(Some(0.0), |&t| (t < 1.0).then(|| next_sub_stop(Some(&table), t, 1.0)))
+                .skip(1)
+                .collect();
         assert_eq!(seen, [0.25, 0.3, 1.0]);
         // A sample within round-off of the stop is the stop.
-        assert_eq!(SubStops { samples: None }.next(0.5, 1.0), 1.0);
+        assert_eq!(next_sub_stop(None, 0.5, 1.0), 1.0);
         let near = InputTable { time: vec![0.0, 1.0 - 1e-15], columns: vec![("u".into(), vec![0.0; 2])] };
-        assert_eq!(SubStops { samples: Some(&near) }.next(0.5, 1.0), 1.0);
+        assert_eq!(next_sub_stop(Some(&near), 0.5, 1.0), 1.0);
     }
 
     #[test]
