@@ -8,7 +8,7 @@
 
 use super::plan::Plan;
 use super::spec::{SimError, SimResult};
-use super::{Recorder, initialize};
+use super::{Recorder, initialize, time_eps};
 use crate::fmu::{Instance, Status};
 
 pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimError> {
@@ -16,7 +16,6 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
     let mut rec = Recorder::new(plan);
     let mut t = plan.start;
     let mut steps: u64 = 0;
-    let eps = |x: f64| 1e-12 * x.abs().max(1.0);
     let variable_steps =
         inst.description().co_simulation.as_ref().is_some_and(|cs| cs.can_handle_variable_communication_step_size);
     let held = plan.held_columns();
@@ -25,9 +24,9 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
         _ => None,
     };
     for &target in &plan.grid {
-        while t < target - eps(target) {
+        while t < target - time_eps(target) {
             let step_end = match input_event_after(t) {
-                Some(b) if b < target - eps(target) => b,
+                Some(b) if b < target - time_eps(target) => b,
                 _ => target,
             };
             let remaining = step_end - t;
@@ -46,7 +45,8 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
                 if c.terminated().unwrap_or(false) {
                     // The values at the last successful time are the FMU's last word.
                     let recorded = rec.time.last().copied().unwrap_or(f64::NEG_INFINITY);
-                    if let Some(last) = last_successful.filter(|&l| l > recorded + eps(l) && l <= target + eps(target))
+                    if let Some(last) =
+                        last_successful.filter(|&l| l > recorded + time_eps(l) && l <= target + time_eps(target))
                     {
                         inst.set_error_time(last);
                         rec.record(inst, plan, last)?;

@@ -4,11 +4,7 @@
 //! last sample, the end values are held.
 
 use super::spec::SimError;
-
-/// Times closer than this are the same instant (data files and output grids differ by round-off).
-fn time_eps(t: f64) -> f64 {
-    1e-12 * t.abs().max(1.0)
-}
+use super::time_eps;
 
 /// Which limit to take at a time where a signal jumps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -37,7 +37,7 @@ use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeEquations, OdeSolverMethod
 use super::inputs::{InputTable, Side};
 use super::plan::Plan;
 use super::spec::{SimError, SimResult, Solver};
-use super::{Recorder, initialize};
+use super::{Recorder, initialize, same_instant};
 use crate::fmu::ffi::EventInfo;
 use crate::fmu::{FmuError, Instance};
 
@@ -302,12 +302,6 @@ fn record_due(
         p.next_output += 1;
     }
     Ok(())
-}
-
-/// Whether two times are the same instant up to round-off (1e-12 relative: looser than
-/// diffsol's own test unless its step is far longer than the time; `set_stop` catches that).
-fn same_instant(a: f64, b: f64) -> bool {
-    (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1.0)
 }
 
 /// The integrator's next intermediate stop after `t` within a segment ending at `stop`: the

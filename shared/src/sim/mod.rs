@@ -84,6 +84,18 @@ pub fn simulate(fmu: &Fmu, spec: &SimSpec) -> Result<SimResult, SimError> {
     Simulator::new(fmu, interface)?.run(spec)
 }
 
+/// Times closer than this to `t` are the same instant: data files, output grids and integrator
+/// times differ by round-off (1e-12 relative, at least 1e-12). One rule for inputs and drivers.
+pub(crate) fn time_eps(t: f64) -> f64 {
+    1e-12 * t.abs().max(1.0)
+}
+
+/// Whether `a` and `b` are the same instant up to round-off ([`time_eps`]); looser than diffsol's
+/// own test unless its step is far longer than the time (the ME driver's `set_stop` catches that).
+pub(crate) fn same_instant(a: f64, b: f64) -> bool {
+    (a - b).abs() <= time_eps(a.abs().max(b.abs()))
+}
+
 /// Common start of both drivers: experiment setup, parameters, inputs at the start time, and
 /// initialisation mode. The tolerance goes to Co-Simulation FMUs only, as FMPy does. FMI 2.0
 /// lets a Model Exchange FMU use it for its internal solvers (algebraic loops), but exported ME
