@@ -233,11 +233,8 @@ pub fn describe(path: &Path, opts: &LoadOptions) -> Result<Described, FmuError> 
     let mut missing_binaries: Vec<String> = [&description.model_exchange, &description.co_simulation]
         .into_iter()
         .flatten()
-        .filter_map(|info| binary_path(&unpacked.dir, &info.model_identifier).err())
-        .filter_map(|e| match e {
-            FmuError::NoPlatformBinary { expected, .. } => Some(expected),
-            _ => None,
-        })
+        .map(|info| binary_in_archive(&info.model_identifier))
+        .filter(|rel| !unpacked.dir.join(rel).is_file())
         .collect();
     missing_binaries.dedup();
     Ok(Described { description, sha256: unpacked.sha256, interfaces, platforms, missing_binaries })
@@ -263,8 +260,13 @@ fn platforms(dir: &Path) -> Vec<String> {
     found
 }
 
+/// Where the binary this build loads for `identifier` sits inside an FMU archive.
+fn binary_in_archive(identifier: &str) -> String {
+    format!("binaries/{PLATFORM}/{identifier}.{LIB_EXT}")
+}
+
 fn binary_path(dir: &Path, identifier: &str) -> Result<PathBuf, FmuError> {
-    let expected = format!("binaries/{PLATFORM}/{identifier}.{LIB_EXT}");
+    let expected = binary_in_archive(identifier);
     let path = dir.join(&expected);
     if path.is_file() {
         return Ok(path);
