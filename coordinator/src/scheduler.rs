@@ -14,7 +14,10 @@
 
 use std::collections::{BTreeMap, HashMap, HashSet, VecDeque};
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+// tokio's clock, so tests can pause and advance it.
+use tokio::time::Instant;
 
 use fmucal_proto::v1 as pb;
 use fmucal_shared::job::{PreparedJob, local, optimizer};
