@@ -6,7 +6,8 @@ mod common;
 
 use std::sync::Arc;
 
-use fmucal_shared::job::{JobSpec, MeasurementTable, PreparedJob, local};
+use fmucal_shared::job::pool::EvaluatorPool;
+use fmucal_shared::job::{Evaluator, JobSpec, MeasurementTable, PreparedJob, identifiability, local};
 use fmucal_shared::sim::{SimSpec, simulate};
 
 /// Synthetic data from Decay with k = 1.7, every 0.05 s, with one duplicated time stamp and one
@@ -122,3 +123,24 @@ fn inconsistent_jobs_name_the_field() {
         assert!(err.contains(want), "{want:?} not in {err:?}");
     }
 }
+
+#[test]
+fn in_process_identifiability_uses_each_difference_points_own_residuals() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = job(dir.path(), "");
+    let (fmu, prepared) = prepare(&spec, dir.path());
+    let prepared = prepared.unwrap();
+    // Away from the optimum, so the residuals (and the standard error) are far from zero.
+    let x = [1.5];
+    let pool = EvaluatorPool::new(3, "test-eval").unwrap();
+    let analysed = identifiability::analyze(fmu.clone(), &prepared, &x, &pool).unwrap();
+    // The same statistics from the plan's points evaluated one by one on a plain evaluator.
+    let plan = identifiability::difference_points(&prepared, &x);
+    let mut ev = Evaluator::new(&fmu, Arc::new(prepared.clone())).unwrap();
+    let residuals: Vec<Vec<f64>> = plan.points.iter().map(|p| ev.evaluate(p, true).residuals.unwrap()).collect();
+    let direct = identifiability::from_residuals(&prepared.parameter_names, &plan, &residuals).unwrap();
+    assert_eq!(analysed, direct);
+    assert!(analysed.standard_errors[0] > 0.0 && analysed.standard_errors[0].is_finite(), "{analysed:?}");
+    assert_eq!(analysed.residuals, prepared.objective.times.len() - 1, "one measurement is missing");
+}
+

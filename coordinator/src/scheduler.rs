@@ -20,15 +20,15 @@ use std::time::Duration;
 use tokio::time::Instant;
 
 use fmucal_proto::v1 as pb;
-use fmucal_shared::job::{PreparedJob, local, optimizer};
-use fmucal_shared::optim::{Optimizer, Outcome, Status};
+use fmucal_shared::job::{Evaluation, JobRun, JobStatus, PreparedJob};
+use fmucal_shared::optim::Optimizer;
 use prost::Message;
 use tokio::sync::{mpsc, oneshot};
 
 use crate::error::CoordinatorError;
 use crate::models::ModelStore;
 use crate::store::{JobState, Store, Write, Writer};
-use fmucal_proto::convert::{SubmittedJob, result_to_proto};
+use fmucal_proto::convert::{SubmittedJob, evaluation_from_proto, result_to_proto};
 
 type Reply<T> = oneshot::Sender<Result<T, CoordinatorError>>;
 pub type WatchSender = mpsc::Sender<Result<pb::WatchJobResponse, tonic::Status>>;
@@ -60,6 +60,8 @@ pub struct Timing {
 struct Point {
     x: Vec<f64>,
     failed_on: Vec<String>,
+    /// Why the last attempt failed.
+    last_error: String,
     assigned: Option<(String, Instant)>,
 }
 
@@ -111,17 +113,20 @@ pub struct Scheduler {
     store: Arc<Store>,
     writer: Writer,
     /// Told points not yet sent to the writer (sent every tick and at batch ends).
-    unlogged: Vec<(String, u64, Outcome)>,
+    unlogged: Vec<(String, u64, Evaluation)>,
     models: Arc<Mutex<ModelStore>>,
     timing: Timing,
     next_seq: u64,
     next_worker: u64,
 }
 
-const RUNNING: i32 = pb::JobStatus::Running as i32;
+fn is_running(status: JobStatus) -> bool {
+    status == JobStatus::Running
+}
 
-fn is_running(status: i32) -> bool {
-    status == RUNNING
+/// The protocol's number for `status`.
+fn wire(status: JobStatus) -> i32 {
+    pb::JobStatus::from(status) as i32
 }
 
 impl Scheduler {
@@ -148,7 +153,7 @@ impl Scheduler {
                 Ok(p) => p,
                 Err(e) => {
                     if is_running(state.status) {
-                        state.status = pb::JobStatus::Failed as i32;
+                        state.status = JobStatus::Failed;
                         state.error = Some(format!("cannot resume: {e}"));
                         s.save(&id, &state);
                     }
@@ -160,14 +165,14 @@ impl Scheduler {
             s.jobs.insert(id.clone(), job);
             if running {
                 // Tell the logged results of the open batch instead of evaluating them again.
-                let logged: HashMap<u64, Outcome> = s.store.evaluations(&id)?.into_iter().collect();
+                let logged: HashMap<u64, Evaluation> = s.store.evaluations(&id)?.into_iter().collect();
                 let job = s.jobs.get_mut(&id).expect("just inserted");
-                for c in job.state.optimizer.ask() {
-                    if let Some(o) = logged.get(&c.id) {
-                        let _ = job.state.optimizer.tell(c.id, *o);
+                for c in job.state.run.ask() {
+                    if let Some(e) = logged.get(&c.id) {
+                        let _ = job.state.run.tell(c.id, &c.x, e, 0.0);
                     }
                 }
-                tracing::info!(job = %id, rounds = job.state.optimizer.rounds(), "resuming job");
+                tracing::info!(job = %id, rounds = job.state.run.optimizer().rounds(), "resuming job");
                 s.refill(&id)?;
             }
         }
@@ -183,7 +188,6 @@ impl Scheduler {
             .describe(&spec.model_id)?;
         let prepared =
             PreparedJob::new(&submitted.spec, &described.description, &described.interfaces, &submitted.data)?;
-        optimizer::build(&prepared.spec).map_err(|e| CoordinatorError::InvalidArgument(e.to_string()))?;
         Ok(Arc::new(prepared))
     }
 
@@ -221,9 +225,9 @@ impl Scheduler {
                     .into_iter()
                     .map(|(id, j)| pb::JobSummary {
                         job_id: id.clone(),
-                        status: j.state.status,
-                        best_f: j.state.optimizer.best().map(|b| b.1).unwrap_or(f64::INFINITY),
-                        evaluations: j.state.optimizer.evaluations(),
+                        status: wire(j.state.status),
+                        best_f: j.state.run.best_f(),
+                        evaluations: j.state.run.optimizer().evaluations(),
                     })
                     .collect();
                 let _ = reply.send(Ok(pb::ListJobsResponse { jobs }));
@@ -231,10 +235,10 @@ impl Scheduler {
             Command::Cancel { job_id, reply } => {
                 let r = match self.jobs.get(&job_id) {
                     None => Err(CoordinatorError::NotFound(format!("job {job_id:?}"))),
-                    Some(j) if !is_running(j.state.status) => Ok(j.state.status),
+                    Some(j) if !is_running(j.state.status) => Ok(wire(j.state.status)),
                     Some(_) => self
-                        .finish(&job_id, pb::JobStatus::Cancelled, Some("cancelled"))
-                        .map(|_| pb::JobStatus::Cancelled as i32),
+                        .finish(&job_id, JobStatus::Cancelled, Some("cancelled"))
+                        .map(|_| wire(JobStatus::Cancelled)),
                 };
                 let _ = reply.send(r);
             }
@@ -304,22 +308,11 @@ impl Scheduler {
 
     fn submit(&mut self, spec: pb::JobSpec) -> Result<String, CoordinatorError> {
         let prepared = self.prepare(&spec)?;
-        let optimizer =
-            optimizer::build(&prepared.spec).map_err(|e| CoordinatorError::InvalidArgument(e.to_string()))?;
+        let run = JobRun::new(&prepared).map_err(|e| CoordinatorError::InvalidArgument(e.to_string()))?;
         let seq = self.next_seq;
         self.next_seq += 1;
         let id = format!("job-{seq:06}");
-        let state = JobState {
-            seq,
-            status: RUNNING,
-            optimizer,
-            history: vec![],
-            failed_evaluations: 0,
-            elapsed_s: 0.0,
-            result: None,
-            error: None,
-            evaluated: Default::default(),
-        };
+        let state = JobState { seq, status: JobStatus::Running, run, elapsed_s: 0.0, result: None, error: None };
         self.store.create(&id, &spec.encode_to_vec(), &state)?;
         self.jobs.insert(id.clone(), Job::new(spec, prepared, state));
         tracing::info!(job = %id, "job submitted");
@@ -331,23 +324,8 @@ impl Scheduler {
         let j = self.jobs.get(job_id).ok_or(CoordinatorError::NotFound(format!("job {job_id:?}")))?;
         Ok(pb::GetJobResponse {
             job_id: job_id.to_owned(),
-            status: j.state.status,
-            result: j.state.result.as_ref().map(|r| {
-                let mut p = result_to_proto(r, &j.prepared.parameter_names);
-                p.evaluated = j
-                    .state
-                    .evaluated
-                    .values()
-                    .map(|e| pb::EvaluatedPoint {
-                        x: e.x.clone(),
-                        ok: e.value.is_some(),
-                        value: e.value.unwrap_or(f64::NAN),
-                        residuals: e.residuals.clone(),
-                        message: e.message.clone(),
-                    })
-                    .collect();
-                p
-            }),
+            status: wire(j.state.status),
+            result: j.state.result.as_ref().map(|r| result_to_proto(r, &j.prepared.parameter_names)),
             error: j.state.error.clone().unwrap_or_default(),
         })
     }
@@ -358,14 +336,14 @@ impl Scheduler {
         if !is_running(job.state.status) {
             return Ok(());
         }
-        let batch = job.state.optimizer.ask();
+        let batch = job.state.run.ask();
         if batch.is_empty() {
-            return self.finish(id, pb::JobStatus::Succeeded, None);
+            return self.finish(id, JobStatus::Succeeded, None);
         }
         job.batch_started = Instant::now();
         for c in batch {
             if !job.open.contains_key(&c.id) {
-                job.open.insert(c.id, Point { x: c.x, failed_on: vec![], assigned: None });
+                job.open.insert(c.id, Point { x: c.x, failed_on: vec![], last_error: String::new(), assigned: None });
                 job.queue.push_back(c.id);
             }
         }
@@ -373,22 +351,12 @@ impl Scheduler {
         Ok(())
     }
 
-    fn finish(&mut self, id: &str, status: pb::JobStatus, why: Option<&str>) -> Result<(), CoordinatorError> {
+    fn finish(&mut self, id: &str, status: JobStatus, why: Option<&str>) -> Result<(), CoordinatorError> {
         let Some(job) = self.jobs.get_mut(id) else { return Ok(()) };
         let elapsed = job.state.elapsed_s + job.started.elapsed().as_secs_f64();
-        let mut result = local::finish(
-            &job.state.optimizer,
-            &job.prepared,
-            job.state.failed_evaluations,
-            elapsed,
-            job.state.history.clone(),
-        );
-        if let Some(why) = why {
-            result.termination = why.to_owned();
-        }
-        job.state.status = status as i32;
+        job.state.status = status;
         job.state.elapsed_s = elapsed;
-        job.state.result = Some(result);
+        job.state.result = Some(job.state.run.result(&job.prepared, elapsed, why));
         job.open.clear();
         job.queue.clear();
         let state_json = serde_json::to_string(&job.state)?;
@@ -405,79 +373,54 @@ impl Scheduler {
         Ok(())
     }
 
-    /// Tells a point's outcome; completes the batch when it was the last open point.
-    fn tell(&mut self, id: &str, point: u64, outcome: Outcome) {
+    /// Tells a point's evaluation; when it completes the round, reports progress, saves the
+    /// state and asks the next round (or finishes the job).
+    fn tell(&mut self, id: &str, point: u64, evaluation: Evaluation) {
         let Some(job) = self.jobs.get_mut(id) else { return };
-        if job.open.remove(&point).is_none() {
-            return;
-        }
-        job.queue.retain(|p| *p != point);
-        self.unlogged.push((id.to_owned(), point, outcome));
-        if matches!(outcome, Outcome::Failed) {
-            job.state.failed_evaluations += 1;
-        }
-        if let Err(e) = job.state.optimizer.tell(point, outcome) {
-            tracing::error!(job = %id, "optimizer rejected a result: {e}");
-            return;
-        }
-        if job.open.is_empty() {
-            let batch_wall = job.batch_started.elapsed().as_secs_f64();
-            job.state.history.push(fmucal_shared::job::HistoryPoint {
-                round: job.state.optimizer.rounds(),
-                evaluations: job.state.optimizer.evaluations(),
-                best_f: job.state.optimizer.best().map(|b| b.1).unwrap_or(f64::INFINITY),
-                batch_wall_s: batch_wall,
-            });
-            let event = progress(job, batch_wall);
-            job.watchers.retain(|w| w.try_send(Ok(event.clone())).is_ok() || !w.is_closed());
-            if matches!(job.state.optimizer.status(), Status::Done(_)) {
-                if let Err(e) = self.finish(id, pb::JobStatus::Succeeded, None) {
-                    tracing::error!(job = %id, "cannot save the result: {e}");
-                }
+        let Some(p) = job.open.remove(&point) else { return };
+        job.queue.retain(|q| *q != point);
+        let told = job.state.run.tell(point, &p.x, &evaluation, job.batch_started.elapsed().as_secs_f64());
+        self.unlogged.push((id.to_owned(), point, evaluation));
+        let round = match told {
+            Ok(Some(round)) => round,
+            Ok(None) => return,
+            Err(e) => {
+                tracing::error!(job = %id, "optimizer rejected a result: {e}");
                 return;
             }
-            match serde_json::to_string(&job.state) {
-                Ok(json) => {
-                    self.flush_log();
-                    self.writer.send(Write::State { id: id.to_owned(), json });
-                }
-                Err(e) => tracing::error!(job = %id, "cannot save the job state: {e}"),
+        };
+        let event = progress(job, round.batch_wall_s);
+        job.watchers.retain(|w| w.try_send(Ok(event.clone())).is_ok() || !w.is_closed());
+        if job.state.run.is_done() {
+            if let Err(e) = self.finish(id, JobStatus::Succeeded, None) {
+                tracing::error!(job = %id, "cannot save the result: {e}");
             }
-            if let Err(e) = self.refill(id) {
-                tracing::error!(job = %id, "cannot continue: {e}");
-            }
-        }
-    }
-
-    /// Keeps the outcome and residuals of a "points" job's point (the last attempt wins).
-    fn record_point(&mut self, r: &pb::PointResult) {
-        let Some(job) = self.jobs.get_mut(&r.job_id) else { return };
-        if job.prepared.spec.optimizer.algorithm != "points" {
             return;
         }
-        let Some(p) = job.open.get(&r.point_id) else { return };
-        let ok = r.status == pb::PointStatus::Ok as i32;
-        job.state.evaluated.insert(
-            r.point_id,
-            crate::store::PointRecord {
-                x: p.x.clone(),
-                value: ok.then_some(r.value),
-                residuals: r.residuals.clone(),
-                message: r.message.clone(),
-            },
-        );
+        match serde_json::to_string(&job.state) {
+            Ok(json) => {
+                self.flush_log();
+                self.writer.send(Write::State { id: id.to_owned(), json });
+            }
+            Err(e) => tracing::error!(job = %id, "cannot save the job state: {e}"),
+        }
+        if let Err(e) = self.refill(id) {
+            tracing::error!(job = %id, "cannot continue: {e}");
+        }
     }
 
     /// Records a failed attempt; the point is told as failed after two different workers (or
     /// three attempts), else queued again.
-    fn attempt_failed(&mut self, id: &str, point: u64, worker: &str) {
+    fn attempt_failed(&mut self, id: &str, point: u64, worker: &str, why: &str) {
         let Some(job) = self.jobs.get_mut(id) else { return };
         let Some(p) = job.open.get_mut(&point) else { return };
         p.failed_on.push(worker.to_owned());
+        p.last_error = why.to_owned();
         p.assigned = None;
         let distinct: HashSet<&String> = p.failed_on.iter().collect();
         if distinct.len() >= 2 || p.failed_on.len() >= 3 {
-            self.tell(id, point, Outcome::Failed);
+            let evaluation = Evaluation::failed(std::mem::take(&mut p.last_error));
+            self.tell(id, point, evaluation);
         } else {
             job.queue.push_back(point);
             self.wake_parked();
@@ -497,12 +440,12 @@ impl Scheduler {
             if let Some(w) = self.workers.get_mut(&wid) {
                 w.inflight.remove(&(r.job_id.clone(), r.point_id));
             }
-            self.record_point(&r);
-            if r.status == pb::PointStatus::Ok as i32 {
-                self.tell(&r.job_id, r.point_id, Outcome::Value(r.value));
+            let evaluation = evaluation_from_proto(&r);
+            if evaluation.value.is_some() {
+                self.tell(&r.job_id, r.point_id, evaluation);
             } else {
                 tracing::debug!(job = %r.job_id, point = r.point_id, worker = %wid, "simulation failed: {}", r.message);
-                self.attempt_failed(&r.job_id, r.point_id, &wid);
+                self.attempt_failed(&r.job_id, r.point_id, &wid, &r.message);
             }
         }
         let max = req.max_points as usize;
@@ -538,7 +481,7 @@ impl Scheduler {
                     continue;
                 }
                 p.assigned = Some((wid.to_owned(), Instant::now()));
-                let want_residuals = job.prepared.spec.optimizer.algorithm == "points";
+                let want_residuals = job.prepared.spec.kind.wants_residuals();
                 out.push(pb::Assignment { job_id: id.clone(), point_id: pid, x: p.x.clone(), want_residuals });
             }
             skipped.extend(job.queue.drain(..));
@@ -598,7 +541,7 @@ impl Scheduler {
             let w = self.workers.remove(&wid).expect("listed above");
             tracing::warn!(worker = %wid, points = w.inflight.len(), "worker expired");
             for (job, point) in w.inflight {
-                self.attempt_failed(&job, point, &wid);
+                self.attempt_failed(&job, point, &wid, "the worker stopped answering");
             }
         }
         // Re-send points past the evaluation timeout.
@@ -617,7 +560,7 @@ impl Scheduler {
             if let Some(info) = self.workers.get_mut(&w) {
                 info.inflight.remove(&(id.clone(), pid));
             }
-            self.attempt_failed(&id, pid, &w);
+            self.attempt_failed(&id, pid, &w, "the evaluation timed out");
         }
         // Answer long polls that waited long enough.
         let mut still = VecDeque::new();
@@ -636,14 +579,14 @@ impl Scheduler {
 }
 
 fn progress(job: &Job, batch_wall_s: f64) -> pb::WatchJobResponse {
-    let o = &job.state.optimizer;
+    let o = job.state.run.optimizer();
     pb::WatchJobResponse {
         iteration: o.iterations(),
         evaluations: o.evaluations(),
         best_f: o.best().map(|b| b.1).unwrap_or(f64::INFINITY),
         best_x: o.best().map(|b| b.0).unwrap_or_default(),
         batch_wall_s,
-        status: job.state.status,
+        status: wire(job.state.status),
         rounds: o.rounds(),
     }
 }

@@ -10,8 +10,7 @@ use std::path::Path;
 use std::sync::Arc;
 use std::sync::mpsc;
 
-use fmucal_shared::job::{CalibrationResult, HistoryPoint};
-use fmucal_shared::optim::{AnyOptimizer, Outcome};
+use fmucal_shared::job::{CalibrationResult, Evaluation, JobRun, JobStatus};
 use redb::{Database, ReadableDatabase, ReadableTable, TableDefinition};
 use serde::{Deserialize, Serialize};
 
@@ -26,26 +25,13 @@ const EVALS: TableDefinition<(&str, u64), &str> = TableDefinition::new("evaluati
 pub struct JobState {
     /// Submission order, for listing.
     pub seq: u64,
-    pub status: i32,
-    pub optimizer: AnyOptimizer,
-    pub history: Vec<HistoryPoint>,
-    pub failed_evaluations: u64,
+    pub status: JobStatus,
+    /// The optimizer and the bookkeeping of its rounds.
+    pub run: JobRun,
     /// Wall time spent before the current coordinator process.
     pub elapsed_s: f64,
     pub result: Option<CalibrationResult>,
     pub error: Option<String>,
-    /// For "points" jobs: each point's outcome and residuals, by candidate id.
-    #[serde(default)]
-    pub evaluated: std::collections::BTreeMap<u64, PointRecord>,
-}
-
-/// One evaluated point of a "points" job.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct PointRecord {
-    pub x: Vec<f64>,
-    pub value: Option<f64>,
-    pub residuals: Vec<f64>,
-    pub message: String,
 }
 
 pub struct Store {
@@ -81,7 +67,8 @@ impl Store {
         Ok(())
     }
 
-    /// Every job: (id, spec bytes, state).
+    /// Every job: (id, spec bytes, state). A state that cannot be read (written by another
+    /// version of fmucal) is reported and left out, not fatal.
     pub fn load_all(&self) -> Result<Vec<(String, Vec<u8>, JobState)>, CoordinatorError> {
         let tx = self.db.begin_read()?;
         let specs = tx.open_table(SPECS)?;
@@ -90,15 +77,21 @@ impl Store {
         for entry in states.iter()? {
             let (k, v) = entry?;
             let id = k.value().to_owned();
-            let state: JobState = serde_json::from_str(v.value())?;
+            let state: JobState = match serde_json::from_str(v.value()) {
+                Ok(s) => s,
+                Err(e) => {
+                    tracing::error!(job = %id, "the stored job state cannot be read, leaving the job out: {e}");
+                    continue;
+                }
+            };
             let spec = specs.get(id.as_str())?.map(|s| s.value().to_vec()).unwrap_or_default();
             out.push((id, spec, state));
         }
         Ok(out)
     }
 
-    /// Logged outcomes of a job's points.
-    pub fn evaluations(&self, id: &str) -> Result<Vec<(u64, Outcome)>, CoordinatorError> {
+    /// Logged evaluations of a job's points.
+    pub fn evaluations(&self, id: &str) -> Result<Vec<(u64, Evaluation)>, CoordinatorError> {
         let tx = self.db.begin_read()?;
         let evals = tx.open_table(EVALS)?;
         let mut out = vec![];
@@ -114,8 +107,8 @@ impl Store {
 pub enum Write {
     /// A job's state after a completed batch (JSON).
     State { id: String, json: String },
-    /// Told points.
-    Log(Vec<(String, u64, Outcome)>),
+    /// Told points: (job, point, evaluation).
+    Log(Vec<(String, u64, Evaluation)>),
 }
 
 /// The thread that commits queued writes in order.
@@ -172,8 +165,8 @@ impl Store {
                         states.insert(id.as_str(), json.as_str())?;
                     }
                     Write::Log(entries) => {
-                        for (id, point, outcome) in entries {
-                            evals.insert((id.as_str(), *point), serde_json::to_string(outcome)?.as_str())?;
+                        for (id, point, evaluation) in entries {
+                            evals.insert((id.as_str(), *point), serde_json::to_string(evaluation)?.as_str())?;
                         }
                     }
                 }

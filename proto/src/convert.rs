@@ -3,16 +3,41 @@
 //! direction for clients.
 
 use crate::v1 as pb;
+use fmucal_shared::job::choices::{interface_name, parse_interface};
 use fmucal_shared::job::spec::{
     DataRef, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec, WorkersSpec,
 };
-use fmucal_shared::job::{CalibrationResult, JobSpec, MeasurementTable};
+use fmucal_shared::job::{
+    CalibrationResult, EvaluatedPoint, Evaluation, HistoryPoint, JobKind, JobSpec, JobStatus, MeasurementTable,
+};
 
 /// A message that cannot be converted.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ConvertError {
     #[error("{0} is required")]
     Missing(&'static str),
+    /// A field holds a value outside its set (an unknown algorithm, interface, solver or kind).
+    #[error("{field}: {message}")]
+    Invalid { field: &'static str, message: String },
+}
+
+/// Reads an optional text choice: empty or absent is `None`, else it must parse.
+fn choice<T>(field: &'static str, text: Option<String>) -> Result<Option<T>, ConvertError>
+where
+    T: std::str::FromStr<Err = String>,
+{
+    text.filter(|t| !t.is_empty()).map(|t| t.parse().map_err(|message| ConvertError::Invalid { field, message })).transpose()
+}
+
+impl From<JobStatus> for pb::JobStatus {
+    fn from(s: JobStatus) -> Self {
+        match s {
+            JobStatus::Running => pb::JobStatus::Running,
+            JobStatus::Succeeded => pb::JobStatus::Succeeded,
+            JobStatus::Failed => pb::JobStatus::Failed,
+            JobStatus::Cancelled => pb::JobStatus::Cancelled,
+        }
+    }
 }
 
 /// A job as submitted over gRPC: the spec and the data that travels with it.
@@ -32,11 +57,22 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
         }
         let sim = p.simulation.unwrap_or_default();
         let o = p.optimizer.unwrap_or_default();
+        let interface = (!p.interface.is_empty())
+            .then(|| parse_interface(&p.interface))
+            .transpose()
+            .map_err(|message| ConvertError::Invalid { field: "spec.interface", message })?;
+        let kind = match pb::JobKind::try_from(p.kind) {
+            Ok(pb::JobKind::Calibration) => JobKind::Calibration,
+            Ok(pb::JobKind::EvaluatePoints) => JobKind::EvaluatePoints(p.points.into_iter().map(|p| p.x).collect()),
+            Err(_) => {
+                return Err(ConvertError::Invalid { field: "spec.kind", message: format!("unknown kind {}", p.kind) });
+            }
+        };
         let spec = JobSpec {
             model: ModelRef {
                 path: None,
                 id: Some(p.model_id),
-                interface: (!p.interface.is_empty()).then_some(p.interface),
+                interface,
             },
             data: DataRef { path: None, time_column: "time".into() },
             outputs: p
@@ -54,14 +90,14 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 start_time: sim.start_time,
                 stop_time: sim.stop_time,
                 tolerance: sim.tolerance,
-                solver: sim.solver,
+                solver: choice("spec.simulation.solver", sim.solver)?,
                 set: sim.set.into_iter().map(|(k, v)| (k, SetValue::from_text(v))).collect(),
                 set_from: None,
                 validation_stop_time: None,
                 fixed_from_earlier_stage: vec![],
             },
             optimizer: OptimizerSpec {
-                algorithm: if o.algorithm.is_empty() { OptimizerSpec::default().algorithm } else { o.algorithm },
+                algorithm: choice("spec.optimizer.algorithm", Some(o.algorithm))?.unwrap_or_default(),
                 parallel: o.parallel.unwrap_or(true),
                 x_tol: o.x_tol,
                 f_tol: o.f_tol,
@@ -76,9 +112,9 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 crossover_rate: o.crossover_rate,
                 mutation_rate: o.mutation_rate,
                 elitism: o.elitism.map(|v| v as usize),
-                points: (!o.points.is_empty()).then(|| o.points.into_iter().map(|p| p.x).collect()),
             },
             workers: WorkersSpec::default(),
+            kind,
         };
         let data = MeasurementTable {
             time: data.time,
@@ -93,7 +129,7 @@ pub fn job_to_proto(spec: &JobSpec, data: &MeasurementTable, model_id: &str) -> 
     let o = &spec.optimizer;
     pb::JobSpec {
         model_id: model_id.to_owned(),
-        interface: spec.model.interface.clone().unwrap_or_default(),
+        interface: spec.model.interface.map(interface_name).unwrap_or_default().to_owned(),
         data: Some(pb::MeasurementData {
             time: data.time.clone(),
             columns: data.columns.iter().map(|(n, v)| pb::Column { name: n.clone(), values: v.clone() }).collect(),
@@ -117,11 +153,11 @@ pub fn job_to_proto(spec: &JobSpec, data: &MeasurementTable, model_id: &str) -> 
             start_time: spec.simulation.start_time,
             stop_time: spec.simulation.stop_time,
             tolerance: spec.simulation.tolerance,
-            solver: spec.simulation.solver.clone(),
+            solver: spec.simulation.solver.map(|s| s.to_string()),
             set: spec.simulation.set.iter().map(|(k, v)| (k.clone(), v.to_string())).collect(),
         }),
         optimizer: Some(pb::OptimizerSpec {
-            algorithm: o.algorithm.clone(),
+            algorithm: o.algorithm.to_string(),
             parallel: Some(o.parallel),
             x_tol: o.x_tol,
             f_tol: o.f_tol,
@@ -136,8 +172,39 @@ pub fn job_to_proto(spec: &JobSpec, data: &MeasurementTable, model_id: &str) -> 
             crossover_rate: o.crossover_rate,
             mutation_rate: o.mutation_rate,
             elitism: o.elitism.map(|v| v as u64),
-            points: o.points.iter().flatten().map(|x| pb::Point { x: x.clone() }).collect(),
         }),
+        kind: match spec.kind {
+            JobKind::Calibration => pb::JobKind::Calibration,
+            JobKind::EvaluatePoints(_) => pb::JobKind::EvaluatePoints,
+        } as i32,
+        points: match &spec.kind {
+            JobKind::Calibration => vec![],
+            JobKind::EvaluatePoints(points) => points.iter().map(|x| pb::Point { x: x.clone() }).collect(),
+        },
+    }
+}
+
+/// What a worker reports for an assignment.
+pub fn point_result(a: &pb::Assignment, e: Evaluation) -> pb::PointResult {
+    pb::PointResult {
+        job_id: a.job_id.clone(),
+        point_id: a.point_id,
+        status: if e.value.is_some() { pb::PointStatus::Ok } else { pb::PointStatus::SimulationFailed } as i32,
+        value: e.value.unwrap_or(f64::NAN),
+        message: e.error.unwrap_or_default(),
+        wall_s: e.wall.as_secs_f64(),
+        residuals: e.residuals.unwrap_or_default(),
+    }
+}
+
+/// The evaluation a worker reported (a bad wall time reads as zero).
+pub fn evaluation_from_proto(r: &pb::PointResult) -> Evaluation {
+    let ok = r.status == pb::PointStatus::Ok as i32;
+    Evaluation {
+        value: ok.then_some(r.value),
+        residuals: ok.then(|| r.residuals.clone()),
+        error: (!ok).then(|| r.message.clone()),
+        wall: std::time::Duration::try_from_secs_f64(r.wall_s).unwrap_or_default(),
     }
 }
 
@@ -153,7 +220,44 @@ pub fn result_to_proto(r: &CalibrationResult, names: &[String]) -> pb::JobResult
         termination: r.termination.clone(),
         failed_evaluations: r.failed_evaluations,
         rounds: r.rounds,
-        evaluated: vec![],
+        evaluated: r
+            .evaluated
+            .iter()
+            .map(|e| pb::EvaluatedPoint {
+                x: e.x.clone(),
+                ok: e.value.is_some(),
+                value: e.value.unwrap_or(f64::NAN),
+                residuals: e.residuals.clone(),
+                message: e.message.clone(),
+            })
+            .collect(),
+    }
+}
+
+/// The result a coordinator returned, with the `history` its client saw stream by.
+pub fn result_from_proto(r: pb::JobResult, history: Vec<HistoryPoint>) -> CalibrationResult {
+    CalibrationResult {
+        x_opt: r.names.into_iter().zip(r.x_opt).collect(),
+        f_opt: r.f_opt,
+        iterations: r.iterations,
+        evaluations: r.evaluations,
+        rounds: r.rounds,
+        failed_evaluations: r.failed_evaluations,
+        termination: r.termination,
+        elapsed_s: r.elapsed_s,
+        history,
+        evaluated: r
+            .evaluated
+            .into_iter()
+            .map(|e| EvaluatedPoint {
+                x: e.x,
+                value: e.ok.then_some(e.value),
+                residuals: e.residuals,
+                message: e.message,
+            })
+            .collect(),
+        errors: None,
+        identifiability: None,
     }
 }
 

@@ -8,7 +8,7 @@ pub mod auth;
 pub mod convert;
 
 /// Version a worker must announce at registration; a mismatch is rejected.
-pub const PROTOCOL_VERSION: u32 = 1;
+pub const PROTOCOL_VERSION: u32 = 2;
 
 /// Largest gRPC message any fmucal client or server encodes or decodes (a job with its data,
 /// a batch of points, a result): 256 MiB.

@@ -11,7 +11,9 @@ use fmucal_proto::convert::{SubmittedJob, job_to_proto};
 use fmucal_shared::job::spec::{
     DataRef, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec, WorkersSpec,
 };
-use fmucal_shared::job::{JobSpec, MeasurementTable};
+use fmucal_shared::fmu::Interface;
+use fmucal_shared::job::{Algorithm, JobKind, JobSpec, MeasurementTable};
+use fmucal_shared::sim::Solver;
 use proptest::prelude::*;
 
 fn name() -> impl Strategy<Value = String> {
@@ -63,38 +65,41 @@ fn simulation() -> impl Strategy<Value = SimulationSpec> {
         prop::option::of(0.0..10.0f64),
         prop::option::of(10.0..100.0f64),
         prop::option::of(1e-10..1e-2f64),
-        prop::option::of(prop_oneof![Just("bdf"), Just("esdirk34"), Just("tr-bdf2"), Just("tsit45")]),
+        prop::option::of(prop_oneof![
+            Just(Solver::Bdf),
+            Just(Solver::Esdirk34),
+            Just(Solver::TrBdf2),
+            Just(Solver::Tsit45)
+        ]),
         prop::collection::btree_map(name(), set_value(), 0..4),
     )
         .prop_map(|(start_time, stop_time, tolerance, solver, set)| SimulationSpec {
             start_time,
             stop_time,
             tolerance,
-            solver: solver.map(str::to_owned),
+            solver,
             set: set.into_iter().collect::<BTreeMap<_, _>>(),
             ..Default::default()
         })
 }
 
-fn optimizer(n: usize) -> impl Strategy<Value = OptimizerSpec> {
-    let algorithm = prop_oneof![Just("nelder-mead"), Just("differential-evolution"), Just("genetic"), Just("points")];
+fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
+    let algorithm =
+        prop_oneof![Just(Algorithm::NelderMead), Just(Algorithm::DifferentialEvolution), Just(Algorithm::Genetic)];
     let opt_f = || prop::option::of(1e-9..1.0f64);
     (
         (algorithm, any::<bool>(), opt_f(), opt_f(), prop::option::of(1..10_000u64), prop::option::of(1..10_000u64)),
         // TOML integers are signed 64-bit.
         (0..=i64::MAX as u64, opt_f(), prop::option::of(4..200usize), opt_f(), opt_f(), prop::option::of(4..32u32)),
         (opt_f(), opt_f(), prop::option::of(0..4usize)),
-        prop::collection::vec(prop::collection::vec(finite(), n), 1..4),
     )
         .prop_map(
             |(
                 (algorithm, parallel, x_tol, f_tol, max_iters, max_fevals),
                 (seed, initial_step, population, weight, crossover, bits),
                 (crossover_rate, mutation_rate, elitism),
-                points,
             )| OptimizerSpec {
-                points: (algorithm == "points").then_some(points),
-                algorithm: algorithm.to_owned(),
+                algorithm,
                 parallel,
                 x_tol,
                 f_tol,
@@ -116,16 +121,15 @@ fn optimizer(n: usize) -> impl Strategy<Value = OptimizerSpec> {
 fn job() -> impl Strategy<Value = JobSpec> {
     (
         "[0-9a-f]{8}",
-        prop::option::of(prop_oneof![Just("me"), Just("cs")]),
+        prop::option::of(prop_oneof![Just(Interface::ModelExchange), Just(Interface::CoSimulation)]),
         prop::collection::vec(output(), 1..4),
         prop::collection::vec((name(), name()).prop_map(|(column, variable)| InputMap { column, variable }), 0..3),
         parameters(),
         simulation(),
     )
         .prop_flat_map(|(id, interface, outputs, inputs, parameters, simulation)| {
-            let n = parameters.len();
-            optimizer(n).prop_map(move |optimizer| JobSpec {
-                model: ModelRef { path: None, id: Some(id.clone()), interface: interface.map(str::to_owned) },
+            optimizer().prop_map(move |optimizer| JobSpec {
+                model: ModelRef { path: None, id: Some(id.clone()), interface },
                 data: DataRef { path: None, time_column: "time".into() },
                 outputs: outputs.clone(),
                 inputs: inputs.clone(),
@@ -133,8 +137,23 @@ fn job() -> impl Strategy<Value = JobSpec> {
                 simulation: simulation.clone(),
                 optimizer,
                 workers: WorkersSpec::default(),
+                kind: JobKind::Calibration,
             })
         })
+}
+
+/// A job that evaluates given points: its kind is not part of the TOML file (the CLI asks it
+/// of the coordinator), so it round-trips through the protocol only.
+fn points_job() -> impl Strategy<Value = JobSpec> {
+    job().prop_flat_map(|spec| {
+        let n = spec.parameters.len();
+        prop::collection::vec(prop::collection::vec(finite(), n), 1..4)
+            .prop_map(move |points| spec.evaluating_points(points))
+    })
+}
+
+fn data() -> MeasurementTable {
+    MeasurementTable { time: vec![0.0, 1.0], columns: vec![("y".into(), vec![1.0, f64::NAN])] }
 }
 
 proptest! {
@@ -146,11 +165,40 @@ proptest! {
         let parsed = JobSpec::from_toml(&text, Path::new(".")).expect("its TOML parses");
         prop_assert!(parsed.validate().is_ok(), "{:?}", parsed.validate());
         prop_assert_eq!(&parsed, &spec);
-        let data = MeasurementTable { time: vec![0.0, 1.0], columns: vec![("y".into(), vec![1.0, f64::NAN])] };
         let id = spec.model.id.clone().unwrap();
-        let back = SubmittedJob::try_from(job_to_proto(&parsed, &data, &id)).expect("converts back");
+        let back = SubmittedJob::try_from(job_to_proto(&parsed, &data(), &id)).expect("converts back");
         prop_assert_eq!(back.spec, parsed);
     }
+
+    #[test]
+    fn any_points_job_survives_the_protocol(spec in points_job()) {
+        let id = spec.model.id.clone().unwrap();
+        let back = SubmittedJob::try_from(job_to_proto(&spec, &data(), &id)).expect("converts back");
+        prop_assert_eq!(back.spec, spec);
+    }
+}
+
+#[test]
+fn unknown_choices_in_a_message_name_their_field() {
+    let spec = JobSpec::from_toml(
+        "[model]\nid = \"m\"\n[data]\n[[outputs]]\nvariable = \"y\"\ncolumn = \"y\"\n[[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n",
+        Path::new("."),
+    )
+    .unwrap();
+    let good = job_to_proto(&spec, &data(), "m");
+    let mut m = good.clone();
+    m.optimizer.as_mut().unwrap().algorithm = "points".into();
+    let e = SubmittedJob::try_from(m).unwrap_err().to_string();
+    assert!(e.starts_with("spec.optimizer.algorithm: \"points\" is not nelder-mead"), "{e}");
+    let mut m = good.clone();
+    m.interface = "xx".into();
+    assert_eq!(SubmittedJob::try_from(m).unwrap_err().to_string(), "spec.interface: \"xx\" is not me or cs");
+    let mut m = good.clone();
+    m.simulation.as_mut().unwrap().solver = Some("rk4".into());
+    assert!(SubmittedJob::try_from(m).unwrap_err().to_string().starts_with("spec.simulation.solver: unknown solver"));
+    let mut m = good;
+    m.kind = 7;
+    assert_eq!(SubmittedJob::try_from(m).unwrap_err().to_string(), "spec.kind: unknown kind 7");
 }
 
 #[test]

@@ -4,20 +4,18 @@
 //! `result.json`, `convergence.csv` and `fit.csv` (measured, nominal and optimized outputs) and
 //! the plots (`fit`, `error`, `convergence`, as SVG and PNG) to `--out`.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use fmucal_proto::auth::AttachToken;
-use fmucal_proto::convert::job_to_proto;
+use fmucal_proto::convert::{job_to_proto, result_from_proto};
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::calibration_client::CalibrationClient;
 use fmucal_shared::fmu::Fmu;
 use fmucal_shared::job::identifiability::Identifiability;
 use fmucal_shared::job::result::{ErrorReport, WindowError};
-use fmucal_shared::job::spec::OptimizerSpec;
 use fmucal_shared::job::{
     CalibrationResult, Evaluator, HistoryPoint, JobSpec, MeasurementTable, PreparedJob, identifiability,
 };
@@ -238,16 +236,11 @@ async fn identify(
 ) -> Result<Identifiability> {
     let x: Vec<f64> = job.parameter_names.iter().map(|n| result.x_opt.get(n).copied().unwrap_or(f64::NAN)).collect();
     let plan = identifiability::difference_points(job, &x);
-    let mut spec = job.spec.clone();
-    spec.optimizer =
-        OptimizerSpec { algorithm: "points".into(), points: Some(plan.points.clone()), ..Default::default() };
+    let spec = job.spec.evaluating_points(plan.points.clone());
     let job_id = submit(&mut client, &spec, data, model).await?;
     let r = wait_for_end(&mut client, &job_id, |_| {}).await?;
-    let evaluated = r.result.map(|r| r.evaluated).unwrap_or_default();
-    if let Some(bad) = evaluated.iter().find(|e| !e.ok) {
-        bail!("a difference point failed: {}", bad.message);
-    }
-    let residuals: Vec<Vec<f64>> = evaluated.into_iter().map(|e| e.residuals).collect();
+    let evaluated = r.result.map(|r| result_from_proto(r, vec![]).evaluated).unwrap_or_default();
+    let residuals = identifiability::residuals_of(&evaluated)?;
     Ok(identifiability::from_residuals(&job.parameter_names, &plan, &residuals)?)
 }
 
@@ -305,19 +298,7 @@ async fn follow(
         bail!("the job failed: {}", job.error);
     }
     let r = job.result.context("the coordinator returned no result")?;
-    Ok(CalibrationResult {
-        x_opt: r.names.iter().cloned().zip(r.x_opt.iter().copied()).collect::<BTreeMap<_, _>>(),
-        f_opt: r.f_opt,
-        iterations: r.iterations,
-        evaluations: r.evaluations,
-        rounds: r.rounds,
-        failed_evaluations: r.failed_evaluations,
-        termination: r.termination,
-        elapsed_s: r.elapsed_s,
-        history,
-        errors: None,
-        identifiability: None,
-    })
+    Ok(result_from_proto(r, history))
 }
 
 fn write_outputs(

@@ -18,6 +18,7 @@ use std::time::Duration;
 use fmucal_proto::auth::AttachToken;
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::worker_pool_client::WorkerPoolClient;
+use fmucal_shared::job::pool::EvaluatorPool;
 use tokio::sync::watch;
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
@@ -107,15 +108,13 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
     }
 
     let jobs = Arc::new(jobs::JobCache::new(config.cache_dir.clone()));
-    let threads = (0..config.slots.max(1))
-        .map(slot::spawn_thread)
-        .collect::<std::io::Result<Vec<_>>>()
+    let pool = EvaluatorPool::new(config.slots.max(1), "fmucal-slot")
         .map_err(|e| WorkerError::Config(format!("cannot start evaluation threads: {e}")))?;
-    let threads = Arc::new(threads);
+    let pool = Arc::new(pool);
     let mut slots = vec![];
     for k in 0..config.slots.max(1) {
         let ctx = slot::SlotContext {
-            threads: threads.clone(),
+            pool: pool.clone(),
             client: client.clone(),
             worker_id: worker_id.clone(),
             jobs: jobs.clone(),

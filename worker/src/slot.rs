@@ -1,90 +1,29 @@
 //! One evaluation slot: a task that long-polls the coordinator (asking for up to 4 points and
-//! returning their results with the next poll) and an OS thread that owns the
-//! slot's FMU instances (one per job, reset between points, replaced after a failure).
+//! returning their results with the next poll) and has them evaluated on its own thread of the
+//! worker's warm-evaluator pool (thread 0 for an FMU that allows one instance per process).
 
-use std::collections::HashMap;
 use std::sync::Arc;
-use std::sync::mpsc;
 
+use fmucal_proto::convert::point_result;
 use fmucal_proto::v1 as pb;
-use fmucal_shared::job::Evaluator;
+use fmucal_shared::job::Evaluation;
+use fmucal_shared::job::pool::{EvalRequest, EvaluatorPool};
 use tokio::sync::{RwLock, oneshot, watch};
 
 use crate::Client;
-use crate::jobs::{JobCache, JobContext};
+use crate::jobs::JobCache;
 
 /// Points a slot asks for per poll; the coordinator grants at most a fair share.
 const PREFETCH: u32 = 4;
 
 pub struct SlotContext {
-    /// Task queues of every slot's evaluation thread (this slot's is `threads[index]`).
-    pub threads: Arc<Vec<mpsc::Sender<Task>>>,
+    /// The worker's evaluation threads; this slot's is `pool` thread `index`.
+    pub pool: Arc<EvaluatorPool>,
     pub client: Client,
     pub worker_id: Arc<RwLock<String>>,
     pub jobs: Arc<JobCache>,
     pub stop: watch::Receiver<bool>,
     pub index: usize,
-}
-
-pub struct Task {
-    job_id: String,
-    ctx: Arc<JobContext>,
-    assignment: pb::Assignment,
-    reply: oneshot::Sender<pb::PointResult>,
-}
-
-/// Starts an evaluation thread and returns its task queue.
-pub fn spawn_thread(index: usize) -> std::io::Result<mpsc::Sender<Task>> {
-    let (tx, rx) = mpsc::channel::<Task>();
-    std::thread::Builder::new().name(format!("fmucal-slot-{index}")).spawn(move || evaluator_thread(rx))?;
-    Ok(tx)
-}
-
-/// A slot's evaluation thread.
-fn evaluator_thread(rx: mpsc::Receiver<Task>) {
-    let mut evaluators: HashMap<String, Evaluator> = HashMap::new();
-    while let Ok(task) = rx.recv() {
-        // Keep instances of a few recent jobs only: a long-lived worker sees many jobs.
-        if !evaluators.contains_key(&task.job_id) && evaluators.len() >= 4 {
-            evaluators.clear();
-        }
-        let a = &task.assignment;
-        let result = match evaluators.entry(task.job_id.clone()) {
-            std::collections::hash_map::Entry::Occupied(e) => Ok(e.into_mut()),
-            std::collections::hash_map::Entry::Vacant(v) => {
-                Evaluator::new(&task.ctx.fmu, task.ctx.job.clone()).map(|ev| v.insert(ev))
-            }
-        };
-        let point = match result {
-            Ok(ev) => {
-                let e = ev.evaluate(&a.x, a.want_residuals);
-                pb::PointResult {
-                    job_id: a.job_id.clone(),
-                    point_id: a.point_id,
-                    status: if e.value.is_some() { pb::PointStatus::Ok } else { pb::PointStatus::SimulationFailed }
-                        as i32,
-                    value: e.value.unwrap_or(f64::NAN),
-                    message: e.error.unwrap_or_default(),
-                    wall_s: e.wall.as_secs_f64(),
-                    residuals: e.residuals.unwrap_or_default(),
-                }
-            }
-            Err(err) => failed(a, err.to_string()),
-        };
-        let _ = task.reply.send(point);
-    }
-}
-
-fn failed(a: &pb::Assignment, message: String) -> pb::PointResult {
-    pb::PointResult {
-        job_id: a.job_id.clone(),
-        point_id: a.point_id,
-        status: pb::PointStatus::SimulationFailed as i32,
-        value: f64::NAN,
-        message,
-        wall_s: 0.0,
-        residuals: vec![],
-    }
 }
 
 pub async fn run(mut s: SlotContext) {
@@ -133,19 +72,25 @@ pub async fn run(mut s: SlotContext) {
             continue;
         }
         for a in resp.assignments {
-            let result = match s.jobs.get(&mut s.client, &a.job_id).await {
+            let evaluation = match s.jobs.get(&mut s.client, &a.job_id).await {
                 Ok(ctx) => {
                     let (reply, wait) = oneshot::channel();
                     let thread = if ctx.exclusive { 0 } else { s.index };
-                    let task = Task { job_id: a.job_id.clone(), ctx, assignment: a.clone(), reply };
-                    if s.threads[thread].send(task).is_err() {
-                        return;
-                    }
-                    wait.await.unwrap_or_else(|_| failed(&a, "the evaluation thread stopped".into()))
+                    let request = EvalRequest {
+                        job_key: a.job_id.clone(),
+                        fmu: ctx.fmu.clone(),
+                        job: ctx.job.clone(),
+                        x: a.x.clone(),
+                        want_residuals: a.want_residuals,
+                    };
+                    s.pool.submit(Some(thread), request, move |e| {
+                        let _ = reply.send(e);
+                    });
+                    wait.await.unwrap_or_else(|_| Evaluation::failed("the evaluation thread stopped"))
                 }
-                Err(e) => failed(&a, e),
+                Err(e) => Evaluation::failed(e),
             };
-            pending.push(result);
+            pending.push(point_result(&a, evaluation));
         }
     }
 }

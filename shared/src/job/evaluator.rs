@@ -25,6 +25,13 @@ pub struct Evaluation {
     pub wall: Duration,
 }
 
+impl Evaluation {
+    /// A failed evaluation that never ran a simulation.
+    pub fn failed(error: impl Into<String>) -> Self {
+        Evaluation { value: None, residuals: None, error: Some(error.into()), wall: Duration::ZERO }
+    }
+}
+
 /// Evaluates points of one job on one warm instance. Not `Send`: keep it on its thread.
 pub struct Evaluator {
     simulator: Simulator,

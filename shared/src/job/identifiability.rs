@@ -10,8 +10,11 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use super::JobError;
-use super::evaluator::Evaluator;
+use super::executor::{PoolBackend, execute};
 use super::objective::PreparedJob;
+use super::pool::EvaluatorPool;
+use super::result::EvaluatedPoint;
+use super::run::JobRun;
 use crate::fmu::Fmu;
 
 /// Standard errors and correlations of the calibrated parameters.
@@ -114,67 +117,31 @@ pub fn from_residuals(
     })
 }
 
-/// The whole analysis in this process, on `threads` threads (the CLI runs the points on the
-/// workers instead, through a `points` job).
+/// The residual vectors of an evaluated difference plan, in the order of its points.
+///
+/// # Errors
+/// [`JobError::Invalid`] naming the first point whose simulation failed.
+pub fn residuals_of(evaluated: &[EvaluatedPoint]) -> Result<Vec<Vec<f64>>, JobError> {
+    evaluated
+        .iter()
+        .map(|e| match e.value {
+            Some(_) => Ok(e.residuals.clone()),
+            None => Err(JobError::invalid("identifiability", format!("a difference point failed: {}", e.message))),
+        })
+        .collect()
+}
+
+/// The whole analysis in this process, on `pool` (the CLI runs the points on the workers
+/// instead, through an [`EvaluatePoints`](super::JobKind::EvaluatePoints) job).
 ///
 /// # Errors
 /// [`JobError::Invalid`] if an evaluation fails or JᵀJ is singular.
-pub fn analyze(fmu: Arc<Fmu>, job: Arc<PreparedJob>, x: &[f64], threads: usize) -> Result<Identifiability, JobError> {
-    let plan = difference_points(&job, x);
-    let residuals = evaluate_batch(&fmu, &job, &plan.points, threads)?;
+pub fn analyze(fmu: Arc<Fmu>, job: &PreparedJob, x: &[f64], pool: &EvaluatorPool) -> Result<Identifiability, JobError> {
+    let plan = difference_points(job, x);
+    let job = Arc::new(job.evaluating_points(plan.points.clone()));
+    let mut run = JobRun::new(&job)?;
+    let mut backend = PoolBackend { pool, fmu, job: job.clone(), job_key: "identifiability".into() };
+    execute(&mut run, &mut backend, |_| {})?;
+    let residuals = residuals_of(&run.result(&job, 0.0, None).evaluated)?;
     from_residuals(&job.parameter_names, &plan, &residuals)
-}
-
-/// Residual vectors of `points`, evaluated on `threads` threads with one warm instance each.
-fn evaluate_batch(
-    fmu: &Arc<Fmu>,
-    job: &Arc<PreparedJob>,
-    points: &[Vec<f64>],
-    threads: usize,
-) -> Result<Vec<Vec<f64>>, JobError> {
-    let chunks: Vec<Vec<(usize, Vec<f64>)>> = {
-        let mut c = vec![vec![]; threads.max(1).min(points.len())];
-        for (i, p) in points.iter().enumerate() {
-            let k = i % c.len();
-            c[k].push((i, p.clone()));
-        }
-        c
-    };
-    let mut out: Vec<Option<Result<Vec<f64>, String>>> = vec![None; points.len()];
-    std::thread::scope(|scope| {
-        let handles: Vec<_> = chunks
-            .into_iter()
-            .map(|chunk| {
-                let (fmu, job) = (fmu.clone(), job.clone());
-                scope.spawn(move || {
-                    let mut ev = Evaluator::new(&fmu, job).map_err(|e| e.to_string());
-                    chunk
-                        .into_iter()
-                        .map(|(i, p)| {
-                            let r = match ev.as_mut() {
-                                Ok(ev) => {
-                                    let e = ev.evaluate(&p, true);
-                                    e.residuals.ok_or(e.error.unwrap_or_else(|| "no residuals".into()))
-                                }
-                                Err(e) => Err(e.clone()),
-                            };
-                            (i, r)
-                        })
-                        .collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        for h in handles {
-            for (i, r) in h.join().unwrap_or_default() {
-                out[i] = Some(r);
-            }
-        }
-    });
-    out.into_iter()
-        .map(|r| match r {
-            Some(Ok(v)) => Ok(v),
-            Some(Err(e)) => Err(JobError::invalid("identifiability", format!("an evaluation failed: {e}"))),
-            None => Err(JobError::invalid("identifiability", "an evaluation thread stopped")),
-        })
-        .collect()
 }

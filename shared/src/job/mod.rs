@@ -1,27 +1,35 @@
 //! Calibration jobs (paper section 6): the job specification ([`spec`], TOML for the CLI and
 //! the same fields over gRPC), measurement data ([`data`]: CSV or MATLAB v5), the quadratic
 //! error objective ([`objective`], the paper's `quad_err`), one evaluation of a parameter point
-//! on a warm FMU instance ([`evaluator`]), the optimizer built from the spec ([`optimizer`]),
-//! an in-process calibration loop over threads ([`local`]), standard errors and correlations
-//! at the optimum ([`identifiability`]) and the result ([`result`]).
+//! on a warm FMU instance ([`evaluator`]) and a pool of threads keeping such instances warm
+//! ([`pool`]), the optimizer built from the spec ([`optimizer`]), one job's run and its
+//! bookkeeping ([`run`]), the one ask/evaluate/tell loop ([`executor`]), in-process
+//! calibration ([`local`]), standard errors and correlations at the optimum
+//! ([`identifiability`]), the result ([`result`]), and the enums a job names ([`choices`]).
 
+pub mod choices;
 pub mod data;
 pub mod evaluator;
+pub mod executor;
 pub mod identifiability;
 pub mod local;
 pub mod objective;
 pub mod optimizer;
+pub mod pool;
 pub mod result;
+pub mod run;
 pub mod spec;
 
 use crate::fmu::FmuError;
 use crate::optim::OptimError;
 use crate::sim::SimError;
 
+pub use choices::{Algorithm, JobKind, JobStatus};
 pub use data::MeasurementTable;
 pub use evaluator::{Evaluation, Evaluator};
 pub use objective::{Objective, PreparedJob};
-pub use result::{CalibrationResult, HistoryPoint};
+pub use result::{CalibrationResult, EvaluatedPoint, HistoryPoint};
+pub use run::JobRun;
 pub use spec::JobSpec;
 
 /// Why a job cannot be prepared or run.

@@ -222,15 +222,11 @@ impl PreparedJob {
         if let Some(t) = &inputs {
             t.validate().map_err(|e| JobError::invalid("inputs", e.to_string()))?;
         }
-        let interface = match spec.model.interface.as_deref() {
-            Some("cs") => Interface::CoSimulation,
-            Some(_) => Interface::ModelExchange,
+        let interface = match spec.model.interface {
+            Some(i) => i,
             None => *interfaces.first().ok_or_else(|| JobError::invalid("model", "the FMU offers no interface"))?,
         };
-        let solver = match &spec.simulation.solver {
-            Some(s) => s.parse().map_err(|e: String| JobError::invalid("simulation.solver", e))?,
-            None => Default::default(),
-        };
+        let solver = spec.simulation.solver.unwrap_or_default();
         let mut outputs: Vec<String> = vec![];
         for o in &spec.outputs {
             if !outputs.contains(&o.variable) {
@@ -267,6 +263,11 @@ impl PreparedJob {
             interface,
             parameter_names: names,
         })
+    }
+
+    /// The same job, asked to evaluate `points` instead of calibrating.
+    pub fn evaluating_points(&self, points: Vec<Vec<f64>>) -> PreparedJob {
+        PreparedJob { spec: self.spec.evaluating_points(points), ..self.clone() }
     }
 
     /// The simulation request of one evaluation at `x` (user units, in parameter order).

@@ -1,13 +1,15 @@
-//! Builds the job's optimizer from its `[optimizer]` table: unset fields keep each
+//! Builds the job's optimizer from its kind and `[optimizer]` table: unset fields keep each
 //! optimizer's defaults.
 
+use super::choices::{Algorithm, JobKind};
 use super::spec::JobSpec;
 use crate::optim::{
     AnyOptimizer, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, NelderMead, NmSettings, OptimError,
     PointBatch, Stopping,
 };
 
-/// The optimizer of `spec`, starting at the parameters' start values.
+/// The optimizer of `spec`, starting at the parameters' start values (for an
+/// [`JobKind::EvaluatePoints`] job: one batch of its points).
 ///
 /// # Errors
 /// [`OptimError::Setting`] naming the bad field.
@@ -28,8 +30,11 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
         max_iters: o.max_iters.or(defaults.max_iters),
         max_fevals: o.max_fevals,
     };
-    Ok(match o.algorithm.as_str() {
-        "differential-evolution" => {
+    if let JobKind::EvaluatePoints(points) = &spec.kind {
+        return Ok(AnyOptimizer::Points(PointBatch::new(&lower, &upper, points)?));
+    }
+    Ok(match o.algorithm {
+        Algorithm::DifferentialEvolution => {
             let d = DeSettings::new(n);
             let s = DeSettings {
                 population: o.population.unwrap_or(d.population),
@@ -40,11 +45,7 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
             };
             AnyOptimizer::DifferentialEvolution(DifferentialEvolution::new(&lower, &upper, Some(&x0), s)?)
         }
-        "points" => {
-            let points = o.points.as_deref().unwrap_or_default();
-            AnyOptimizer::Points(PointBatch::new(&lower, &upper, points)?)
-        }
-        "genetic" => {
+        Algorithm::Genetic => {
             let d = GaSettings::new(n);
             let s = GaSettings {
                 population: o.population.unwrap_or(d.population),
@@ -57,7 +58,7 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
             };
             AnyOptimizer::Genetic(GeneticAlgorithm::new(&lower, &upper, Some(&x0), s)?)
         }
-        _ => {
+        Algorithm::NelderMead => {
             let d = NmSettings::new(n);
             let s = NmSettings {
                 parallel: o.parallel,

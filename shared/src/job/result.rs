@@ -14,6 +14,31 @@ pub struct HistoryPoint {
     pub batch_wall_s: f64,
 }
 
+/// One point of a job that evaluates given points.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EvaluatedPoint {
+    /// The point, in parameter order.
+    pub x: Vec<f64>,
+    /// The objective value, or `None` if the simulation failed.
+    pub value: Option<f64>,
+    /// Weighted residuals (empty if the simulation failed).
+    pub residuals: Vec<f64>,
+    /// Why the simulation failed.
+    pub message: String,
+}
+
+impl EvaluatedPoint {
+    /// The record of `evaluation` at `x`.
+    pub fn new(x: &[f64], evaluation: &super::Evaluation) -> Self {
+        EvaluatedPoint {
+            x: x.to_vec(),
+            value: evaluation.value,
+            residuals: evaluation.residuals.clone().unwrap_or_default(),
+            message: evaluation.error.clone().unwrap_or_default(),
+        }
+    }
+}
+
 /// `result.json`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CalibrationResult {
@@ -29,6 +54,9 @@ pub struct CalibrationResult {
     pub termination: String,
     pub elapsed_s: f64,
     pub history: Vec<HistoryPoint>,
+    /// For a job that evaluates given points: each point with its value and residuals.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub evaluated: Vec<EvaluatedPoint>,
     /// Root-mean-square errors, when the CLI computed them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub errors: Option<ErrorReport>,

@@ -52,6 +52,9 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::JobError;
+use super::choices::{Algorithm, JobKind, optional_interface, optional_text, text};
+use crate::fmu::Interface;
+use crate::sim::Solver;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -68,6 +71,9 @@ pub struct JobSpec {
     pub optimizer: OptimizerSpec,
     #[serde(default)]
     pub workers: WorkersSpec,
+    /// Calibrate (every job file) or evaluate given points (internal, over the protocol).
+    #[serde(skip)]
+    pub kind: JobKind,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -78,7 +84,8 @@ pub struct ModelRef {
     /// SHA-256 of an FMU uploaded to the coordinator.
     pub id: Option<String>,
     /// `me` or `cs`. Default: Model Exchange if offered.
-    pub interface: Option<String>,
+    #[serde(default, with = "optional_interface")]
+    pub interface: Option<Interface>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -134,7 +141,8 @@ pub struct SimulationSpec {
     /// Default: the FMU's DefaultExperiment tolerance, else 1e-6.
     pub tolerance: Option<f64>,
     /// bdf (default), esdirk34, tr-bdf2 or tsit45.
-    pub solver: Option<String>,
+    #[serde(default, with = "optional_text")]
+    pub solver: Option<Solver>,
     /// Fixed values for other model variables, e.g. `{ crashMode = "abort", g = 9.81 }`.
     #[serde(default)]
     pub set: std::collections::BTreeMap<String, SetValue>,
@@ -190,8 +198,8 @@ impl std::fmt::Display for SetValue {
 #[serde(deny_unknown_fields)]
 pub struct OptimizerSpec {
     /// nelder-mead (default), differential-evolution or genetic.
-    #[serde(default = "default_algorithm")]
-    pub algorithm: String,
+    #[serde(default, with = "text")]
+    pub algorithm: Algorithm,
     /// Nelder–Mead: evaluate the four trial points as one batch. Default: true.
     #[serde(default = "default_true")]
     pub parallel: bool,
@@ -220,12 +228,6 @@ pub struct OptimizerSpec {
     pub mutation_rate: Option<f64>,
     /// GA elitism.
     pub elitism: Option<usize>,
-    /// For algorithm `points`: the points to evaluate (one batch, no optimization).
-    pub points: Option<Vec<Vec<f64>>>,
-}
-
-fn default_algorithm() -> String {
-    "nelder-mead".into()
 }
 
 fn default_true() -> bool {
@@ -300,11 +302,6 @@ impl JobSpec {
         if self.model.path.is_none() && self.model.id.is_none() {
             return Err(JobError::invalid("model", "give a path or an id"));
         }
-        if let Some(i) = &self.model.interface
-            && !matches!(i.as_str(), "me" | "cs")
-        {
-            return Err(JobError::invalid("model.interface", format!("{i:?} is not me or cs")));
-        }
         if self.outputs.is_empty() {
             return Err(JobError::invalid("outputs", "at least one output is needed"));
         }
@@ -340,14 +337,12 @@ impl JobSpec {
                 ));
             }
         }
-        if !matches!(self.optimizer.algorithm.as_str(), "nelder-mead" | "differential-evolution" | "genetic" | "points")
-        {
-            return Err(JobError::invalid(
-                "optimizer.algorithm",
-                format!("{:?} is not nelder-mead, differential-evolution or genetic", self.optimizer.algorithm),
-            ));
-        }
         Ok(())
+    }
+
+    /// The same model, data and mapping, asked to evaluate `points` instead of calibrating.
+    pub fn evaluating_points(&self, points: Vec<Vec<f64>>) -> JobSpec {
+        JobSpec { kind: JobKind::EvaluatePoints(points), optimizer: OptimizerSpec::default(), ..self.clone() }
     }
 
     /// Parameter names, starts and bounds as vectors.
@@ -387,7 +382,8 @@ upper = 2.0
         assert_eq!(spec.model.path.as_deref(), Some(Path::new("/jobs/m.fmu")));
         assert_eq!(spec.data.time_column, "time");
         assert_eq!(spec.outputs[0].weight, 1.0);
-        assert_eq!(spec.optimizer.algorithm, "nelder-mead");
+        assert_eq!(spec.optimizer.algorithm, Algorithm::NelderMead);
+        assert_eq!(spec.kind, JobKind::Calibration);
         assert!(spec.optimizer.parallel);
         spec.validate().unwrap();
     }
@@ -402,5 +398,26 @@ upper = 2.0
         assert!(e.to_string().starts_with("parameters[0].start"), "{e}");
         let e = JobSpec::from_toml(&JOB.replace("[data]", "[data]\nbogus = 1"), Path::new(".")).unwrap_err();
         assert!(e.to_string().contains("bogus"), "{e}");
+    }
+
+    #[test]
+    fn choices_are_read_as_enums_and_bad_names_are_refused_with_the_line() {
+        let spec = JobSpec::from_toml(
+            &JOB.replace("path = \"m.fmu\"", "path = \"m.fmu\"\ninterface = \"cs\"")
+                .replace("[data]", "[simulation]\nsolver = \"tsit45\"\n[optimizer]\nalgorithm = \"genetic\"\n[data]"),
+            Path::new("."),
+        )
+        .unwrap();
+        assert_eq!(spec.model.interface, Some(Interface::CoSimulation));
+        assert_eq!(spec.simulation.solver, Some(Solver::Tsit45));
+        assert_eq!(spec.optimizer.algorithm, Algorithm::Genetic);
+        for (from, to, says) in [
+            ("path = \"m.fmu\"", "path = \"m.fmu\"\ninterface = \"xx\"", "\"xx\" is not me or cs"),
+            ("[data]", "[optimizer]\nalgorithm = \"points\"\n[data]", "\"points\" is not nelder-mead"),
+            ("[data]", "[simulation]\nsolver = \"rk4\"\n[data]", "unknown solver \"rk4\""),
+        ] {
+            let e = JobSpec::from_toml(&JOB.replace(from, to), Path::new(".")).unwrap_err().to_string();
+            assert!(e.starts_with("toml: ") && e.contains("line") && e.contains(says), "{e}");
+        }
     }
 }

@@ -43,7 +43,11 @@ impl PointBatch {
             }
         }
         let mut next_id = 0;
-        let batch = Batch::new(points.iter().map(|p| space.to_scaled(p)).collect(), &space, &mut next_id);
+        let mut batch = Batch::new(points.iter().map(|p| space.to_scaled(p)).collect(), &space, &mut next_id);
+        // Ask exactly the given points, not their round trip through the scaled space.
+        for (c, p) in batch.candidates.iter_mut().zip(points) {
+            c.x.clone_from(p);
+        }
         Ok(PointBatch {
             space,
             batch,

@@ -22,6 +22,18 @@ pub enum Solver {
     Tsit45,
 }
 
+impl std::fmt::Display for Solver {
+    /// The name [`FromStr`](std::str::FromStr) reads back.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Solver::Bdf => "bdf",
+            Solver::Esdirk34 => "esdirk34",
+            Solver::TrBdf2 => "tr-bdf2",
+            Solver::Tsit45 => "tsit45",
+        })
+    }
+}
+
 impl std::str::FromStr for Solver {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {

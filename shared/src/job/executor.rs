@@ -1,0 +1,72 @@
+//! The ask → evaluate → tell loop, once, for every job kind and optimizer (as argmin's
+//! `Executor` owns the loop for every solver). [`execute`] runs a [`JobRun`] to its end on a
+//! synchronous [`Backend`]; [`PoolBackend`] evaluates on this process's warm-evaluator pool.
+//! The coordinator, which gets results from workers one at a time, drives the same
+//! [`JobRun`] from its scheduler instead of calling [`execute`].
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::JobError;
+use super::evaluator::Evaluation;
+use super::objective::PreparedJob;
+use super::pool::EvaluatorPool;
+use super::result::HistoryPoint;
+use super::run::JobRun;
+use crate::fmu::Fmu;
+use crate::optim::Candidate;
+
+/// Evaluates a round of candidates.
+pub trait Backend {
+    /// The evaluations of `round`, in its order.
+    fn evaluate(&mut self, round: &[Candidate]) -> Vec<Evaluation>;
+}
+
+/// Asks rounds from `run` until it is done, evaluates each on `backend` and tells the results
+/// in candidate order, so the run is the same whatever the backend's parallelism;
+/// `on_round` sees every completed round.
+///
+/// # Errors
+/// [`JobError::Optim`] if the backend answers a different number of points than asked.
+pub fn execute(
+    run: &mut JobRun,
+    backend: &mut dyn Backend,
+    mut on_round: impl FnMut(&HistoryPoint),
+) -> Result<(), JobError> {
+    loop {
+        let round = run.ask();
+        if round.is_empty() {
+            return Ok(());
+        }
+        let started = Instant::now();
+        let evaluations = backend.evaluate(&round);
+        if evaluations.len() != round.len() {
+            return Err(JobError::invalid(
+                "executor",
+                format!("{} evaluations came back for {} points", evaluations.len(), round.len()),
+            ));
+        }
+        let wall = started.elapsed().as_secs_f64();
+        for (c, e) in round.iter().zip(&evaluations) {
+            if let Some(done) = run.tell(c.id, &c.x, e, wall)? {
+                on_round(&done);
+            }
+        }
+    }
+}
+
+/// Evaluates one job's rounds on a warm-evaluator pool.
+pub struct PoolBackend<'a> {
+    pub pool: &'a EvaluatorPool,
+    pub fmu: Arc<Fmu>,
+    pub job: Arc<PreparedJob>,
+    /// Names the job's warm instances in the pool.
+    pub job_key: String,
+}
+
+impl Backend for PoolBackend<'_> {
+    fn evaluate(&mut self, round: &[Candidate]) -> Vec<Evaluation> {
+        let points: Vec<Vec<f64>> = round.iter().map(|c| c.x.clone()).collect();
+        self.pool.evaluate_all(&self.job_key, &self.fmu, &self.job, &points)
+    }
+}

@@ -1,0 +1,166 @@
+//! The warm-evaluator pool: OS threads that each own the FMU instances of the jobs they have
+//! evaluated (an [`Evaluator`] per job, reset between points, re-instantiated after a failure),
+//! fed from one queue. A request may name the thread that must run it — a worker process keeps
+//! one thread per slot, and an FMU that may be instantiated only once per process runs all its
+//! points on thread 0 — or leave it to whichever thread is free. Every path that evaluates
+//! points uses it: the in-process executor, the identifiability analysis and the workers.
+
+use std::collections::{HashMap, VecDeque};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use super::evaluator::{Evaluation, Evaluator};
+use super::objective::PreparedJob;
+use crate::fmu::Fmu;
+
+/// Jobs whose instances a thread keeps warm; a long-lived worker sees many jobs.
+const WARM_JOBS_PER_THREAD: usize = 4;
+
+/// One point to evaluate.
+pub struct EvalRequest {
+    /// Identifies the job: requests with the same key share a thread's warm instance.
+    pub job_key: String,
+    pub fmu: Arc<Fmu>,
+    pub job: Arc<PreparedJob>,
+    /// The point, in parameter order.
+    pub x: Vec<f64>,
+    pub want_residuals: bool,
+}
+
+type Reply = Box<dyn FnOnce(Evaluation) + Send>;
+
+struct Queued {
+    thread: Option<usize>,
+    request: EvalRequest,
+    reply: Reply,
+}
+
+#[derive(Default)]
+struct Queue {
+    tasks: VecDeque<Queued>,
+    closed: bool,
+}
+
+struct Shared {
+    queue: Mutex<Queue>,
+    ready: Condvar,
+}
+
+impl Shared {
+    fn lock(&self) -> MutexGuard<'_, Queue> {
+        self.queue.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// Threads with warm evaluators; dropping the pool lets queued work finish, then joins them.
+pub struct EvaluatorPool {
+    shared: Arc<Shared>,
+    threads: Vec<JoinHandle<()>>,
+}
+
+impl EvaluatorPool {
+    /// Starts `threads` (at least one) evaluation threads named `<name>-<k>`.
+    ///
+    /// # Errors
+    /// The OS error if a thread cannot be started.
+    pub fn new(threads: usize, name: &str) -> std::io::Result<Self> {
+        let shared = Arc::new(Shared { queue: Mutex::new(Queue::default()), ready: Condvar::new() });
+        let threads = (0..threads.max(1))
+            .map(|k| {
+                let shared = shared.clone();
+                std::thread::Builder::new().name(format!("{name}-{k}")).spawn(move || serve(&shared, k))
+            })
+            .collect::<std::io::Result<Vec<_>>>()?;
+        Ok(EvaluatorPool { shared, threads })
+    }
+
+    /// Number of threads.
+    pub fn threads(&self) -> usize {
+        self.threads.len()
+    }
+
+    /// Queues `request` for thread `thread` (taken modulo the number of threads) or, with
+    /// `None`, for the first free thread; `reply` receives the evaluation on that thread.
+    pub fn submit(
+        &self,
+        thread: Option<usize>,
+        request: EvalRequest,
+        reply: impl FnOnce(Evaluation) + Send + 'static,
+    ) {
+        let thread = thread.map(|t| t % self.threads.len());
+        self.shared.lock().tasks.push_back(Queued { thread, request, reply: Box::new(reply) });
+        self.shared.ready.notify_all();
+    }
+
+    /// Evaluates `points` of one job, spread over the threads; the evaluations come back in
+    /// the order of `points`.
+    pub fn evaluate_all(
+        &self,
+        job_key: &str,
+        fmu: &Arc<Fmu>,
+        job: &Arc<PreparedJob>,
+        points: &[Vec<f64>],
+    ) -> Vec<Evaluation> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        for (i, x) in points.iter().enumerate() {
+            let tx = tx.clone();
+            let request = EvalRequest {
+                job_key: job_key.to_owned(),
+                fmu: fmu.clone(),
+                job: job.clone(),
+                x: x.clone(),
+                want_residuals: job.spec.kind.wants_residuals(),
+            };
+            self.submit(None, request, move |e| {
+                let _ = tx.send((i, e));
+            });
+        }
+        drop(tx);
+        let mut out: Vec<Option<Evaluation>> = vec![None; points.len()];
+        for (i, e) in rx {
+            out[i] = Some(e);
+        }
+        out.into_iter().map(|e| e.unwrap_or_else(|| Evaluation::failed("the evaluation thread stopped"))).collect()
+    }
+}
+
+impl Drop for EvaluatorPool {
+    fn drop(&mut self) {
+        self.shared.lock().closed = true;
+        self.shared.ready.notify_all();
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Thread `me`: takes the first task meant for it or for any thread, until the pool closes
+/// and nothing is left for it.
+fn serve(shared: &Shared, me: usize) {
+    let mut warm: HashMap<String, Evaluator> = HashMap::new();
+    loop {
+        let task = {
+            let mut q = shared.lock();
+            loop {
+                if let Some(i) = q.tasks.iter().position(|t| t.thread.is_none_or(|t| t == me)) {
+                    break q.tasks.remove(i);
+                }
+                if q.closed {
+                    break None;
+                }
+                q = shared.ready.wait_timeout(q, Duration::from_secs(1)).unwrap_or_else(|p| p.into_inner()).0;
+            }
+        };
+        let Some(Queued { request: r, reply, .. }) = task else { return };
+        if !warm.contains_key(&r.job_key) && warm.len() >= WARM_JOBS_PER_THREAD {
+            warm.clear();
+        }
+        let evaluation = match warm.entry(r.job_key) {
+            std::collections::hash_map::Entry::Occupied(e) => Ok(e.into_mut()),
+            std::collections::hash_map::Entry::Vacant(v) => Evaluator::new(&r.fmu, r.job).map(|ev| v.insert(ev)),
+        }
+        .map_or_else(|e| Evaluation::failed(e.to_string()), |ev| ev.evaluate(&r.x, r.want_residuals));
+        reply(evaluation);
+    }
+}
