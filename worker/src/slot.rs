@@ -71,6 +71,7 @@ fn evaluator_thread(rx: mpsc::Receiver<Task>) {
             }
             Err(err) => failed(a, err.to_string()),
         };
+        tracing::debug!(job = %point.job_id, point = point.point_id, status = point.status, "point evaluated");
         let _ = task.reply.send(point);
     }
 }
