@@ -5,6 +5,7 @@
 
 mod common;
 
+use std::collections::{BTreeMap, HashSet};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
@@ -15,6 +16,7 @@ use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::calibration_client::CalibrationClient;
 use fmucal_shared::job::{JobSpec, MeasurementTable, PreparedJob, local};
+use fmucal_shared::optim::Optimizer;
 use fmucal_shared::sim::{InputTable, SimSpec, simulate};
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
@@ -110,15 +112,37 @@ async fn start_coordinator(data_dir: &Path) -> Coordinator {
 }
 
 fn start_worker(url: &str, cache: &Path, token: &str) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(["worker", "--coordinator", url, "--cache-dir"])
+    start_worker_logging(url, cache, token, None)
+}
+
+/// A worker; with `log`, its stderr goes to that file, with a line for every point it
+/// evaluates (read by [`evaluated_points`]).
+fn start_worker_logging(url: &str, cache: &Path, token: &str, log: Option<&Path>) -> Child {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_fmucal"));
+    cmd.args(["worker", "--coordinator", url, "--cache-dir"])
         .arg(cache)
         .env("FMUCAL_TOKEN", token)
         .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap()
+        .stdout(Stdio::null());
+    match log {
+        Some(log) => {
+            cmd.env("FMUCAL_LOG", "warn,fmucal_worker::slot=debug").stderr(std::fs::File::create(log).unwrap())
+        }
+        None => cmd.stderr(Stdio::null()),
+    };
+    cmd.spawn().unwrap()
+}
+
+/// The (job, point) of every evaluation in a worker's log, in order.
+fn evaluated_points(log: &Path) -> Vec<(String, u64)> {
+    let text = std::fs::read_to_string(log).unwrap();
+    let lines = text.lines().filter(|l| l.contains("point evaluated"));
+    lines
+        .map(|l| {
+            let field = |name| l.split_whitespace().find_map(|w| w.strip_prefix(name)).expect(l).to_owned();
+            (field("job="), field("point=").parse().expect(l))
+        })
+        .collect()
 }
 
 async fn client(url: &str, token: Option<&str>) -> Client {
@@ -251,7 +275,11 @@ async fn coordinator_killed_and_restarted_resumes_the_job() {
     let url = format!("http://127.0.0.1:{port}");
     let mut coord = start();
     tokio::time::sleep(Duration::from_millis(500)).await;
-    let mut workers: Vec<Child> = (0..2).map(|_| start_worker(&url, &dir.path().join("wcache"), TOKEN)).collect();
+    // The workers log every evaluation: the count, not the job's own counter, shows what was
+    // evaluated again.
+    let logs: Vec<_> = (0..2).map(|i| dir.path().join(format!("worker{i}.log"))).collect();
+    let mut workers: Vec<Child> =
+        logs.iter().map(|log| start_worker_logging(&url, &dir.path().join("wcache"), TOKEN, Some(log))).collect();
     let mut c = client(&url, Some(TOKEN)).await;
     let job = submit(&mut c, &spec, &data).await;
     // Wait for some progress, then SIGKILL the coordinator and start it again.
@@ -266,6 +294,15 @@ async fn coordinator_killed_and_restarted_resumes_the_job() {
     }
     coord.kill().unwrap();
     coord.wait().unwrap();
+    // What was on disk when the coordinator died: the points told by then, and the first
+    // point of the batch after the last saved state (the batches before it are complete).
+    let (told, first_open): (HashSet<u64>, u64) = {
+        let store = fmucal_coordinator::store::Store::open(&data_dir).unwrap();
+        let told = store.evaluations(&job).unwrap().into_iter().map(|(point, _)| point).collect();
+        let (_, _, mut state) = store.load_all().unwrap().into_iter().find(|(id, _, _)| *id == job).unwrap();
+        (told, state.optimizer.ask().iter().map(|c| c.id).min().expect("the job was running"))
+    };
+    assert!(told.len() >= 20 && first_open >= 20, "little was saved before the kill: {} points", told.len());
     let mut coord = start();
     tokio::time::sleep(Duration::from_millis(500)).await;
     let mut c = client(&url, Some(TOKEN)).await;
@@ -274,7 +311,30 @@ async fn coordinator_killed_and_restarted_resumes_the_job() {
     let _ = coord.kill();
     assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
     assert_eq!(x_opt(&r), vec![want.x_opt["armFriction"], want.x_opt["pendulumFriction"]]);
-    assert_eq!(r.result.unwrap().evaluations, want.evaluations, "a completed batch was evaluated again");
+    let res = r.result.unwrap();
+    assert_eq!(res.evaluations, want.evaluations);
+    let mut runs: BTreeMap<u64, usize> = BTreeMap::new();
+    for (j, point) in logs.iter().flat_map(|log| evaluated_points(log)) {
+        if j == job {
+            *runs.entry(point).or_default() += 1;
+        }
+    }
+    let total: usize = runs.values().sum();
+    assert!(
+        total as u64 >= res.evaluations,
+        "the workers evaluated {total} points, the job counts {}",
+        res.evaluations
+    );
+    // Every point the workers evaluated was one the job counts (the resumed optimizer asked
+    // the same points again, not new ones).
+    assert_eq!(runs.len() as u64, res.evaluations, "points evaluated: {runs:?}");
+    // Only points whose results were not on disk at the kill ran again, once: those the workers
+    // held then and those reported since the last write, all from batches after the saved
+    // state. (How many depends on how far the workers got while the write was on its way.)
+    let again: Vec<u64> = runs.iter().filter(|(_, n)| **n > 1).map(|(p, _)| *p).collect();
+    assert!(runs.values().all(|n| *n <= 2), "a point ran more than twice: {runs:?}");
+    assert!(again.iter().all(|p| !told.contains(p)), "points told before the kill ran again: {again:?}");
+    assert!(again.iter().all(|p| *p >= first_open), "a completed batch ran again: {again:?}, saved up to {first_open}");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -427,6 +427,12 @@ impl Scheduler {
         }
     }
 
+    /// Whether worker `wid` is the one currently assigned the point.
+    fn holds(&self, wid: &str, job: &str, point: u64) -> bool {
+        let assigned = self.jobs.get(job).and_then(|j| j.open.get(&point)).and_then(|p| p.assigned.as_ref());
+        assigned.is_some_and(|(w, _)| w == wid)
+    }
+
     fn poll(&mut self, req: pb::PollWorkRequest, reply: oneshot::Sender<pb::PollWorkResponse>) {
         let wid = req.worker_id.clone();
         match self.workers.get_mut(&wid) {
@@ -443,6 +449,10 @@ impl Scheduler {
             let evaluation = evaluation_from_proto(&r);
             if evaluation.value.is_some() {
                 self.tell(&r.job_id, r.point_id, evaluation);
+            } else if !self.holds(&wid, &r.job_id, r.point_id) {
+                // A late failure from a worker the point was taken from (expiry, timeout):
+                // the attempt was already counted, and another worker may hold the point now.
+                tracing::debug!(job = %r.job_id, point = r.point_id, worker = %wid, "late failure ignored");
             } else {
                 tracing::debug!(job = %r.job_id, point = r.point_id, worker = %wid, "simulation failed: {}", r.message);
                 self.attempt_failed(&r.job_id, r.point_id, &wid, &r.message);

@@ -90,7 +90,9 @@ pub async fn run(mut s: SlotContext) {
                 }
                 Err(e) => Evaluation::failed(e),
             };
-            pending.push(point_result(&a, evaluation));
+            let point = point_result(&a, evaluation);
+            tracing::debug!(job = %point.job_id, point = point.point_id, status = point.status, "point evaluated");
+            pending.push(point);
         }
     }
 }

@@ -9,6 +9,8 @@ use serde::{Deserialize, Serialize};
 pub struct HistoryPoint {
     pub round: u64,
     pub evaluations: u64,
+    /// Infinite until a point succeeded (written as "inf": JSON has no such number).
+    #[serde(with = "crate::optim::serde_float")]
     pub best_f: f64,
     /// Wall time of the round's batch.
     pub batch_wall_s: f64,
@@ -44,6 +46,8 @@ impl EvaluatedPoint {
 pub struct CalibrationResult {
     /// Parameter name → optimal value.
     pub x_opt: BTreeMap<String, f64>,
+    /// Infinite if no point succeeded (written as "inf").
+    #[serde(with = "crate::optim::serde_float")]
     pub f_opt: f64,
     pub iterations: u64,
     pub evaluations: u64,

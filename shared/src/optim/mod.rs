@@ -24,7 +24,7 @@ pub mod genetic;
 pub mod nelder_mead;
 pub mod point_batch;
 mod random;
-mod serde_float;
+pub(crate) mod serde_float;
 pub mod space;
 pub mod test_problems;
 

@@ -1,0 +1,535 @@
+//! The scheduler on tokio's paused clock, driven through its command channel: the test plays
+//! the workers (Register, Heartbeat, Poll with results it computes itself), so no process,
+//! network or simulation is involved and each test runs in milliseconds. Covered: worker
+//! expiry, the evaluation timeout, the "failed on 2 workers or 3 tries" rule, fair-share polls,
+//! cancel, and resuming a job from the store after the scheduler died mid-batch.
+
+use std::collections::{BTreeMap, HashSet};
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use fmucal_coordinator::CoordinatorError;
+use fmucal_coordinator::models::ModelStore;
+use fmucal_coordinator::scheduler::{Command, Scheduler, Timing};
+use fmucal_coordinator::store::Store;
+use fmucal_proto::convert::job_to_proto;
+use fmucal_proto::v1 as pb;
+use fmucal_shared::job::{JobSpec, MeasurementTable};
+use tokio::sync::{mpsc, oneshot};
+
+const HEARTBEAT: Duration = Duration::from_secs(1);
+const EXPIRY: Duration = Duration::from_secs(5);
+const TIMEOUT: Duration = Duration::from_secs(30);
+
+const RUNNING: i32 = pb::JobStatus::Running as i32;
+const SUCCEEDED: i32 = pb::JobStatus::Succeeded as i32;
+const CANCELLED: i32 = pb::JobStatus::Cancelled as i32;
+
+/// The workers' objective: a function of x alone, so no test simulates.
+fn objective(x: &[f64]) -> f64 {
+    x.iter().map(|v| (v - 1.7).powi(2)).sum()
+}
+
+fn ok(a: &pb::Assignment) -> pb::PointResult {
+    pb::PointResult {
+        job_id: a.job_id.clone(),
+        point_id: a.point_id,
+        status: pb::PointStatus::Ok as i32,
+        value: objective(&a.x),
+        residuals: if a.want_residuals { vec![a.x[0], 1.0] } else { vec![] },
+        ..Default::default()
+    }
+}
+
+fn failed(a: &pb::Assignment) -> pb::PointResult {
+    pb::PointResult {
+        job_id: a.job_id.clone(),
+        point_id: a.point_id,
+        status: pb::PointStatus::SimulationFailed as i32,
+        value: f64::NAN,
+        message: "test failure".into(),
+        ..Default::default()
+    }
+}
+
+fn ids(assignments: &[pb::Assignment]) -> Vec<u64> {
+    assignments.iter().map(|a| a.point_id).collect()
+}
+
+/// The distinct points among `assignments`, by id, with the x they were handed out with.
+fn by_id(assignments: &[pb::Assignment]) -> BTreeMap<u64, Vec<f64>> {
+    assignments.iter().map(|a| (a.point_id, a.x.clone())).collect()
+}
+
+/// A job on the Decay example (one parameter, k) with the given `[optimizer]` table: the
+/// model is stored in `dir`'s model store, as an upload would.
+fn job(dir: &Path, optimizer: &str) -> pb::JobSpec {
+    let bytes = std::fs::read(fmucal_models::example("decay").expect("the decay example")).unwrap();
+    let (model_id, _) = ModelStore::open(dir).unwrap().put(&bytes).unwrap();
+    let toml = format!(
+        "[model]\n[data]\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n\
+         [[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.5\nupper = 3.0\n[optimizer]\n{optimizer}\n"
+    );
+    let spec = JobSpec::from_toml(&toml, dir).unwrap();
+    let time: Vec<f64> = (0..=20).map(|i| f64::from(i) * 0.1).collect();
+    let x = time.iter().map(|t| (-1.7 * t).exp()).collect();
+    job_to_proto(&spec, &MeasurementTable { time, columns: vec![("x".into(), x)] }, &model_id)
+}
+
+/// Differential evolution: batches of `population` points, `max_iters` generations after the
+/// initial population.
+fn de_job(dir: &Path, population: usize, max_iters: u64) -> pb::JobSpec {
+    let stop = format!("max_iters = {max_iters}\nx_tol = 0.0\nf_tol = 0.0");
+    job(dir, &format!("algorithm = \"differential-evolution\"\npopulation = {population}\nseed = 3\n{stop}"))
+}
+
+/// One batch of `n` given points (what identifiability analyses submit).
+fn points_job(dir: &Path, n: usize) -> pb::JobSpec {
+    let mut spec = job(dir, "");
+    spec.kind = pb::JobKind::EvaluatePoints as i32;
+    spec.points = (0..n).map(|i| pb::Point { x: vec![0.6 + 0.2 * i as f64] }).collect();
+    spec
+}
+
+/// A scheduler task on a data directory.
+struct Sched {
+    tx: mpsc::Sender<Command>,
+    task: tokio::task::JoinHandle<()>,
+}
+
+impl Sched {
+    /// Opens the store and models in `dir` (resuming what runs there) and starts the task.
+    fn start(dir: &Path) -> Sched {
+        let store = Store::open(dir).unwrap();
+        let models = Arc::new(Mutex::new(ModelStore::open(dir).unwrap()));
+        let timing = Timing { heartbeat_interval: HEARTBEAT, worker_expiry: EXPIRY, evaluation_timeout: TIMEOUT };
+        let (tx, rx) = mpsc::channel(64);
+        let task = tokio::spawn(Scheduler::new(store, models, timing).unwrap().run(rx));
+        Sched { tx, task }
+    }
+
+    /// Stops the task as a crash would: mid-loop, without the orderly shutdown, so told points
+    /// not yet sent to the store writer are lost. (What the writer was sent is committed while
+    /// the scheduler drops, as if it had reached the disk before the crash.)
+    async fn kill(self) {
+        self.task.abort();
+        assert!(self.task.await.unwrap_err().is_cancelled());
+    }
+
+    async fn call<T>(&self, cmd: impl FnOnce(oneshot::Sender<T>) -> Command) -> T {
+        let (reply, rx) = oneshot::channel();
+        assert!(self.tx.send(cmd(reply)).await.is_ok(), "the scheduler stopped");
+        rx.await.expect("the scheduler dropped a reply")
+    }
+
+    async fn register(&self, name: &str, slots: u32) -> String {
+        let req = pb::RegisterRequest { protocol_version: fmucal_proto::PROTOCOL_VERSION, slots, name: name.into() };
+        self.call(|reply| Command::Register { req, reply }).await.unwrap().worker_id
+    }
+
+    async fn heartbeat(&self, worker_id: &str) -> bool {
+        self.call(|reply| Command::Heartbeat { worker_id: worker_id.into(), reply }).await.unwrap()
+    }
+
+    /// Returns `results` and asks for up to `max` points, without waiting.
+    async fn poll(&self, worker_id: &str, results: Vec<pb::PointResult>, max: u32) -> pb::PollWorkResponse {
+        let req = pb::PollWorkRequest { worker_id: worker_id.into(), results, max_points: max, wait_ms: 0 };
+        let resp = self.call(|reply| Command::Poll { req, reply }).await;
+        assert!(resp.assignments.len() <= max as usize, "more points than asked for: {resp:?}");
+        resp
+    }
+
+    /// The points a poll for up to `max` hands to a known worker.
+    async fn take(&self, worker_id: &str, max: u32) -> Vec<pb::Assignment> {
+        let resp = self.poll(worker_id, vec![], max).await;
+        assert!(resp.known, "{worker_id} is not known");
+        resp.assignments
+    }
+
+    /// Returns results without asking for more.
+    async fn answer(&self, worker_id: &str, results: Vec<pb::PointResult>) {
+        assert!(self.poll(worker_id, results, 0).await.known);
+    }
+
+    async fn submit(&self, spec: pb::JobSpec) -> String {
+        self.call(|reply| Command::Submit { spec, reply }).await.unwrap()
+    }
+
+    async fn get(&self, job_id: &str) -> pb::GetJobResponse {
+        self.call(|reply| Command::Get { job_id: job_id.into(), reply }).await.unwrap()
+    }
+
+    async fn cancel(&self, job_id: &str) -> Result<i32, CoordinatorError> {
+        self.call(|reply| Command::Cancel { job_id: job_id.into(), reply }).await
+    }
+
+    /// Lets `d` pass on the paused clock in heartbeat-long steps; the `alive` workers heartbeat
+    /// after each step. Each step ends with a round trip, so the ticks it made due have run.
+    async fn pass(&self, d: Duration, alive: &[&str]) {
+        let mut left = d;
+        while !left.is_zero() {
+            let step = left.min(HEARTBEAT);
+            tokio::time::advance(step).await;
+            left -= step;
+            for w in alive {
+                assert!(self.heartbeat(w).await, "{w} expired");
+            }
+            self.call(|reply| Command::List { reply }).await.unwrap();
+        }
+    }
+
+    /// The `workers` in turn return what they hold, answered by `answer(worker, point)`, and
+    /// ask for up to 4 more, until the job ends. Returns its final state and every hand-out
+    /// as (worker, assignment), in order.
+    async fn drive(
+        &self,
+        job_id: &str,
+        workers: &[&str],
+        mut answer: impl FnMut(&str, &pb::Assignment) -> pb::PointResult,
+    ) -> (pb::GetJobResponse, Vec<(String, pb::Assignment)>) {
+        let mut held: Vec<Vec<pb::Assignment>> = vec![vec![]; workers.len()];
+        let mut handed = vec![];
+        for _ in 0..10_000 {
+            let r = self.get(job_id).await;
+            if r.status != RUNNING {
+                return (r, handed);
+            }
+            for (w, held) in workers.iter().zip(held.iter_mut()) {
+                let results = held.drain(..).map(|a| answer(w, &a)).collect();
+                let resp = self.poll(w, results, 4).await;
+                assert!(resp.known, "{w} is not known");
+                handed.extend(resp.assignments.iter().map(|a| (w.to_string(), a.clone())));
+                *held = resp.assignments;
+            }
+        }
+        panic!("job {job_id} did not end");
+    }
+}
+
+/// The result of a finished job, without its wall time.
+fn result(r: &pb::GetJobResponse) -> pb::JobResult {
+    let mut res = r.result.clone().unwrap_or_else(|| panic!("no result: {r:?}"));
+    res.elapsed_s = 0.0;
+    res
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_silent_worker_expires_and_its_points_go_to_another() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let (a, b) = (s.register("a", 1).await, s.register("b", 1).await);
+    let job = s.submit(de_job(dir.path(), 4, 2)).await;
+    let held_by_a = s.take(&a, 2).await;
+    assert_eq!(held_by_a.len(), 2);
+    let first = s.take(&b, 1).await;
+
+    // Within the expiry a's points stay a's: b, answering and asking, gets only the last one.
+    s.pass(EXPIRY - HEARTBEAT, &[&b]).await;
+    let resp = s.poll(&b, first.iter().map(ok).collect(), 4).await;
+    assert_eq!(resp.assignments.len(), 1, "{resp:?}");
+    assert!(!ids(&held_by_a).contains(&resp.assignments[0].point_id));
+    s.answer(&b, resp.assignments.iter().map(ok).collect()).await;
+    assert!(s.take(&b, 4).await.is_empty(), "a's points were re-sent before a expired");
+
+    // Past the expiry a is dropped and b gets a's points.
+    s.pass(2 * HEARTBEAT, &[&b]).await;
+    let resent = s.take(&b, 4).await;
+    assert_eq!(resent.len(), 2);
+    assert_eq!(by_id(&resent), by_id(&held_by_a));
+    let late = s.poll(&a, held_by_a.iter().map(ok).collect(), 4).await;
+    assert!(!late.known && late.assignments.is_empty(), "{late:?}");
+    assert!(!s.heartbeat(&a).await);
+
+    s.answer(&b, resent.iter().map(ok).collect()).await;
+    let (r, _) = s.drive(&job, &[&b], |_, p| ok(p)).await;
+    assert_eq!(r.status, SUCCEEDED, "{r:?}");
+    let res = result(&r);
+    assert_eq!((res.evaluations, res.failed_evaluations), (12, 0), "{res:?}");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_point_past_the_evaluation_timeout_is_sent_to_another_worker() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let (a, b) = (s.register("a", 1).await, s.register("b", 1).await);
+    let job = s.submit(points_job(dir.path(), 2)).await;
+    let slow = s.take(&a, 1).await;
+    let quick = s.take(&b, 1).await;
+    assert_eq!((slow.len(), quick.len()), (1, 1));
+    s.answer(&b, quick.iter().map(ok).collect()).await;
+
+    // Both workers stay alive; a holds its point until just before the timeout...
+    s.pass(TIMEOUT - HEARTBEAT, &[&a, &b]).await;
+    assert!(s.take(&b, 4).await.is_empty(), "re-sent before the timeout");
+    // ...and past it the point is b's (and not a's again).
+    s.pass(2 * HEARTBEAT, &[&a, &b]).await;
+    assert!(s.take(&a, 4).await.is_empty(), "the late point went back to its slow worker");
+    let resent = s.take(&b, 4).await;
+    assert_eq!(ids(&resent), ids(&slow));
+    assert_eq!(resent[0].x, slow[0].x);
+
+    // b answers; a's late answer (a different value) changes nothing.
+    s.answer(&b, resent.iter().map(ok).collect()).await;
+    let late = pb::PointResult { value: 99.0, ..ok(&slow[0]) };
+    s.answer(&a, vec![late]).await;
+    let r = s.get(&job).await;
+    assert_eq!(r.status, SUCCEEDED, "{r:?}");
+    let res = result(&r);
+    assert_eq!((res.evaluations, res.failed_evaluations), (2, 0));
+    let values: Vec<f64> = res.evaluated.iter().map(|e| e.value).collect();
+    assert_eq!(values, vec![objective(&slow[0].x), objective(&quick[0].x)]);
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_late_failure_does_not_requeue_a_point_held_by_another_worker() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let (a, b, c) = (s.register("a", 1).await, s.register("b", 1).await, s.register("c", 1).await);
+    s.submit(points_job(dir.path(), 1)).await;
+    let slow = s.take(&a, 1).await;
+    s.pass(TIMEOUT + HEARTBEAT, &[&a, &b, &c]).await;
+    assert_eq!(ids(&s.take(&b, 1).await), ids(&slow));
+    // a gives up on the point it no longer holds: b still has it, so c must not get it.
+    s.answer(&a, slow.iter().map(failed).collect()).await;
+    let dup = s.take(&c, 1).await;
+    assert!(dup.is_empty(), "handed out while b holds it: {dup:?}");
+}
+
+/// Drives a differential-evolution job to its end on `workers` (1 slot each); `fails(attempt)`
+/// says whether the `attempt`-th hand-out (from 1) of the job's first point fails. Returns the
+/// result and the workers the first point was handed to, in order.
+async fn first_point_failing(workers: &[&str], fails: impl Fn(usize) -> bool) -> (pb::JobResult, Vec<String>) {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let mut ws = vec![];
+    for w in workers {
+        ws.push(s.register(w, 1).await);
+    }
+    let job = s.submit(de_job(dir.path(), 4, 2)).await;
+    let mut attempts = 0;
+    let wr: Vec<&str> = ws.iter().map(String::as_str).collect();
+    let (r, handed) = s
+        .drive(&job, &wr, |_, p| {
+            if p.point_id != 0 {
+                return ok(p);
+            }
+            attempts += 1;
+            if fails(attempts) { failed(p) } else { ok(p) }
+        })
+        .await;
+    assert_eq!(r.status, SUCCEEDED, "{r:?}");
+    let to = handed.into_iter().filter(|(_, p)| p.point_id == 0).map(|(w, _)| w).collect();
+    (result(&r), to)
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_point_failing_on_two_workers_is_told_as_failed_and_the_job_goes_on() {
+    let (res, to) = first_point_failing(&["a", "b"], |_| true).await;
+    assert_eq!(to.len(), 2, "handed out {to:?}");
+    assert_ne!(to[0], to[1], "retried on the worker it failed on");
+    assert_eq!(res.failed_evaluations, 1, "{res:?}");
+    // The job went on: the initial population and both generations were evaluated.
+    assert_eq!((res.evaluations, res.rounds), (12, 3), "{res:?}");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_point_failing_once_is_retried_elsewhere_not_told() {
+    let (res, to) = first_point_failing(&["a", "b"], |n| n == 1).await;
+    assert_eq!(to.len(), 2, "handed out {to:?}");
+    assert_ne!(to[0], to[1]);
+    assert_eq!(res.failed_evaluations, 0, "{res:?}");
+    assert_eq!(res.evaluations, 12);
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_lone_worker_gets_a_failing_point_three_times() {
+    let (res, to) = first_point_failing(&["a"], |_| true).await;
+    assert_eq!(to.len(), 3, "handed out {to:?}");
+    assert_eq!(res.failed_evaluations, 1, "{res:?}");
+    assert_eq!(res.evaluations, 12);
+    // Two failures are not enough to give up.
+    let (res, to) = first_point_failing(&["a"], |n| n <= 2).await;
+    assert_eq!(to.len(), 3, "handed out {to:?}");
+    assert_eq!(res.failed_evaluations, 0, "{res:?}");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_poll_gets_at_most_its_fair_share_of_the_queue() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    // 4 live slots.
+    let (a, b, c) = (s.register("a", 1).await, s.register("b", 2).await, s.register("c", 1).await);
+    let queued = 10;
+    s.submit(points_job(dir.path(), queued)).await;
+    let mut left = queued;
+    let mut seen = HashSet::new();
+    let mut sizes = vec![];
+    for (w, max) in [(&a, 8), (&b, 8), (&c, 1), (&a, 8), (&b, 8), (&c, 8), (&a, 8), (&b, 8)] {
+        let got = s.take(w, max).await;
+        assert_eq!(got.len(), (max as usize).min(left.div_ceil(4)), "{left} queued, {max} asked: {got:?}");
+        assert!(got.iter().all(|p| seen.insert(p.point_id)), "a point handed out twice: {got:?}");
+        left -= got.len();
+        sizes.push(got.len());
+    }
+    assert_eq!(sizes, vec![3, 2, 1, 1, 1, 1, 1, 0]);
+    assert_eq!(seen.len(), queued);
+}
+
+/// A cancelled job's state: CANCELLED, with a result of `evaluations` points and the best x.
+fn assert_cancelled(r: &pb::GetJobResponse, evaluations: u64, x_opt: &[f64]) {
+    assert_eq!(r.status, CANCELLED, "{r:?}");
+    let res = result(r);
+    assert_eq!((res.termination.as_str(), res.evaluations), ("cancelled", evaluations), "{res:?}");
+    assert_eq!(res.x_opt, x_opt);
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_cancelled_job_ends_hands_out_nothing_more_and_keeps_its_result() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let a = s.register("a", 1).await;
+    let job = s.submit(de_job(dir.path(), 4, 50)).await;
+    let batch1 = s.take(&a, 4).await;
+    let held = s.poll(&a, batch1.iter().map(ok).collect(), 2).await.assignments;
+    assert_eq!((batch1.len(), held.len()), (4, 2));
+    let best = batch1.iter().map(|p| p.x.clone()).min_by(|x, y| objective(x).total_cmp(&objective(y))).unwrap();
+
+    assert_eq!(s.cancel(&job).await.unwrap(), CANCELLED);
+    assert_cancelled(&s.get(&job).await, 4, &best);
+    // The points in hand are answered in vain; nothing more comes from the job.
+    let resp = s.poll(&a, held.iter().map(ok).collect(), 4).await;
+    assert!(resp.known && resp.assignments.is_empty(), "{resp:?}");
+    assert_cancelled(&s.get(&job).await, 4, &best);
+    // Another job's points are all that polls get.
+    let other = s.submit(points_job(dir.path(), 2)).await;
+    let got = s.take(&a, 4).await;
+    assert_eq!(got.len(), 2);
+    assert!(got.iter().all(|p| p.job_id == other), "{got:?}");
+    // Cancelling again changes nothing; a finished job is not cancelled; an unknown one is not found.
+    assert_eq!(s.cancel(&job).await.unwrap(), CANCELLED);
+    s.answer(&a, got.iter().map(ok).collect()).await;
+    assert_eq!(s.cancel(&other).await.unwrap(), SUCCEEDED);
+    assert!(matches!(s.cancel("job-999999").await, Err(CoordinatorError::NotFound(_))));
+
+    // The cancellation survives a restart.
+    s.kill().await;
+    let s = Sched::start(dir.path());
+    assert_cancelled(&s.get(&job).await, 4, &best);
+    let a = s.register("a", 1).await;
+    assert!(s.take(&a, 4).await.is_empty());
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_job_cancelled_before_its_first_batch_survives_a_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let job = s.submit(de_job(dir.path(), 4, 50)).await;
+    assert_eq!(s.cancel(&job).await.unwrap(), CANCELLED);
+    assert_cancelled(&s.get(&job).await, 0, &[1.0]);
+    s.kill().await;
+    let s = Sched::start(dir.path());
+    assert_cancelled(&s.get(&job).await, 0, &[1.0]);
+}
+
+/// Runs a 6-point, 3-generation DE job on one worker, killing the scheduler in the second
+/// batch after the worker answered `answered` of its points, and resuming on the same data
+/// directory with a new worker. The job's point `failing` fails on every attempt (3 before
+/// the kill, for the lone worker). Checks that answered points are not handed out again, and
+/// that the result and every hand-out match an uninterrupted run's.
+async fn resume_mid_batch(answered: usize, failing: Option<u64>) {
+    const POP: u32 = 6;
+    let answer = |p: &pb::Assignment| if Some(p.point_id) == failing { failed(p) } else { ok(p) };
+    let spec = |dir: &Path| de_job(dir, POP as usize, 2);
+
+    let reference = tempfile::tempdir().unwrap();
+    let s = Sched::start(reference.path());
+    let w = s.register("w", 1).await;
+    let job = s.submit(spec(reference.path())).await;
+    let (want, want_handed) = s.drive(&job, &[&w], |_, p| answer(p)).await;
+    assert_eq!(want.status, SUCCEEDED);
+    s.kill().await;
+    let want_points = by_id(&want_handed.into_iter().map(|(_, p)| p).collect::<Vec<_>>());
+
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let a = s.register("a", 1).await;
+    let job = s.submit(spec(dir.path())).await;
+    let batch1 = s.take(&a, POP).await;
+    let resp = s.poll(&a, batch1.iter().map(answer).collect(), POP).await;
+    let batch2 = resp.assignments;
+    assert_eq!((batch1.len(), batch2.len()), (POP as usize, POP as usize));
+    let (done, open) = batch2.split_at(answered);
+    assert!(failing.is_none_or(|f| ids(done).contains(&f)), "point {failing:?} is not among {done:?}");
+    for p in done {
+        // A failing point is re-sent to the lone worker until its third failure.
+        let mut attempt = p.clone();
+        for _ in 0..if Some(p.point_id) == failing { 3 } else { 1 } {
+            let again = s.poll(&a, vec![answer(&attempt)], 1).await.assignments;
+            if let Some(p) = again.first() {
+                assert_eq!(p.point_id, attempt.point_id, "{again:?}");
+                attempt = p.clone();
+            }
+        }
+    }
+    // A tick sends the told points to the store; then the scheduler dies.
+    s.pass(Duration::from_millis(100), &[&a]).await;
+    assert_eq!(s.get(&job).await.status, RUNNING);
+    s.kill().await;
+
+    let s = Sched::start(dir.path());
+    let b = s.register("b", 1).await;
+    let resent = s.take(&b, POP).await;
+    assert_eq!(ids(&resent), ids(open), "after the restart, only the unanswered points of the batch");
+    assert_eq!(by_id(&resent), by_id(open));
+    s.answer(&b, resent.iter().map(answer).collect()).await;
+    let (got, handed) = s.drive(&job, &[&b], |_, p| answer(p)).await;
+    assert_eq!(got.status, SUCCEEDED, "{got:?}");
+    assert_eq!(result(&got), result(&want), "the resumed job's result differs from an uninterrupted run's");
+    // The points open at the kill were handed out before it and again after it.
+    let mut all: Vec<pb::Assignment> = [&batch1[..], done, &resent].concat();
+    all.extend(handed.into_iter().map(|(_, p)| p));
+    let mut seen = HashSet::new();
+    assert!(
+        all.iter().filter(|p| Some(p.point_id) != failing).all(|p| seen.insert(p.point_id)),
+        "a point was handed out twice"
+    );
+    assert_eq!(by_id(&all), want_points, "other points than in an uninterrupted run");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_resumed_job_skips_answered_points_and_ends_as_an_uninterrupted_one() {
+    resume_mid_batch(3, None).await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_resumed_job_counts_the_failed_points_it_tells_from_the_log() {
+    // Point 6 is the first of the second batch.
+    resume_mid_batch(3, Some(6)).await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_resumed_points_job_reports_every_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let a = s.register("a", 1).await;
+    let job = s.submit(points_job(dir.path(), 4)).await;
+    let points = s.take(&a, 4).await;
+    s.answer(&a, points[..2].iter().map(ok).collect()).await;
+    s.pass(Duration::from_millis(100), &[&a]).await;
+    s.kill().await;
+
+    let s = Sched::start(dir.path());
+    let b = s.register("b", 1).await;
+    let (r, handed) = s.drive(&job, &[&b], |_, p| ok(p)).await;
+    assert_eq!(ids(&handed.into_iter().map(|(_, p)| p).collect::<Vec<_>>()), ids(&points[2..]));
+    let res = result(&r);
+    let want: Vec<pb::EvaluatedPoint> = points
+        .iter()
+        .map(|p| {
+            let r = ok(p);
+            pb::EvaluatedPoint { x: p.x.clone(), ok: true, value: r.value, residuals: r.residuals, message: r.message }
+        })
+        .collect();
+    assert_eq!(res.evaluated, want, "every point, in the order given");
+}
