@@ -300,7 +300,7 @@ async fn coordinator_killed_and_restarted_resumes_the_job() {
         let store = fmucal_coordinator::store::Store::open(&data_dir).unwrap();
         let told = store.evaluations(&job).unwrap().into_iter().map(|(point, _)| point).collect();
         let (_, _, mut state) = store.load_all().unwrap().into_iter().find(|(id, _, _)| *id == job).unwrap();
-        (told, state.optimizer.ask().iter().map(|c| c.id).min().expect("the job was running"))
+        (told, state.run.ask().iter().map(|c| c.id).min().expect("the job was running"))
     };
     assert!(told.len() >= 20 && first_open >= 20, "little was saved before the kill: {} points", told.len());
     let mut coord = start();
