@@ -96,7 +96,7 @@ impl PreparedJob {
         spec.validate()?;
         let mut used: Vec<&str> = spec.outputs.iter().map(|o| o.column.as_str()).collect();
         used.extend(spec.inputs.iter().map(|i| i.column.as_str()));
-        data.validate(&used)?;
+        data.validate_measurements(&used)?;
 
         for (k, p) in spec.parameters.iter().enumerate() {
             let field = format!("parameters[{k}].name");
@@ -220,7 +220,7 @@ impl PreparedJob {
                 .collect(),
         });
         if let Some(t) = &inputs {
-            t.validate().map_err(|e| JobError::invalid("inputs", e.to_string()))?;
+            t.validate_inputs().map_err(|e| JobError::invalid("inputs", e.to_string()))?;
         }
         let interface = match spec.model.interface {
             Some(i) => i,

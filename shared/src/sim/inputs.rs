@@ -1,10 +1,11 @@
-//! Input time series: validated tables of samples, interpolated linearly for continuous Real
-//! inputs and held (right-continuous) for discrete ones, as FMPy does. Repeated time stamps
-//! mark a jump: at exactly that time the later row applies. Before the first and after the
-//! last sample, the end values are held.
+//! Input time series: a [`TimeSeries`] checked as simulation inputs, interpolated linearly for
+//! continuous Real inputs and held (right-continuous) for discrete ones, as FMPy does. Repeated
+//! time stamps mark a jump: at exactly that time the later row applies. Before the first and
+//! after the last sample, the end values are held.
 
 use super::spec::SimError;
 use super::time_eps;
+use crate::series::{TimeFault, TimeSeries};
 
 /// Which limit to take at a time where a signal jumps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -13,36 +14,23 @@ pub enum Side {
     Right,
 }
 
-/// Samples of named input signals.
-#[derive(Debug, Clone, PartialEq)]
-pub struct InputTable {
-    pub time: Vec<f64>,
-    /// (column name, samples aligned with `time`).
-    pub columns: Vec<(String, Vec<f64>)>,
-}
+/// Samples of named input signals: the name the integration tests build inputs by.
+pub type InputTable = TimeSeries;
 
-impl InputTable {
-    /// Checks the table: at least one row, finite values, non-decreasing time, equal lengths.
+impl TimeSeries {
+    /// Checks the table as inputs: at least one row, finite values, non-decreasing time, equal
+    /// lengths.
     ///
     /// # Errors
     /// [`SimError::Invalid`] naming the column and row at fault.
-    pub fn validate(&self) -> Result<(), SimError> {
-        if self.time.is_empty() {
-            return Err(SimError::Invalid("input table has no rows".into()));
-        }
-        for (i, t) in self.time.iter().enumerate() {
-            if !t.is_finite() {
-                return Err(SimError::Invalid(format!("input time in row {} is not a finite number", i + 1)));
-            }
-            if i > 0 && *t < self.time[i - 1] {
-                return Err(SimError::Invalid(format!(
-                    "input time is not monotonic: row {} has t={} after t={}",
-                    i + 1,
-                    t,
-                    self.time[i - 1]
-                )));
-            }
-        }
+    pub fn validate_inputs(&self) -> Result<(), SimError> {
+        self.check_time().map_err(|fault| {
+            SimError::Invalid(match fault {
+                TimeFault::NoRows => "input table has no rows".into(),
+                TimeFault::NotFinite { row } => format!("input time in row {row} is not a finite number"),
+                TimeFault::Decreasing { .. } => format!("input time is {fault}"),
+            })
+        })?;
         for (name, values) in &self.columns {
             if values.len() != self.time.len() {
                 return Err(SimError::Invalid(format!(
@@ -59,7 +47,7 @@ impl InputTable {
     }
 
     /// Value of column `col` at time `t`: linear between samples, or held if `hold`. At a jump
-    /// (repeated time stamp) this is the value after it; see [`InputTable::value_before`].
+    /// (repeated time stamp) this is the value after it; see [`TimeSeries::value_before`].
     pub fn value(&self, col: usize, t: f64, hold: bool) -> f64 {
         self.value_on(Side::Right, col, t, hold)
     }
@@ -120,8 +108,8 @@ impl InputTable {
 mod tests {
     use super::*;
 
-    fn table() -> InputTable {
-        InputTable { time: vec![0.0, 1.0, 1.0, 3.0], columns: vec![("u".into(), vec![0.0, 2.0, 5.0, 9.0])] }
+    fn table() -> TimeSeries {
+        TimeSeries { time: vec![0.0, 1.0, 1.0, 3.0], columns: vec![("u".into(), vec![0.0, 2.0, 5.0, 9.0])] }
     }
 
     #[test]
@@ -164,10 +152,18 @@ mod tests {
     fn decreasing_time_and_nan_are_rejected() {
         let mut t = table();
         t.time[3] = 0.5;
-        assert!(t.validate().unwrap_err().to_string().contains("not monotonic"));
+        assert!(t.validate_inputs().unwrap_err().to_string().contains("not monotonic"));
         let mut t = table();
         t.columns[0].1[1] = f64::NAN;
-        assert!(t.validate().unwrap_err().to_string().contains("row 2"));
+        assert!(t.validate_inputs().unwrap_err().to_string().contains("row 2"));
+    }
+
+    #[test]
+    fn time_faults_read_as_input_faults() {
+        let message = |time: Vec<f64>| TimeSeries { time, columns: vec![] }.validate_inputs().unwrap_err().to_string();
+        assert!(message(vec![]).ends_with("input table has no rows"));
+        assert!(message(vec![0.0, f64::NAN]).ends_with("input time in row 2 is not a finite number"));
+        assert!(message(vec![0.0, 2.0, 1.0]).ends_with("input time is not monotonic: row 3 has t=1 after t=2"));
     }
 
     #[test]

@@ -34,12 +34,13 @@ use std::cell::{Cell, RefCell};
 
 use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeEquations, OdeSolverMethod, OdeSolverStopReason, Vector};
 
-use super::inputs::{InputTable, Side};
+use super::inputs::Side;
 use super::plan::Plan;
 use super::spec::{SimError, SimResult, Solver};
 use super::{Recorder, initialize, same_instant};
 use crate::fmu::ffi::EventInfo;
 use crate::fmu::{FmuError, Instance};
+use crate::series::TimeSeries;
 
 /// The FMU as seen from diffsol's closures: shared, with the first error kept aside (closures
 /// cannot return errors, so they fill their outputs with NaN and the driver reports the error).
@@ -307,7 +308,7 @@ fn record_due(
 /// The integrator's next intermediate stop after `t` within a segment ending at `stop`: the
 /// next sample of `samples` (the continuous inputs, in a model with event indicators), else
 /// `stop`; one within round-off of `stop` is `stop`.
-fn next_sub_stop(samples: Option<&InputTable>, t: f64, stop: f64) -> f64 {
+fn next_sub_stop(samples: Option<&TimeSeries>, t: f64, stop: f64) -> f64 {
     let next = samples.and_then(|table| table.next_sample(t)).map_or(stop, |s| s.min(stop));
     if same_instant(next, stop) { stop } else { next }
 }
@@ -546,7 +547,7 @@ mod tests {
 
     #[test]
     fn sub_stops_are_continuous_input_samples_then_the_stop() {
-        let table = InputTable { time: vec![0.0, 0.25, 0.3, 2.0], columns: vec![("u".into(), vec![0.0; 4])] };
+        let table = TimeSeries { time: vec![0.0, 0.25, 0.3, 2.0], columns: vec![("u".into(), vec![0.0; 4])] };
         let seen: Vec<f64> =
             std::iter::successors(Some(0.0), |&t| (t < 1.0).then(|| next_sub_stop(Some(&table), t, 1.0)))
                 .skip(1)
@@ -554,7 +555,7 @@ mod tests {
         assert_eq!(seen, [0.25, 0.3, 1.0]);
         // A sample within round-off of the stop is the stop.
         assert_eq!(next_sub_stop(None, 0.5, 1.0), 1.0);
-        let near = InputTable { time: vec![0.0, 1.0 - 1e-15], columns: vec![("u".into(), vec![0.0; 2])] };
+        let near = TimeSeries { time: vec![0.0, 1.0 - 1e-15], columns: vec![("u".into(), vec![0.0; 2])] };
         assert_eq!(next_sub_stop(Some(&near), 0.5, 1.0), 1.0);
     }
 

@@ -4,10 +4,11 @@
 
 use std::time::Instant;
 
-use super::inputs::{InputTable, Side};
+use super::inputs::Side;
 use super::spec::{OutputTimes, SimError, SimSpec, Solver};
 use crate::fmu::schema::{Causality, ScalarVariable, VarType, Variability};
 use crate::fmu::{FmuError, Instance, Interface, ModelDescription};
+use crate::series::TimeSeries;
 
 /// A typed value to set on the FMU.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -47,7 +48,7 @@ pub struct Plan {
     pub max_steps: u64,
     pub deadline: Option<Instant>,
     pub settings: Vec<Setting>,
-    pub inputs: Option<InputTable>,
+    pub inputs: Option<TimeSeries>,
     pub input_bindings: Vec<InputBinding>,
     pub outputs: Vec<VarRef>,
     /// Value references of the Real outputs and their positions in `outputs`.
@@ -100,7 +101,7 @@ impl Plan {
         let (inputs, input_bindings) = match &spec.inputs {
             None => (None, vec![]),
             Some(table) => {
-                table.validate()?;
+                table.validate_inputs()?;
                 let bindings = table
                     .columns
                     .iter()

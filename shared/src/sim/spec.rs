@@ -5,8 +5,8 @@ use std::time::Duration;
 
 use serde::Serialize;
 
-use super::inputs::InputTable;
 use crate::fmu::{FmuError, Interface};
+use crate::series::TimeSeries;
 
 /// Integrator for Model Exchange (all from diffsol).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -70,7 +70,7 @@ pub struct SimSpec {
     /// Parameters and start values by variable name, as text (numbers, true/false, enum item names).
     pub parameters: Vec<(String, String)>,
     /// Input time series.
-    pub inputs: Option<InputTable>,
+    pub inputs: Option<TimeSeries>,
     /// Variables to report. Default: all outputs, or all states if there are none.
     pub outputs: Vec<String>,
     /// Relative tolerance of the integrator. Default: `DefaultExperiment/tolerance`, else 1e-6.

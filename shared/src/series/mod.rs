@@ -1,0 +1,76 @@
+//! The one time-series type of fmucal: a time column and named columns of samples, for
+//! simulation inputs and measurement data alike, read from CSV or MATLAB v5 files by [`read`].
+//! This module owns the table, its column lookup and the check of its time column; what the
+//! samples mean belongs to their users: [`crate::sim::inputs`] validates and interpolates
+//! inputs, [`crate::job::data`] checks measurements (where NaN marks a missing value).
+
+mod read;
+
+pub use read::{Layout, Missing, SeriesError, TimeColumn, read, read_csv, read_mat};
+
+/// Samples of named signals at common time stamps.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TimeSeries {
+    pub time: Vec<f64>,
+    /// (column name, samples aligned with `time`).
+    pub columns: Vec<(String, Vec<f64>)>,
+}
+
+/// What is wrong with a time column; rows count from 1.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum TimeFault {
+    #[error("no rows")]
+    NoRows,
+    #[error("row {row} is not a finite number")]
+    NotFinite { row: usize },
+    #[error("not monotonic: row {row} has t={t} after t={previous}")]
+    Decreasing { row: usize, t: f64, previous: f64 },
+}
+
+impl TimeSeries {
+    /// The values of the column named `name` (the first, if several are).
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.columns.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice())
+    }
+
+    /// Checks the time column: at least one row, every time finite, none before the one above.
+    ///
+    /// # Errors
+    /// The first [`TimeFault`], in row order.
+    pub fn check_time(&self) -> Result<(), TimeFault> {
+        if self.time.is_empty() {
+            return Err(TimeFault::NoRows);
+        }
+        for (i, &t) in self.time.iter().enumerate() {
+            if !t.is_finite() {
+                return Err(TimeFault::NotFinite { row: i + 1 });
+            }
+            if i > 0 && t < self.time[i - 1] {
+                return Err(TimeFault::Decreasing { row: i + 1, t, previous: self.time[i - 1] });
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn time_faults_name_the_first_bad_row() {
+        let series = |time: Vec<f64>| TimeSeries { time, columns: vec![] };
+        assert_eq!(series(vec![]).check_time(), Err(TimeFault::NoRows));
+        assert_eq!(series(vec![0.0, 1.0, 1.0]).check_time(), Ok(()));
+        assert_eq!(series(vec![0.0, f64::INFINITY, -1.0]).check_time(), Err(TimeFault::NotFinite { row: 2 }));
+        let fault = series(vec![0.0, 2.0, 1.0]).check_time().unwrap_err();
+        assert_eq!(fault.to_string(), "not monotonic: row 3 has t=1 after t=2");
+    }
+
+    #[test]
+    fn column_finds_by_name() {
+        let t = TimeSeries { time: vec![0.0], columns: vec![("a".into(), vec![1.0]), ("b".into(), vec![2.0])] };
+        assert_eq!(t.column("b"), Some(&[2.0][..]));
+        assert_eq!(t.column("c"), None);
+    }
+}

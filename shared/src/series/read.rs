@@ -1,0 +1,295 @@
+//! The one reader of time-series files: CSV with a header row, or MATLAB v5 `.mat` where every
+//! real numeric array is a column named after its variable (as the paper's `FurutaData.mat`
+//! with `time`, `phi` and `theta`). A [`Layout`] carries what differs between callers: where
+//! the time column stands, and whether an empty cell is a missing value or an error.
+
+use std::path::{Path, PathBuf};
+
+use super::TimeSeries;
+
+/// Where the time column stands in a CSV file. In a `.mat` file, the variable of that name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TimeColumn<'a> {
+    /// First, and named so (the layout FMPy reads and writes).
+    First(&'a str),
+    /// Anywhere, named so.
+    Named(&'a str),
+}
+
+impl TimeColumn<'_> {
+    /// The time column's name.
+    pub fn name(&self) -> &str {
+        match self {
+            TimeColumn::First(name) | TimeColumn::Named(name) => name,
+        }
+    }
+}
+
+/// What an empty CSV cell means. A `NaN` cell reads as NaN either way: the caller's checks
+/// refuse it where it is not a missing value, naming its column and row.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Missing {
+    /// A missing value, read as NaN (measurements).
+    Allowed,
+    /// An error naming the line and column (inputs).
+    Refused,
+}
+
+/// How to read a file: the time column and the meaning of empty cells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Layout<'a> {
+    pub time: TimeColumn<'a>,
+    pub missing: Missing,
+}
+
+/// A time-series file that could not be read or written; `line` is the CSV line at fault.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}{}: {message}", .line.map(|l| format!(" line {l}")).unwrap_or_default())]
+pub struct SeriesError {
+    pub path: PathBuf,
+    pub line: Option<u64>,
+    pub message: String,
+}
+
+impl SeriesError {
+    pub fn new(path: &Path, line: Option<u64>, message: impl Into<String>) -> Self {
+        SeriesError { path: path.to_owned(), line, message: message.into() }
+    }
+}
+
+/// Reads `.mat` (MATLAB v5, any case of the extension) or anything else as CSV.
+///
+/// # Errors
+/// See [`read_csv`] and [`read_mat`].
+pub fn read(path: &Path, layout: &Layout) -> Result<TimeSeries, SeriesError> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some(ext) if ext.eq_ignore_ascii_case("mat") => read_mat(path, layout.time.name()),
+        _ => read_csv(path, layout),
+    }
+}
+
+/// Reads a CSV file with a header row; cells are trimmed.
+///
+/// # Errors
+/// [`SeriesError`] for an unreadable file, a time column missing or out of place, a column
+/// named twice, a row with too few or too many cells, a cell that is not a number (an empty
+/// one too, unless [`Missing::Allowed`]) or no data rows, naming the line where there is one.
+pub fn read_csv(path: &Path, layout: &Layout) -> Result<TimeSeries, SeriesError> {
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .flexible(true)
+        .from_path(path)
+        .map_err(|e| SeriesError::new(path, None, e.to_string()))?;
+    let header_err = |message: String| SeriesError::new(path, Some(1), message);
+    let headers: Vec<String> =
+        reader.headers().map_err(|e| header_err(e.to_string()))?.iter().map(str::to_owned).collect();
+    let t = time_index(&headers, layout.time).map_err(header_err)?;
+    if let Some(dup) = headers.iter().enumerate().find(|(i, h)| headers[..*i].contains(h)) {
+        return Err(header_err(format!("column {:?} appears twice", dup.1)));
+    }
+    let mut values: Vec<Vec<f64>> = vec![vec![]; headers.len()];
+    for (row, record) in reader.records().enumerate() {
+        let line = row as u64 + 2;
+        let err = |message: String| SeriesError::new(path, Some(line), message);
+        let record = record.map_err(|e| err(e.to_string()))?;
+        if record.len() != headers.len() {
+            let missing = headers.get(record.len()).map(|h| format!(", column {h:?} is missing")).unwrap_or_default();
+            return Err(err(format!("{} cells for {} columns{missing}", record.len(), headers.len())));
+        }
+        for ((cell, name), column) in record.iter().zip(&headers).zip(&mut values) {
+            let v = parse_cell(cell, layout.missing)
+                .ok_or_else(|| err(format!("column {name:?}: {cell:?} is not a number")))?;
+            column.push(v);
+        }
+    }
+    let time = values.remove(t);
+    if time.is_empty() {
+        return Err(SeriesError::new(path, None, "no data rows"));
+    }
+    let names = headers.into_iter().enumerate().filter(|&(i, _)| i != t).map(|(_, h)| h);
+    Ok(TimeSeries { time, columns: names.zip(values).collect() })
+}
+
+/// The position of the time column among `headers`, or why it has none.
+fn time_index(headers: &[String], time: TimeColumn) -> Result<usize, String> {
+    match time {
+        TimeColumn::First(name) if headers.first().is_some_and(|h| h == name) => Ok(0),
+        TimeColumn::First(name) => Err(format!("the first column must be named {name:?}")),
+        TimeColumn::Named(name) => {
+            headers.iter().position(|h| h == name).ok_or_else(|| format!("no column named {name:?}"))
+        }
+    }
+}
+
+/// A cell's number; an empty cell is NaN if missing values are allowed.
+fn parse_cell(cell: &str, missing: Missing) -> Option<f64> {
+    if cell.is_empty() && missing == Missing::Allowed { Some(f64::NAN) } else { cell.parse().ok() }
+}
+
+/// Reads a MATLAB v5 file: the variable `time_column` as time and every other real numeric
+/// array as a column (others, such as complex or character arrays, are left out).
+///
+/// # Errors
+/// [`SeriesError`] for an unreadable or non-v5 file, a time variable missing, not real and
+/// numeric, or empty.
+pub fn read_mat(path: &Path, time_column: &str) -> Result<TimeSeries, SeriesError> {
+    let err = |message: String| SeriesError::new(path, None, message);
+    let file = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
+    let mat = matfile::MatFile::parse(std::io::BufReader::new(file))
+        .map_err(|e| err(format!("not a MATLAB v5 file: {e:?}")))?;
+    let time_array = mat.find_by_name(time_column).ok_or_else(|| err(format!("no variable named {time_column:?}")))?;
+    let time = real_values(time_array).ok_or_else(|| err(format!("{time_column:?} is not a real numeric array")))?;
+    if time.is_empty() {
+        return Err(err("no data rows".into()));
+    }
+    let columns = mat
+        .arrays()
+        .iter()
+        .filter(|a| a.name() != time_column)
+        .filter_map(|a| real_values(a).map(|v| (a.name().to_owned(), v)))
+        .collect();
+    Ok(TimeSeries { time, columns })
+}
+
+/// The values of a real double, single, int32 or int64 array, in storage order.
+fn real_values(array: &matfile::Array) -> Option<Vec<f64>> {
+    use matfile::NumericData::*;
+    Some(match array.data() {
+        Double { real, imag: None } => real.clone(),
+        Single { real, imag: None } => real.iter().map(|&v| v as f64).collect(),
+        Int32 { real, imag: None } => real.iter().map(|&v| v as f64).collect(),
+        Int64 { real, imag: None } => real.iter().map(|&v| v as f64).collect(),
+        _ => return None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const INPUTS: Layout = Layout { time: TimeColumn::First("time"), missing: Missing::Refused };
+    const MEASUREMENTS: Layout = Layout { time: TimeColumn::Named("time"), missing: Missing::Allowed };
+
+    fn file(dir: &tempfile::TempDir, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    }
+
+    /// The error's line and message.
+    fn fault(r: Result<TimeSeries, SeriesError>) -> (Option<u64>, String) {
+        let e = r.unwrap_err();
+        (e.line, e.message)
+    }
+
+    #[test]
+    fn missing_cells_are_nan_when_allowed() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = file(&dir, "d.csv", "y, time ,z\n1.5,0,1\n,1,2\nNaN,2,3\n");
+        let t = read(&p, &MEASUREMENTS).unwrap();
+        assert_eq!(t.time, [0.0, 1.0, 2.0]);
+        assert_eq!(t.columns.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(), ["y", "z"]);
+        let y = t.column("y").unwrap();
+        assert!(y[0] == 1.5 && y[1].is_nan() && y[2].is_nan());
+        assert_eq!(t.column("z").unwrap(), [1.0, 2.0, 3.0]);
+    }
+
+    #[test]
+    fn missing_cells_are_errors_when_refused_but_nan_is_left_to_validation() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = file(&dir, "in.csv", "time,u\n0,1\n1,\n");
+        let e = read_csv(&p, &INPUTS).unwrap_err();
+        assert_eq!(e.to_string(), format!("{} line 3: column \"u\": \"\" is not a number", p.display()));
+        let p = file(&dir, "nan.csv", "time,u\n0,1\n1,nan\n");
+        assert!(read_csv(&p, &INPUTS).unwrap().column("u").unwrap()[1].is_nan());
+    }
+
+    #[test]
+    fn the_time_column_must_be_there_and_first_if_so_laid_out() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = file(&dir, "t.csv", "u,time\n0,0\n");
+        assert_eq!(fault(read_csv(&p, &INPUTS)), (Some(1), "the first column must be named \"time\"".into()));
+        assert_eq!(read_csv(&p, &MEASUREMENTS).unwrap().time, [0.0]);
+        let named_t = Layout { time: TimeColumn::Named("t"), ..MEASUREMENTS };
+        assert_eq!(fault(read_csv(&p, &named_t)), (Some(1), "no column named \"t\"".into()));
+    }
+
+    #[test]
+    fn malformed_csv_names_the_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let cases = [
+            ("time,u,v\n0,0,0\n1,1\n", Some(3), "2 cells for 3 columns, column \"v\" is missing"),
+            ("time,u\n0,0,0\n", Some(2), "3 cells for 2 columns"),
+            ("time,u\n0,0\n1,x\n", Some(3), "column \"u\": \"x\" is not a number"),
+            ("time,u,u\n0,0,0\n", Some(1), "column \"u\" appears twice"),
+            ("time,u\n", None, "no data rows"),
+        ];
+        for (i, (text, line, message)) in cases.into_iter().enumerate() {
+            let p = file(&dir, &format!("{i}.csv"), text);
+            for layout in [INPUTS, MEASUREMENTS] {
+                assert_eq!(fault(read_csv(&p, &layout)), (line, message.to_owned()), "{text:?}");
+            }
+        }
+        let e = read_csv(&dir.path().join("absent.csv"), &INPUTS).unwrap_err();
+        assert_eq!(e.line, None);
+    }
+
+    /// One little-endian MATLAB v5 data element, padded to 8 bytes.
+    fn element(data_type: u32, bytes: &[u8]) -> Vec<u8> {
+        let mut out = [data_type.to_le_bytes(), (bytes.len() as u32).to_le_bytes()].concat();
+        out.extend(bytes);
+        out.resize(out.len().next_multiple_of(8), 0);
+        out
+    }
+
+    /// A column vector of class `class` (6 double, 12 int32) whose parts are (type, bytes).
+    fn matrix(name: &str, class: u32, n: i32, parts: &[(u32, Vec<u8>)]) -> Vec<u8> {
+        let mut body = element(6, &[class.to_le_bytes(), [0; 4]].concat());
+        body.extend(element(5, &[n.to_le_bytes(), 1i32.to_le_bytes()].concat()));
+        body.extend(element(1, name.as_bytes()));
+        for (data_type, bytes) in parts {
+            body.extend(element(*data_type, bytes));
+        }
+        element(14, &body)
+    }
+
+    fn doubles(v: &[f64]) -> (u32, Vec<u8>) {
+        (9, v.iter().flat_map(|x| x.to_le_bytes()).collect())
+    }
+
+    fn mat_v5(arrays: &[Vec<u8>]) -> Vec<u8> {
+        let mut out = format!("{:<116}", "MATLAB 5.0 MAT-file, written by fmucal's tests").into_bytes();
+        out.extend([0; 8]);
+        out.extend(0x0100u16.to_le_bytes());
+        out.extend(b"IM");
+        out.extend(arrays.concat());
+        out
+    }
+
+    #[test]
+    fn mat_files_give_every_real_numeric_array_but_time_as_a_column() {
+        let dir = tempfile::tempdir().unwrap();
+        let complex = 6 | 0x0800;
+        let bytes = mat_v5(&[
+            matrix("phi", 6, 3, &[doubles(&[1.0, f64::NAN, 3.0])]),
+            matrix("time", 6, 3, &[doubles(&[0.0, 0.5, 1.0])]),
+            // An int32 array stored as uint8, as MATLAB stores small integers.
+            matrix("n", 12, 3, &[(2, vec![4, 5, 6])]),
+            matrix("z", complex, 3, &[doubles(&[1.0; 3]), doubles(&[2.0; 3])]),
+        ]);
+        let p = file(&dir, "d.MAT", &bytes);
+        let t = read(&p, &INPUTS).unwrap();
+        assert_eq!(t.time, [0.0, 0.5, 1.0]);
+        assert_eq!(t.columns.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(), ["phi", "n"]);
+        let phi = t.column("phi").unwrap();
+        assert!(phi[0] == 1.0 && phi[1].is_nan() && phi[2] == 3.0);
+        assert_eq!(t.column("n").unwrap(), [4.0, 5.0, 6.0]);
+
+        let named_t = Layout { time: TimeColumn::Named("t"), ..MEASUREMENTS };
+        assert_eq!(fault(read(&p, &named_t)), (None, "no variable named \"t\"".into()));
+        let as_time = Layout { time: TimeColumn::Named("z"), ..MEASUREMENTS };
+        assert_eq!(fault(read(&p, &as_time)), (None, "\"z\" is not a real numeric array".into()));
+        let p = file(&dir, "text.mat", "time,y\n0,1\n");
+        assert!(fault(read(&p, &MEASUREMENTS)).1.starts_with("not a MATLAB v5 file"));
+    }
+}
