@@ -3,7 +3,8 @@
 //! error objective ([`objective`], the paper's `quad_err`), one evaluation of a parameter point
 //! on a warm FMU instance ([`evaluator`]), the optimizer built from the spec ([`optimizer`]),
 //! an in-process calibration loop over threads ([`local`]), standard errors and correlations
-//! at the optimum ([`identifiability`]) and the result ([`result`]).
+//! at the optimum ([`identifiability`]), the result ([`result`]) and what its report compares:
+//! measured against nominal and optimized outputs, RMS errors per window ([`report`]).
 
 pub mod data;
 pub mod evaluator;
@@ -11,6 +12,7 @@ pub mod identifiability;
 pub mod local;
 pub mod objective;
 pub mod optimizer;
+pub mod report;
 pub mod result;
 pub mod spec;
 
@@ -21,7 +23,8 @@ use crate::sim::SimError;
 pub use data::MeasurementTable;
 pub use evaluator::{Evaluation, Evaluator};
 pub use objective::{Objective, PreparedJob};
-pub use result::{CalibrationResult, HistoryPoint};
+pub use report::FitTable;
+pub use result::{CalibrationResult, ErrorReport, HistoryPoint};
 pub use spec::JobSpec;
 
 /// Why a job cannot be prepared or run.
