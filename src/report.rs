@@ -1,28 +1,27 @@
-//! Plots of a calibration, drawn from the files it wrote (`fit.csv`, `convergence.csv`), as SVG
-//! and PNG with an embedded font (DejaVu Sans; no system fonts):
+//! Plots of a calibration, drawn from its typed results (the [`FitTable`], the history and
+//! the [`ErrorReport`]), as SVG and PNG with an embedded font (DejaVu Sans; no system fonts):
 //! - `fit`: measured, nominal and optimized trajectories of each output (the paper's Figures 6
 //!   and 9);
 //! - `error`: absolute error on a log scale, nominal against optimized, with the end of the
 //!   calibration window marked when there is a validation window (Figures 7 and 10);
 //! - `convergence`: best f against evaluations, one marker per completed batch.
 //!
-//! `fmucal plot DIR` calls [`draw_all`] on an existing result folder.
+//! `fmucal plot DIR` reads an existing result folder and calls [`draw_all`].
 
 use std::path::Path;
 use std::sync::Once;
 
+use fmucal_shared::job::{ErrorReport, FitTable, HistoryPoint};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
-    #[error("cannot read {path}: {message}")]
-    Read { path: String, message: String },
     #[error("cannot draw {path}: {message}")]
     Draw { path: String, message: String },
 }
 
-/// One output's series from `fit.csv`.
+/// One output's finite points.
 struct Series {
     name: String,
     measured: Vec<(f64, f64)>,
@@ -30,35 +29,24 @@ struct Series {
     optimized: Vec<(f64, f64)>,
 }
 
-fn read_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>), ReportError> {
-    let err = |m: String| ReportError::Read { path: path.display().to_string(), message: m };
-    let mut r = csv::Reader::from_path(path).map_err(|e| err(e.to_string()))?;
-    let header: Vec<String> = r.headers().map_err(|e| err(e.to_string()))?.iter().map(String::from).collect();
-    let mut rows = vec![];
-    for rec in r.records() {
-        let rec = rec.map_err(|e| err(e.to_string()))?;
-        rows.push(rec.iter().map(|c| if c.is_empty() { f64::NAN } else { c.parse().unwrap_or(f64::NAN) }).collect());
-    }
-    Ok((header, rows))
+/// The points of `values` at `time` that are finite.
+fn finite(time: &[f64], values: impl IntoIterator<Item = Option<f64>>) -> Vec<(f64, f64)> {
+    time.iter().zip(values).filter_map(|(t, v)| v.filter(|v| v.is_finite()).map(|v| (*t, v))).collect()
 }
 
-fn read_fit(path: &Path) -> Result<Vec<Series>, ReportError> {
-    let (header, rows) = read_csv(path)?;
+/// One panel per output; consecutive outputs of the same variable share a panel.
+fn series(fit: &FitTable) -> Vec<Series> {
     let mut out: Vec<Series> = vec![];
-    for (c, h) in header.iter().enumerate().skip(1) {
-        let (name, kind) = h.rsplit_once(':').unwrap_or((h, "measured"));
-        if out.last().is_none_or(|s| s.name != name) {
-            out.push(Series { name: name.to_owned(), measured: vec![], nominal: vec![], optimized: vec![] });
+    for o in &fit.outputs {
+        if out.last().is_none_or(|s| s.name != o.variable) {
+            out.push(Series { name: o.variable.clone(), measured: vec![], nominal: vec![], optimized: vec![] });
         }
         let s = out.last_mut().expect("pushed above");
-        let target = match kind {
-            "nominal" => &mut s.nominal,
-            "optimized" => &mut s.optimized,
-            _ => &mut s.measured,
-        };
-        target.extend(rows.iter().filter(|r| r[c].is_finite()).map(|r| (r[0], r[c])));
+        s.measured.extend(finite(&fit.time, o.measured.iter().map(|v| Some(*v))));
+        s.nominal.extend(finite(&fit.time, o.nominal.iter().copied()));
+        s.optimized.extend(finite(&fit.time, o.optimized.iter().copied()));
     }
-    Ok(out)
+    out
 }
 
 fn register_font() {
@@ -210,21 +198,21 @@ where
     Ok(())
 }
 
-/// Draws `fit`, `error` and `convergence` as SVG and PNG into `dir`.
+/// Draws `fit`, `error` and `convergence` as SVG and PNG into `dir`, the error plot with the
+/// calibration/validation split of `errors` if it has a validation window.
 ///
 /// # Errors
-/// [`ReportError`] if the CSV files are missing or a plot cannot be written.
-pub fn draw_all(dir: &Path) -> Result<(), ReportError> {
+/// [`ReportError`] if a plot cannot be written.
+pub fn draw_all(
+    dir: &Path,
+    fit: &FitTable,
+    history: &[HistoryPoint],
+    errors: Option<&ErrorReport>,
+) -> Result<(), ReportError> {
     register_font();
-    let series = read_fit(&dir.join("fit.csv"))?;
-    let (_, conv) = read_csv(&dir.join("convergence.csv"))?;
-    let conv: Vec<(f64, f64)> = conv.iter().filter(|r| r.len() >= 3).map(|r| (r[1], r[2])).collect();
-    // The calibration/validation split, when result.json reports a validation window.
-    let split = std::fs::read_to_string(dir.join("result.json"))
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .filter(|r| !r["errors"]["validation"].is_null())
-        .and_then(|r| r["errors"]["calibration"]["stop_time"].as_f64());
+    let series = series(fit);
+    let conv: Vec<(f64, f64)> = history.iter().map(|h| (h.evaluations as f64, h.best_f)).collect();
+    let split = errors.and_then(ErrorReport::validation_split);
     let height = 300 * series.len().max(1) as u32;
     let fail = |name: &str, message: String| ReportError::Draw { path: dir.join(name).display().to_string(), message };
     // Six independent files: draw them on parallel threads.

@@ -7,7 +7,10 @@
 use std::path::Path;
 use std::process::Command;
 
-fn calibrate(dir: &Path, job: &str, out: &str) -> serde_json::Value {
+use fmucal_shared::job::CalibrationResult;
+use fmucal_shared::job::identifiability::Identifiability;
+
+fn calibrate(dir: &Path, job: &str, out: &str) -> CalibrationResult {
     let run = Command::new(env!("CARGO_BIN_EXE_fmucal"))
         .args(["calibrate", job, "--out", out])
         .current_dir(dir)
@@ -18,13 +21,18 @@ fn calibrate(dir: &Path, job: &str, out: &str) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join(out).join("result.json")).unwrap()).unwrap()
 }
 
-fn max_abs_correlation(r: &serde_json::Value) -> f64 {
-    let c = r["identifiability"]["correlation"].as_array().unwrap();
+fn identifiability(r: &CalibrationResult) -> &Identifiability {
+    r.identifiability.as_ref().unwrap_or_else(|| panic!("no identifiability analysis: {r:?}"))
+}
+
+fn max_abs_correlation(r: &CalibrationResult) -> f64 {
+    let c = &identifiability(r).correlation;
     let mut m = 0.0f64;
     for (i, row) in c.iter().enumerate() {
-        for (j, v) in row.as_array().unwrap().iter().enumerate() {
+        for (j, v) in row.iter().enumerate() {
             if i != j {
-                m = m.max(v.as_f64().unwrap().abs());
+                assert!(v.is_finite(), "correlation [{i}][{j}] is {v}");
+                m = m.max(v.abs());
             }
         }
     }
@@ -42,19 +50,20 @@ fn two_stage_fit_calibrates_and_validates_and_all_four_is_over_parameterized() {
     let stage2 = calibrate(dir.path(), "stage2_left.toml", "stage2");
     let all4 = calibrate(dir.path(), "all_four.toml", "all4");
 
-    let cal = stage2["errors"]["calibration"]["scaled_rms"].as_f64().unwrap();
-    let val = stage2["errors"]["validation"]["scaled_rms"].as_f64().unwrap();
+    let errors = stage2.errors.as_ref().unwrap();
+    let cal = errors.calibration.scaled_rms;
+    let val = errors.validation.as_ref().unwrap().scaled_rms;
     println!("two-stage scaled RMS: calibration {cal:.3}, validation {val:.3}");
     assert!(cal <= 0.3, "calibration scaled RMS {cal}");
     assert!(val < 1.0, "validation scaled RMS {val}");
-    assert!(stage1["errors"]["calibration"]["scaled_rms"].as_f64().unwrap() < 1.0);
+    assert!(stage1.errors.as_ref().unwrap().calibration.scaled_rms < 1.0);
 
     let (c1, c2, c4) = (max_abs_correlation(&stage1), max_abs_correlation(&stage2), max_abs_correlation(&all4));
     println!("largest |correlation|: stage 1 {c1:.3}, stage 2 {c2:.3}, all four {c4:.3}");
     assert!(c4 >= 0.9, "fitting all four should show near-±1 correlations, got {c4}");
     assert!(c1 < 0.5 && c2 < 0.5, "the two-stage fits should not: {c1}, {c2}");
     for r in [&stage1, &stage2, &all4] {
-        let se = r["identifiability"]["standard_errors"].as_array().unwrap();
-        assert!(se.iter().all(|v| v.as_f64().unwrap() > 0.0), "{r}");
+        let se = &identifiability(r).standard_errors;
+        assert!(se.iter().all(|v| *v > 0.0), "{r:?}");
     }
 }

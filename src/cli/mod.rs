@@ -2,8 +2,11 @@
 //! are printed as one line and give exit code 1 (clap's usage errors give 2).
 
 mod calibrate;
+mod client;
 mod inspect;
+mod local_cluster;
 mod model_arg;
+mod outputs;
 mod servers;
 mod simulate;
 mod token;
@@ -55,9 +58,11 @@ pub fn main() -> ExitCode {
         Command::Calibrate(args) => calibrate::run(args),
         Command::Coordinator(args) => servers::coordinator(args),
         Command::Worker(args) => servers::worker(args),
-        Command::Plot { dir } => crate::report::draw_all(&dir)
-            .map_err(anyhow::Error::from)
-            .map(|()| eprintln!("wrote the plots to {}", dir.display())),
+        Command::Plot { dir } => outputs::read(&dir).and_then(|(result, fit)| {
+            crate::report::draw_all(&dir, &fit, &result.history, result.errors.as_ref())?;
+            eprintln!("wrote the plots to {}", dir.display());
+            Ok(())
+        }),
         Command::Examples => fmucal_models::example_names().into_iter().try_for_each(|name| {
             let path = model_arg::example(name)?.context("an embedded example")?;
             println!("{name:<14} {}", path.display());

@@ -5,7 +5,8 @@
 //! ([`pool`]), the optimizer built from the spec ([`optimizer`]), one job's run and its
 //! bookkeeping ([`run`]), the one ask/evaluate/tell loop ([`executor`]), in-process
 //! calibration ([`local`]), standard errors and correlations at the optimum
-//! ([`identifiability`]), the result ([`result`]), and the enums a job names ([`choices`]).
+//! ([`identifiability`]), the result ([`result`]) and what its report compares — measured against nominal and
+//! optimized outputs, RMS errors per window ([`report`]) — and the enums a job names ([`choices`]).
 
 pub mod choices;
 pub mod data;
@@ -16,6 +17,7 @@ pub mod local;
 pub mod objective;
 pub mod optimizer;
 pub mod pool;
+pub mod report;
 pub mod result;
 pub mod run;
 pub mod spec;
@@ -28,7 +30,8 @@ pub use choices::{Algorithm, JobKind, JobStatus};
 pub use data::MeasurementTable;
 pub use evaluator::{Evaluation, Evaluator};
 pub use objective::{Objective, PreparedJob};
-pub use result::{CalibrationResult, EvaluatedPoint, HistoryPoint};
+pub use report::FitTable;
+pub use result::{CalibrationResult, ErrorReport, EvaluatedPoint, HistoryPoint};
 pub use run::JobRun;
 pub use spec::JobSpec;
 

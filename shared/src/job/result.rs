@@ -1,8 +1,14 @@
-//! The result of a calibration, as written to `result.json`.
+//! The result of a calibration, as written to `result.json`. `serde_json` writes a NaN or
+//! infinite number as `null`; the numbers of this module read such a `null` back as NaN.
 
 use std::collections::BTreeMap;
 
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
+
+/// Reads a number, or `null` (a non-finite number as `serde_json` writes it) as NaN.
+fn null_as_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
 
 /// Best value after each completed round.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -13,6 +19,7 @@ pub struct HistoryPoint {
     #[serde(with = "crate::optim::serde_float")]
     pub best_f: f64,
     /// Wall time of the round's batch.
+    #[serde(deserialize_with = "null_as_nan")]
     pub batch_wall_s: f64,
 }
 
@@ -56,6 +63,7 @@ pub struct CalibrationResult {
     pub failed_evaluations: u64,
     /// Which stopping rule ended the run.
     pub termination: String,
+    #[serde(deserialize_with = "null_as_nan")]
     pub elapsed_s: f64,
     pub history: Vec<HistoryPoint>,
     /// For a job that evaluates given points: each point with its value and residuals.
@@ -69,6 +77,13 @@ pub struct CalibrationResult {
     pub identifiability: Option<super::identifiability::Identifiability>,
 }
 
+impl CalibrationResult {
+    /// The optimum as a vector in the order of `names` (NaN for a name it lacks).
+    pub fn x_opt_in(&self, names: &[String]) -> Vec<f64> {
+        names.iter().map(|n| self.x_opt.get(n).copied().unwrap_or(f64::NAN)).collect()
+    }
+}
+
 /// RMS errors of the nominal and the optimized model on the calibration window and, if the job
 /// has one, the validation window; "scaled" divides by the nominal model's RMS on that window.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -78,13 +93,68 @@ pub struct ErrorReport {
     pub validation: Option<WindowError>,
 }
 
-/// RMS errors on one time window.
+impl ErrorReport {
+    /// The end of the calibration window, when a validation window follows it.
+    pub fn validation_split(&self) -> Option<f64> {
+        self.validation.as_ref().map(|_| self.calibration.stop_time)
+    }
+}
+
+/// RMS errors on one time window (computed by [`super::report::error_report`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WindowError {
+    #[serde(deserialize_with = "null_as_nan")]
     pub start_time: f64,
+    #[serde(deserialize_with = "null_as_nan")]
     pub stop_time: f64,
+    /// NaN where the model's simulation failed.
+    #[serde(deserialize_with = "null_as_nan")]
     pub rms_nominal: f64,
+    #[serde(deserialize_with = "null_as_nan")]
     pub rms_optimized: f64,
     /// rms_optimized / rms_nominal (1.0 before calibration).
+    #[serde(deserialize_with = "null_as_nan")]
     pub scaled_rms: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn non_finite_numbers_written_as_null_read_back_as_nan() {
+        let w =
+            WindowError { start_time: 0.0, stop_time: 2.0, rms_nominal: 0.0, rms_optimized: 0.0, scaled_rms: f64::NAN };
+        let report = ErrorReport { calibration: w.clone(), validation: Some(WindowError { start_time: 2.0, ..w }) };
+        let result = CalibrationResult {
+            x_opt: BTreeMap::from([("k".to_owned(), 1.5)]),
+            f_opt: f64::INFINITY,
+            iterations: 0,
+            evaluations: 4,
+            rounds: 1,
+            failed_evaluations: 4,
+            termination: "max_evals".into(),
+            elapsed_s: 0.25,
+            history: vec![HistoryPoint { round: 1, evaluations: 4, best_f: f64::INFINITY, batch_wall_s: 0.25 }],
+            errors: Some(report),
+            identifiability: None,
+        };
+        let json = serde_json::to_string(&result).unwrap();
+        assert!(json.contains(r#""f_opt":null"#) && json.contains(r#""scaled_rms":null"#), "{json}");
+        let back: CalibrationResult = serde_json::from_str(&json).unwrap();
+        assert!(back.f_opt.is_nan() && back.history[0].best_f.is_nan());
+        assert_eq!(back.history[0].batch_wall_s, 0.25);
+        let errors = back.errors.as_ref().unwrap();
+        assert!(errors.calibration.scaled_rms.is_nan());
+        assert_eq!(errors.calibration.rms_nominal, 0.0);
+        assert_eq!(errors.validation_split(), Some(2.0));
+        assert_eq!(back.x_opt_in(&["k".into(), "c".into()])[0], 1.5);
+        assert!(back.x_opt_in(&["c".into()])[0].is_nan());
+    }
+
+    #[test]
+    fn no_validation_window_no_split() {
+        let w = WindowError { start_time: 0.0, stop_time: 2.0, rms_nominal: 1.0, rms_optimized: 0.5, scaled_rms: 0.5 };
+        assert_eq!(ErrorReport { calibration: w, validation: None }.validation_split(), None);
+    }
 }

@@ -1,0 +1,243 @@
+//! What a calibration report compares: the measured, nominal and optimized outputs at the
+//! measurement times ([`FitTable`], the CLI's `fit.csv`) and the two models' root-mean-square
+//! errors per time window ([`ErrorReport`], in `result.json`). [`compare`] simulates both
+//! models; [`FitTable::new`] and [`error_report`] are pure.
+
+use std::sync::Arc;
+
+use super::JobError;
+use super::data::MeasurementTable;
+use super::evaluator::Evaluator;
+use super::objective::{Objective, PreparedJob};
+use super::result::{ErrorReport, WindowError};
+use crate::fmu::Fmu;
+use crate::sim::SimResult;
+
+/// One output's columns of a [`FitTable`], each with one entry per time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitColumns {
+    pub variable: String,
+    /// NaN where the measurement is missing.
+    pub measured: Vec<f64>,
+    /// `None` where the nominal model has no value (its simulation failed or ended early).
+    pub nominal: Vec<Option<f64>>,
+    /// `None` where the optimized model has no value.
+    pub optimized: Vec<Option<f64>>,
+}
+
+/// Measured, nominal and optimized values of each output at the measurement times.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitTable {
+    pub time: Vec<f64>,
+    /// In the order of the objective's targets.
+    pub outputs: Vec<FitColumns>,
+}
+
+impl FitTable {
+    /// The table of `objective`'s targets against two simulations on its time grid (`None`: the
+    /// simulation failed).
+    pub fn new(objective: &Objective, nominal: Option<&SimResult>, optimized: Option<&SimResult>) -> Self {
+        let n = objective.times.len();
+        let at = |sim: Option<&SimResult>, variable: &str| {
+            let column = sim.and_then(|s| s.column(variable));
+            (0..n).map(|i| column.and_then(|c| c.get(i).copied())).collect()
+        };
+        let outputs = objective
+            .targets
+            .iter()
+            .map(|t| FitColumns {
+                variable: t.variable.clone(),
+                measured: (0..n).map(|i| t.values.get(i).copied().unwrap_or(f64::NAN)).collect(),
+                nominal: at(nominal, &t.variable),
+                optimized: at(optimized, &t.variable),
+            })
+            .collect();
+        FitTable { time: objective.times.clone(), outputs }
+    }
+}
+
+/// The RMS errors of the nominal and the optimized model, weighted as in the objective: the
+/// calibration window holds the times up to `calibration_stop`, the validation window the later
+/// ones (reported only if it has a measurement). Missing measurements are skipped; a missing
+/// simulated value makes its window's RMS NaN.
+pub fn error_report(
+    objective: &Objective,
+    calibration_stop: f64,
+    nominal: Option<&SimResult>,
+    optimized: Option<&SimResult>,
+) -> ErrorReport {
+    let fit = FitTable::new(objective, nominal, optimized);
+    // Squared errors and counts per window: [calibration, validation] x [nominal, optimized].
+    let mut sums = [[0.0f64; 2]; 2];
+    let mut counts = [0usize; 2];
+    for (i, t) in fit.time.iter().enumerate() {
+        let w = usize::from(*t > calibration_stop);
+        for (target, columns) in objective.targets.iter().zip(&fit.outputs) {
+            let m = columns.measured[i];
+            if m.is_nan() {
+                continue;
+            }
+            counts[w] += 1;
+            for (k, model) in [&columns.nominal, &columns.optimized].into_iter().enumerate() {
+                sums[w][k] += target.weight * (model[i].unwrap_or(f64::NAN) - m).powi(2);
+            }
+        }
+    }
+    let window = |w: usize, start: f64, stop: f64| {
+        let c = counts[w].max(1) as f64;
+        let (n, o) = ((sums[w][0] / c).sqrt(), (sums[w][1] / c).sqrt());
+        WindowError { start_time: start, stop_time: stop, rms_nominal: n, rms_optimized: o, scaled_rms: o / n }
+    };
+    let start = fit.time.first().copied().unwrap_or(0.0);
+    let end = fit.time.last().copied().unwrap_or(calibration_stop);
+    ErrorReport {
+        calibration: window(0, start, calibration_stop),
+        validation: (counts[1] > 0).then(|| window(1, calibration_stop, end)),
+    }
+}
+
+/// The fit table and error report of `job` calibrated to `x_opt` (in parameter order): the
+/// optimized model at `x_opt` and the nominal model at the start values, both simulated up to
+/// the validation stop time if the job has one. The nominal model leaves the parameters an
+/// earlier stage fixed at the model's own values. A failed simulation leaves its cells empty.
+///
+/// # Errors
+/// [`JobError`] if the job does not extend to the validation window or the FMU cannot be
+/// instantiated.
+pub fn compare(
+    fmu: &Fmu,
+    job: &Arc<PreparedJob>,
+    data: &MeasurementTable,
+    x_opt: &[f64],
+) -> Result<(FitTable, ErrorReport), JobError> {
+    let spec = &job.spec;
+    let (_, x0, _, _) = spec.parameter_vectors();
+    let report_job = match spec.simulation.validation_stop_time {
+        Some(stop) => {
+            let mut s = spec.clone();
+            s.simulation.stop_time = Some(stop);
+            Arc::new(PreparedJob::new(&s, &fmu.description, &fmu.interfaces(), data)?)
+        }
+        None => job.clone(),
+    };
+    let mut ev = Evaluator::new(fmu, report_job.clone())?;
+    let optimized = ev.simulate(x_opt).ok();
+    let nominal = if spec.simulation.fixed_from_earlier_stage.is_empty() {
+        ev.simulate(&x0).ok()
+    } else {
+        let mut s = report_job.spec.clone();
+        s.simulation.set.retain(|k, _| !s.simulation.fixed_from_earlier_stage.contains(k));
+        let baseline = Arc::new(PreparedJob::new(&s, &fmu.description, &fmu.interfaces(), data)?);
+        Evaluator::new(fmu, baseline)?.simulate(&x0).ok()
+    };
+    let calibration_stop = job.objective.times.last().copied().unwrap_or(f64::INFINITY);
+    let objective = &report_job.objective;
+    let (nominal, optimized) = (nominal.as_ref(), optimized.as_ref());
+    Ok((FitTable::new(objective, nominal, optimized), error_report(objective, calibration_stop, nominal, optimized)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::job::objective::Target;
+
+    fn sim(a: &[f64], b: &[f64]) -> SimResult {
+        SimResult {
+            names: vec!["a".into(), "b".into()],
+            time: vec![0.0, 1.0, 2.0, 3.0],
+            columns: vec![a.to_vec(), b.to_vec()],
+            event_times: vec![],
+            terminated_early: false,
+            stats: Default::default(),
+        }
+    }
+
+    /// Output a (weight 1) and b (weight 4) at t = 0..3, one measurement of each missing.
+    fn objective() -> Objective {
+        Objective {
+            times: vec![0.0, 1.0, 2.0, 3.0],
+            targets: vec![
+                Target { variable: "a".into(), weight: 1.0, values: vec![1.0, f64::NAN, 3.0, 5.0] },
+                Target { variable: "b".into(), weight: 4.0, values: vec![0.0, 1.0, 1.0, f64::NAN] },
+            ],
+        }
+    }
+
+    fn assert_close(got: f64, want: f64) {
+        assert!((got - want).abs() <= 1e-15 * want.abs().max(1.0), "{got} != {want}");
+    }
+
+    #[test]
+    fn weighted_rms_per_window_skips_missing_measurements() {
+        let nominal = sim(&[2.0, 2.0, 2.0, 2.0], &[1.0, 1.0, 1.0, 1.0]);
+        let optimized = sim(&[1.0, 0.0, 3.0, 4.0], &[0.0, 1.0, 1.5, 0.0]);
+        let r = error_report(&objective(), 1.0, Some(&nominal), Some(&optimized));
+        // Calibration (t = 0, 1; a(1) missing): 3 measurements.
+        //   nominal: 1·(2−1)² + 4·(1−0)² + 4·(1−1)² = 5; optimized: 0.
+        let cal = &r.calibration;
+        assert_eq!((cal.start_time, cal.stop_time), (0.0, 1.0));
+        assert_close(cal.rms_nominal, (5.0f64 / 3.0).sqrt());
+        assert_eq!(cal.rms_optimized, 0.0);
+        assert_eq!(cal.scaled_rms, 0.0);
+        // Validation (t = 2, 3; b(3) missing): 3 measurements.
+        //   nominal: 1·(2−3)² + 4·(1−1)² + 1·(2−5)² = 10; optimized: 0 + 4·0.5² + 1·(4−5)² = 2.
+        let val = r.validation.as_ref().expect("measurements after t = 1");
+        assert_eq!((val.start_time, val.stop_time), (1.0, 3.0));
+        assert_close(val.rms_nominal, (10.0f64 / 3.0).sqrt());
+        assert_close(val.rms_optimized, (2.0f64 / 3.0).sqrt());
+        assert_close(val.scaled_rms, 0.2f64.sqrt());
+        assert_eq!(r.validation_split(), Some(1.0));
+    }
+
+    #[test]
+    fn no_measurement_after_the_split_no_validation_window() {
+        let s = sim(&[1.0, 1.0, 1.0, 1.0], &[1.0, 1.0, 1.0, 1.0]);
+        let r = error_report(&objective(), 3.0, Some(&s), Some(&s));
+        assert_eq!(r.validation, None);
+        assert_eq!((r.calibration.start_time, r.calibration.stop_time), (0.0, 3.0));
+        // 6 measurements; a: 0 + 4 + 16 = 20, b: 4·(1 + 0 + 0) = 4; √(24 / 6) = 2.
+        assert_close(r.calibration.rms_nominal, 4.0f64.sqrt());
+        assert_eq!(r.calibration.scaled_rms, 1.0);
+    }
+
+    #[test]
+    fn fit_table_lines_up_measurements_and_both_models() {
+        let nominal = sim(&[2.0, 2.0, 2.0, 2.0], &[1.0, 1.0, 1.0, 1.0]);
+        let fit = FitTable::new(&objective(), Some(&nominal), None);
+        assert_eq!(fit.time, [0.0, 1.0, 2.0, 3.0]);
+        assert_eq!(fit.outputs.len(), 2);
+        let b = &fit.outputs[1];
+        assert_eq!(b.variable, "b");
+        assert_eq!(b.measured[..3], [0.0, 1.0, 1.0]);
+        assert!(b.measured[3].is_nan());
+        assert_eq!(b.nominal, [Some(1.0); 4]);
+        assert_eq!(b.optimized, [None; 4]);
+        assert!(fit.outputs[0].measured[1].is_nan());
+    }
+
+    #[test]
+    fn a_failed_or_short_simulation_leaves_gaps_and_nan_not_a_panic() {
+        // The optimized model ended early (two rows) and lacks output b altogether.
+        let mut short = sim(&[1.0, 0.0], &[]);
+        short.names.truncate(1);
+        short.columns.truncate(1);
+        short.time.truncate(2);
+        short.terminated_early = true;
+        let nominal = sim(&[2.0, 2.0, 2.0, 2.0], &[1.0, 1.0, 1.0, 1.0]);
+        let fit = FitTable::new(&objective(), Some(&nominal), Some(&short));
+        assert_eq!(fit.outputs[0].optimized, [Some(1.0), Some(0.0), None, None]);
+        assert_eq!(fit.outputs[1].optimized, [None; 4]);
+        let r = error_report(&objective(), 1.0, Some(&nominal), Some(&short));
+        assert_close(r.calibration.rms_nominal, (5.0f64 / 3.0).sqrt());
+        assert!(r.calibration.rms_optimized.is_nan() && r.calibration.scaled_rms.is_nan());
+        let r = error_report(&objective(), 1.0, None, None);
+        assert!(r.calibration.rms_nominal.is_nan() && r.validation.is_some_and(|v| v.rms_optimized.is_nan()));
+    }
+
+    #[test]
+    fn an_empty_objective_reports_zero_counts_without_dividing_by_zero() {
+        let r = error_report(&Objective { times: vec![], targets: vec![] }, f64::INFINITY, None, None);
+        assert_eq!((r.calibration.rms_nominal, r.calibration.rms_optimized), (0.0, 0.0));
+        assert_eq!(r.validation, None);
+    }
+}

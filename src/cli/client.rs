@@ -1,0 +1,165 @@
+//! The CLI's gRPC client of a coordinator: connects (retrying while a coordinator started a
+//! moment ago does not listen yet), uploads the model and submits jobs, follows a job's
+//! `WatchJob` stream (a calibration with a progress bar), and runs the identifiability points
+//! at the optimum on the workers as a job that evaluates them.
+
+use std::path::Path;
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use fmucal_proto::auth::AttachToken;
+use fmucal_proto::convert::{job_to_proto, result_from_proto};
+use fmucal_proto::v1 as pb;
+use fmucal_proto::v1::calibration_client::CalibrationClient;
+use fmucal_shared::job::identifiability::{self, Identifiability};
+use fmucal_shared::job::{CalibrationResult, HistoryPoint, JobSpec, MeasurementTable, PreparedJob};
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::Channel;
+
+/// A connection to a coordinator, with the token attached to every call.
+pub struct Client {
+    inner: CalibrationClient<InterceptedService<Channel, AttachToken>>,
+}
+
+impl Client {
+    /// Connects to the coordinator at `url`, retrying for about five seconds.
+    pub async fn connect(url: &str, token: Option<&str>) -> Result<Self> {
+        let attach = AttachToken::new(token).map_err(anyhow::Error::msg)?;
+        let endpoint = tonic::transport::Endpoint::from_shared(url.to_owned())?
+            .tcp_nodelay(true)
+            .connect_timeout(Duration::from_secs(2));
+        // A coordinator started a moment ago may not listen yet: retry for a few seconds.
+        let mut attempt = 0;
+        let channel = loop {
+            match endpoint.connect().await {
+                Ok(ch) => break ch,
+                Err(e) if attempt >= 25 => {
+                    return Err(anyhow::Error::new(e).context(format!("cannot reach the coordinator at {url}")));
+                }
+                Err(_) => {
+                    attempt += 1;
+                    tokio::time::sleep(Duration::from_millis(200)).await;
+                }
+            }
+        };
+        let inner = CalibrationClient::with_interceptor(channel, attach)
+            .max_encoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES)
+            .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES);
+        Ok(Client { inner })
+    }
+
+    /// Calibrates `job`, then runs its identifiability analysis at the optimum. A failed
+    /// analysis is the inner error: the calibration result stands without it.
+    pub async fn calibrate_and_identify(
+        &mut self,
+        job: &PreparedJob,
+        data: &MeasurementTable,
+        model: &Path,
+    ) -> Result<(CalibrationResult, Result<Identifiability>)> {
+        let result = self.calibrate(&job.spec, data, model).await?;
+        let identified = self.identify(job, &result, data, model).await;
+        Ok((result, identified))
+    }
+
+    /// Submits a calibration, shows its progress, and returns its result (without errors or
+    /// identifiability, which are computed afterwards).
+    pub async fn calibrate(
+        &mut self,
+        spec: &JobSpec,
+        data: &MeasurementTable,
+        model: &Path,
+    ) -> Result<CalibrationResult> {
+        let job_id = self.submit(spec, data, model).await?;
+        let bar = indicatif::ProgressBar::new_spinner();
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} {msg}").expect("valid template"),
+        );
+        bar.enable_steady_tick(Duration::from_millis(200));
+        let mut history = vec![];
+        let job = self
+            .wait_for_end(&job_id, |ev| {
+                bar.set_message(format!(
+                    "iteration {}  evaluations {}  best f {:.6e}",
+                    ev.iteration, ev.evaluations, ev.best_f
+                ));
+                if ev.batch_wall_s > 0.0 {
+                    history.push(HistoryPoint {
+                        round: ev.rounds,
+                        evaluations: ev.evaluations,
+                        best_f: ev.best_f,
+                        batch_wall_s: ev.batch_wall_s,
+                    });
+                }
+            })
+            .await?;
+        bar.finish_and_clear();
+        if job.status == pb::JobStatus::Failed as i32 {
+            bail!("the job failed: {}", job.error);
+        }
+        let r = job.result.context("the coordinator returned no result")?;
+        Ok(result_from_proto(r, history))
+    }
+
+    /// Standard errors and correlations at the optimum: the finite-difference points run as one
+    /// batch on the workers (a job that evaluates them), then the statistics are derived here.
+    pub async fn identify(
+        &mut self,
+        job: &PreparedJob,
+        result: &CalibrationResult,
+        data: &MeasurementTable,
+        model: &Path,
+    ) -> Result<Identifiability> {
+        let plan = identifiability::difference_points(job, &result.x_opt_in(&job.parameter_names));
+        let job_id = self.submit(&job.spec.evaluating_points(plan.points.clone()), data, model).await?;
+        let r = self.wait_for_end(&job_id, |_| {}).await?;
+        let evaluated = r.result.map(|r| result_from_proto(r, vec![]).evaluated).unwrap_or_default();
+        let residuals = identifiability::residuals_of(&evaluated)?;
+        Ok(identifiability::from_residuals(&job.parameter_names, &plan, &residuals)?)
+    }
+
+    /// Uploads the model (a no-op if the coordinator has it) and submits the job.
+    async fn submit(&mut self, spec: &JobSpec, data: &MeasurementTable, model: &Path) -> Result<String> {
+        let bytes = std::fs::read(model)?;
+        let chunks: Vec<pb::UploadModelRequest> = bytes
+            .chunks(fmucal_proto::MODEL_CHUNK_BYTES)
+            .map(|c| pb::UploadModelRequest { chunk: c.to_vec() })
+            .collect();
+        let model_id = self
+            .inner
+            .upload_model(tokio_stream::iter(chunks))
+            .await
+            .context("uploading the model")?
+            .into_inner()
+            .model_id;
+        Ok(self
+            .inner
+            .submit_job(pb::SubmitJobRequest { spec: Some(job_to_proto(spec, data, &model_id)) })
+            .await
+            .map_err(|s| anyhow::anyhow!("the coordinator rejected the job: {}", s.message()))?
+            .into_inner()
+            .job_id)
+    }
+
+    /// Follows a job's `WatchJob` stream (one event per completed batch, the first at once),
+    /// handing each event to `on_event`, until the job has ended; then returns its final state.
+    async fn wait_for_end(
+        &mut self,
+        job_id: &str,
+        mut on_event: impl FnMut(&pb::WatchJobResponse),
+    ) -> Result<pb::GetJobResponse> {
+        let ended = |status: i32| {
+            [pb::JobStatus::Succeeded, pb::JobStatus::Failed, pb::JobStatus::Cancelled]
+                .iter()
+                .any(|s| *s as i32 == status)
+        };
+        let mut stream = self.inner.watch_job(pb::WatchJobRequest { job_id: job_id.to_owned() }).await?.into_inner();
+        // The stream also ends when the coordinator has sent the last event of a finished job.
+        while let Some(ev) = stream.message().await? {
+            on_event(&ev);
+            if ended(ev.status) {
+                break;
+            }
+        }
+        Ok(self.inner.get_job(pb::GetJobRequest { job_id: job_id.to_owned() }).await?.into_inner())
+    }
+}
