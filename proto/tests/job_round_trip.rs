@@ -178,13 +178,18 @@ proptest! {
     }
 }
 
+/// A one-output, one-parameter job whose output has `weight`.
+fn small_job(weight: f64) -> JobSpec {
+    let toml = format!(
+        "[model]\nid = \"m\"\n[data]\n[[outputs]]\nvariable = \"y\"\ncolumn = \"y\"\nweight = {weight:?}\n\
+         [[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n"
+    );
+    JobSpec::from_toml(&toml, Path::new(".")).unwrap()
+}
+
 #[test]
 fn unknown_choices_in_a_message_name_their_field() {
-    let spec = JobSpec::from_toml(
-        "[model]\nid = \"m\"\n[data]\n[[outputs]]\nvariable = \"y\"\ncolumn = \"y\"\n[[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n",
-        Path::new("."),
-    )
-    .unwrap();
+    let spec = small_job(1.0);
     let good = job_to_proto(&spec, &data(), "m");
     let mut m = good.clone();
     m.optimizer.as_mut().unwrap().algorithm = "points".into();
@@ -203,11 +208,7 @@ fn unknown_choices_in_a_message_name_their_field() {
 
 #[test]
 fn an_output_weight_of_zero_stays_zero() {
-    let spec = JobSpec::from_toml(
-        "[model]\nid = \"m\"\n[data]\n[[outputs]]\nvariable = \"y\"\ncolumn = \"y\"\nweight = 0.0\n[[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n",
-        Path::new("."),
-    )
-    .unwrap();
+    let spec = small_job(0.0);
     let data = MeasurementTable { time: vec![0.0], columns: vec![("y".into(), vec![1.0])] };
     let back = SubmittedJob::try_from(job_to_proto(&spec, &data, "m")).unwrap();
     assert_eq!(back.spec.outputs[0].weight, 0.0);
