@@ -15,11 +15,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::batch::{Batch, BestSoFar, absorb, impl_batch_optimizer};
 use super::fitness::Fitness;
 use super::random::Random;
+use super::run::{BatchStep, PopulationPhase as Phase, RunState, population_space};
 use super::space::Space;
-use super::{CandidateId, OptimError, Stopping, Termination};
+use super::{OptimError, Stopping, Termination};
 
 /// Differential evolution settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -49,28 +49,16 @@ impl DeSettings {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-enum Phase {
-    Initial,
-    Generation,
-    Done(Termination),
-}
-
 /// The differential evolution state machine; see the module docs.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct DifferentialEvolution {
-    space: Space,
+    /// Its `iterations` are the generations completed.
+    #[serde(flatten)]
+    run: RunState,
     settings: DeSettings,
     population: Vec<(Vec<f64>, Fitness)>,
     phase: Phase,
-    batch: Batch,
     rng: Random,
-    next_id: CandidateId,
-    evaluations: u64,
-    /// Generations completed.
-    iterations: u64,
-    rounds: u64,
-    best: BestSoFar,
 }
 
 impl DifferentialEvolution {
@@ -80,13 +68,7 @@ impl DifferentialEvolution {
     /// [`OptimError::Setting`] naming the bad field: bounds (must be finite), `x0`,
     /// `population`, `weight`, `crossover` or a stopping rule.
     pub fn new(lower: &[f64], upper: &[f64], x0: Option<&[f64]>, settings: DeSettings) -> Result<Self, OptimError> {
-        let space = Space::new(lower, upper, x0, None)?;
-        if !space.is_bounded() {
-            return Err(OptimError::setting("lower", "differential evolution needs finite lower and upper bounds"));
-        }
-        if settings.population < 4 {
-            return Err(OptimError::setting("population", format!("must be at least 4, got {}", settings.population)));
-        }
+        let space = population_space(lower, upper, x0, settings.population, "differential evolution")?;
         if !(0.0..=2.0).contains(&settings.weight) {
             return Err(OptimError::setting("weight", format!("F must be in [0, 2], got {}", settings.weight)));
         }
@@ -103,29 +85,9 @@ impl DifferentialEvolution {
         while points.len() < settings.population {
             points.push((0..n).map(|i| uniform_in(&space, i, &mut rng)).collect());
         }
-        let mut next_id = 0;
-        let batch = Batch::new(points, &space, &mut next_id);
-        Ok(DifferentialEvolution {
-            space,
-            settings,
-            population: vec![],
-            phase: Phase::Initial,
-            batch,
-            rng,
-            next_id,
-            evaluations: 0,
-            iterations: 0,
-            rounds: 1,
-            best: BestSoFar::default(),
-        })
-    }
-
-    /// Why the run ended, if it has.
-    fn done(&self) -> Option<Termination> {
-        match self.phase {
-            Phase::Done(t) => Some(t),
-            _ => None,
-        }
+        let mut run = RunState::new(space);
+        run.start_batch(points);
+        Ok(DifferentialEvolution { run, settings, population: vec![], phase: Phase::Initial, rng })
     }
 
     fn trial(&mut self, i: usize) -> Vec<f64> {
@@ -139,7 +101,7 @@ impl DifferentialEvolution {
         let r1 = pick(&[i], &mut self.rng);
         let r2 = pick(&[i, r1], &mut self.rng);
         let r3 = pick(&[i, r1, r2], &mut self.rng);
-        let n = self.space.dim();
+        let n = self.run.space.dim();
         let forced = self.rng.below(n);
         let target = &self.population[i].0;
         let mut u = target.clone();
@@ -147,7 +109,7 @@ impl DifferentialEvolution {
             if j == forced || self.rng.chance(self.settings.crossover) {
                 let v = self.population[r1].0[j]
                     + self.settings.weight * (self.population[r2].0[j] - self.population[r3].0[j]);
-                let (lo, hi) = self.space.z_bounds(j);
+                let (lo, hi) = self.run.space.z_bounds(j);
                 u[j] = if v < lo {
                     target[j] + self.rng.uniform() * (lo - target[j])
                 } else if v > hi {
@@ -161,40 +123,43 @@ impl DifferentialEvolution {
     }
 
     fn check_and_continue(&mut self) {
-        let best = self.population.iter().min_by(|a, b| a.1.cmp(&b.1)).map(|p| p.0.as_slice()).unwrap_or_default();
-        let stop = self.settings.stopping.check_set(
-            best,
-            self.population.iter().map(|p| p.0.as_slice()),
-            self.population.iter().map(|p| p.1),
-            self.iterations,
-            self.evaluations,
-        );
-        if let Some(t) = stop {
+        let pop = &self.population;
+        let best = pop.iter().min_by(|a, b| a.1.cmp(&b.1)).map(|p| p.0.as_slice()).unwrap_or_default();
+        let points = pop.iter().map(|p| p.0.as_slice());
+        if let Some(t) = self.run.stop_if(&self.settings.stopping, best, points, pop.iter().map(|p| p.1)) {
             self.phase = Phase::Done(t);
-            self.batch = Batch::default();
             return;
         }
         let trials = (0..self.population.len()).map(|i| self.trial(i)).collect();
-        self.batch = Batch::new(trials, &self.space, &mut self.next_id);
+        self.run.start_batch(trials);
         self.phase = Phase::Generation;
-        self.rounds += 1;
+    }
+}
+
+impl BatchStep for DifferentialEvolution {
+    fn state(&self) -> &RunState {
+        &self.run
+    }
+
+    fn state_mut(&mut self) -> &mut RunState {
+        &mut self.run
+    }
+
+    fn done(&self) -> Option<Termination> {
+        self.phase.done()
     }
 
     fn advance(&mut self) {
-        let values = absorb(&self.batch, &mut self.evaluations, &mut self.best);
-        match self.phase {
-            Phase::Initial => {
-                self.population = self.batch.z.iter().cloned().zip(values).collect();
-            }
-            Phase::Generation => {
-                for (i, (z, f)) in self.batch.z.iter().zip(values).enumerate() {
-                    if !self.population[i].1.lt(&f) {
-                        self.population[i] = (z.clone(), f);
-                    }
+        let values = self.run.absorb();
+        if self.phase == Phase::Initial {
+            self.population = self.run.batch.z.iter().cloned().zip(values).collect();
+        } else {
+            for (i, (z, f)) in self.run.batch.z.iter().zip(values).enumerate() {
+                if !self.population[i].1.lt(&f) {
+                    self.population[i] = (z.clone(), f);
                 }
-                self.iterations += 1;
             }
-            Phase::Done(_) => return,
+            self.run.iterations += 1;
         }
         self.check_and_continue();
     }
@@ -204,8 +169,6 @@ fn uniform_in(space: &Space, i: usize, rng: &mut Random) -> f64 {
     let (lo, hi) = space.z_bounds(i);
     lo + rng.uniform() * (hi - lo)
 }
-
-impl_batch_optimizer!(DifferentialEvolution);
 
 #[cfg(test)]
 mod tests {

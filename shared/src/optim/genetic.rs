@@ -17,11 +17,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::batch::{Batch, BestSoFar, absorb, impl_batch_optimizer};
 use super::fitness::Fitness;
 use super::random::Random;
-use super::space::Space;
-use super::{CandidateId, OptimError, Stopping, Termination};
+use super::run::{BatchStep, PopulationPhase as Phase, RunState, population_space};
+use super::{OptimError, Stopping, Termination};
 
 /// Genetic algorithm settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -57,13 +56,6 @@ impl GaSettings {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-enum Phase {
-    Initial,
-    Generation,
-    Done(Termination),
-}
-
 /// One individual: its genes (one integer per parameter) and value.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 struct Individual {
@@ -74,20 +66,15 @@ struct Individual {
 /// The genetic algorithm state machine; see the module docs.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct GeneticAlgorithm {
-    space: Space,
+    /// Its `iterations` are the generations completed.
+    #[serde(flatten)]
+    run: RunState,
     settings: GaSettings,
     population: Vec<Individual>,
     /// Genes of the children in the current batch.
     children: Vec<Vec<u64>>,
     phase: Phase,
-    batch: Batch,
     rng: Random,
-    next_id: CandidateId,
-    evaluations: u64,
-    /// Generations completed.
-    iterations: u64,
-    rounds: u64,
-    best: BestSoFar,
 }
 
 impl GeneticAlgorithm {
@@ -97,13 +84,7 @@ impl GeneticAlgorithm {
     /// [`OptimError::Setting`] naming the bad field: bounds (must be finite), `x0`,
     /// `population`, `bits`, `crossover_rate`, `mutation_rate`, `elitism` or a stopping rule.
     pub fn new(lower: &[f64], upper: &[f64], x0: Option<&[f64]>, settings: GaSettings) -> Result<Self, OptimError> {
-        let space = Space::new(lower, upper, x0, None)?;
-        if !space.is_bounded() {
-            return Err(OptimError::setting("lower", "the genetic algorithm needs finite lower and upper bounds"));
-        }
-        if settings.population < 4 {
-            return Err(OptimError::setting("population", format!("must be at least 4, got {}", settings.population)));
-        }
+        let space = population_space(lower, upper, x0, settings.population, "the genetic algorithm")?;
         if !(1..=52).contains(&settings.bits) {
             return Err(OptimError::setting("bits", format!("must be in 1..=52, got {}", settings.bits)));
         }
@@ -129,30 +110,11 @@ impl GeneticAlgorithm {
         while genomes.len() < settings.population {
             genomes.push((0..n).map(|_| random_bits(&mut rng, settings.bits)).collect());
         }
-        let mut ga = GeneticAlgorithm {
-            space,
-            settings,
-            population: vec![],
-            children: vec![],
-            phase: Phase::Initial,
-            batch: Batch::default(),
-            rng,
-            next_id: 0,
-            evaluations: 0,
-            iterations: 0,
-            rounds: 0,
-            best: BestSoFar::default(),
-        };
+        let run = RunState::new(space);
+        let mut ga =
+            GeneticAlgorithm { run, settings, population: vec![], children: vec![], phase: Phase::Initial, rng };
         ga.ask_children(genomes, Phase::Initial);
         Ok(ga)
-    }
-
-    /// Why the run ended, if it has.
-    fn done(&self) -> Option<Termination> {
-        match self.phase {
-            Phase::Done(t) => Some(t),
-            _ => None,
-        }
     }
 
     fn decode(&self, genes: &[u64]) -> Vec<f64> {
@@ -162,10 +124,9 @@ impl GeneticAlgorithm {
 
     fn ask_children(&mut self, genomes: Vec<Vec<u64>>, phase: Phase) {
         let points = genomes.iter().map(|g| self.decode(g)).collect();
-        self.batch = Batch::new(points, &self.space, &mut self.next_id);
+        self.run.start_batch(points);
         self.children = genomes;
         self.phase = phase;
-        self.rounds += 1;
     }
 
     /// Rank-based roulette: index k (0 = best) with probability ∝ N − k.
@@ -184,7 +145,7 @@ impl GeneticAlgorithm {
     }
 
     fn breed(&mut self) -> Vec<Vec<u64>> {
-        let (bits, n) = (self.settings.bits as usize, self.space.dim());
+        let (bits, n) = (self.settings.bits as usize, self.run.space.dim());
         let want = self.settings.population - self.settings.elitism;
         let mut out = Vec::with_capacity(want);
         while out.len() < want {
@@ -222,37 +183,44 @@ impl GeneticAlgorithm {
     fn check_and_continue(&mut self) {
         self.population.sort_by(|a, b| a.f.cmp(&b.f));
         let decoded: Vec<Vec<f64>> = self.population.iter().map(|ind| self.decode(&ind.genes)).collect();
-        let stop = self.settings.stopping.check_set(
-            &decoded[0],
-            decoded.iter().map(Vec::as_slice),
-            self.population.iter().map(|p| p.f),
-            self.iterations,
-            self.evaluations,
-        );
-        if let Some(t) = stop {
+        let values = self.population.iter().map(|p| p.f);
+        if let Some(t) =
+            self.run.stop_if(&self.settings.stopping, &decoded[0], decoded.iter().map(Vec::as_slice), values)
+        {
             self.phase = Phase::Done(t);
-            self.batch = Batch::default();
             return;
         }
         let children = self.breed();
         self.ask_children(children, Phase::Generation);
     }
+}
+
+impl BatchStep for GeneticAlgorithm {
+    fn state(&self) -> &RunState {
+        &self.run
+    }
+
+    fn state_mut(&mut self) -> &mut RunState {
+        &mut self.run
+    }
+
+    fn done(&self) -> Option<Termination> {
+        self.phase.done()
+    }
 
     fn advance(&mut self) {
-        let values = absorb(&self.batch, &mut self.evaluations, &mut self.best);
+        let values = self.run.absorb();
         let children: Vec<Individual> = std::mem::take(&mut self.children)
             .into_iter()
             .zip(values)
             .map(|(genes, f)| Individual { genes, f })
             .collect();
-        match self.phase {
-            Phase::Initial => self.population = children,
-            Phase::Generation => {
-                self.population.truncate(self.settings.elitism);
-                self.population.extend(children);
-                self.iterations += 1;
-            }
-            Phase::Done(_) => return,
+        if self.phase == Phase::Initial {
+            self.population = children;
+        } else {
+            self.population.truncate(self.settings.elitism);
+            self.population.extend(children);
+            self.run.iterations += 1;
         }
         self.check_and_continue();
     }
@@ -261,8 +229,6 @@ impl GeneticAlgorithm {
 fn random_bits(rng: &mut Random, bits: u32) -> u64 {
     (0..bits).fold(0u64, |acc, b| if rng.chance(0.5) { acc | (1 << b) } else { acc })
 }
-
-impl_batch_optimizer!(GeneticAlgorithm);
 
 #[cfg(test)]
 mod tests {

@@ -11,6 +11,11 @@
 //! ([`space::Space`]). A failed evaluation ranks worse than any value ([`fitness::Fitness`]);
 //! NaN counts as failed.
 //!
+//! Each optimizer is only its algorithm: the bookkeeping they share (space, current batch,
+//! best point, ids and counters) is one embedded `RunState`, and `ask`, `tell` and the getters
+//! come from one blanket implementation over the internal `BatchStep` trait (both in the
+//! private module `run`).
+//!
 //! - [`nelder_mead`]: Nelder–Mead with bounds, parallel (batches of 4) or sequential.
 //! - [`differential_evolution`]: DE rand/1/bin.
 //! - [`genetic`]: a bit-string genetic algorithm, as the paper describes it.
@@ -24,6 +29,7 @@ pub mod genetic;
 pub mod nelder_mead;
 pub mod point_batch;
 mod random;
+mod run;
 pub(crate) mod serde_float;
 pub mod space;
 pub mod test_problems;

@@ -24,10 +24,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::batch::{Batch, BestSoFar, absorb, impl_batch_optimizer};
 use super::fitness::Fitness;
+use super::run::{BatchStep, RunState};
 use super::space::Space;
-use super::{CandidateId, OptimError, Stopping, Termination};
+use super::{OptimError, Stopping, Termination};
 
 /// Nelder–Mead settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -83,19 +83,14 @@ enum Phase {
 /// The Nelder–Mead state machine; see the module docs.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct NelderMead {
-    space: Space,
+    #[serde(flatten)]
+    run: RunState,
     settings: NmSettings,
     /// Sorted best first once evaluated.
     simplex: Vec<Vertex>,
     phase: Phase,
-    batch: Batch,
     /// Whether the current iteration projected a trial point onto the box.
     projected: bool,
-    next_id: CandidateId,
-    evaluations: u64,
-    iterations: u64,
-    rounds: u64,
-    best: BestSoFar,
 }
 
 impl NelderMead {
@@ -126,39 +121,18 @@ impl NelderMead {
             z[i] = step_along(&space, &z0, i, settings.initial_step);
             points.push(z);
         }
-        let mut next_id = 0;
-        let batch = Batch::new(points, &space, &mut next_id);
-        Ok(NelderMead {
-            space,
-            settings,
-            simplex: vec![],
-            phase: Phase::Initial,
-            batch,
-            projected: false,
-            next_id,
-            evaluations: 0,
-            iterations: 0,
-            rounds: 1,
-            best: BestSoFar::default(),
-        })
-    }
-
-    /// Why the run ended, if it has.
-    fn done(&self) -> Option<Termination> {
-        match self.phase {
-            Phase::Done(t) => Some(t),
-            _ => None,
-        }
+        let mut run = RunState::new(space);
+        run.start_batch(points);
+        Ok(NelderMead { run, settings, simplex: vec![], phase: Phase::Initial, projected: false })
     }
 
     fn n(&self) -> usize {
-        self.space.dim()
+        self.run.space.dim()
     }
 
     fn new_batch(&mut self, points: Vec<Vec<f64>>, phase: Phase) {
-        self.batch = Batch::new(points, &self.space, &mut self.next_id);
+        self.run.start_batch(points);
         self.phase = phase;
-        self.rounds += 1;
     }
 
     /// Largest ∞-norm distance of a vertex from the best one.
@@ -169,16 +143,10 @@ impl NelderMead {
     /// Sorts the simplex and either stops or asks the next trial points.
     fn start_iteration(&mut self) {
         self.simplex.sort_by(|a, b| a.f.cmp(&b.f));
-        let stop = self.settings.stopping.check_set(
-            &self.simplex[0].z,
-            self.simplex.iter().map(|v| v.z.as_slice()),
-            self.simplex.iter().map(|v| v.f),
-            self.iterations,
-            self.evaluations,
-        );
-        if let Some(t) = stop {
+        let simplex = &self.simplex;
+        let points = simplex.iter().map(|v| v.z.as_slice());
+        if let Some(t) = self.run.stop_if(&self.settings.stopping, &simplex[0].z, points, simplex.iter().map(|v| v.f)) {
             self.phase = Phase::Done(t);
-            self.batch = Batch::default();
             return;
         }
         self.projected = false;
@@ -203,7 +171,7 @@ impl NelderMead {
         let w = &self.simplex[n].z;
         let mut z: Vec<f64> = c.iter().zip(w).map(|(ci, wi)| ci + delta * (ci - wi)).collect();
         let before = z.clone();
-        self.space.project(&mut z);
+        self.run.space.project(&mut z);
         if z != before {
             self.projected = true;
         }
@@ -214,7 +182,7 @@ impl NelderMead {
     fn accept(&mut self, v: Vertex) {
         let n = self.n();
         self.simplex[n] = v;
-        self.iterations += 1;
+        self.run.iterations += 1;
         self.after_update();
     }
 
@@ -237,7 +205,7 @@ impl NelderMead {
             let pts = (0..self.n())
                 .map(|i| {
                     let mut z = z0.clone();
-                    z[i] = step_along(&self.space, &z0, i, step);
+                    z[i] = step_along(&self.run.space, &z0, i, step);
                     z
                 })
                 .collect();
@@ -249,51 +217,7 @@ impl NelderMead {
     }
 
     fn vertex(&self, i: usize, values: &[Fitness]) -> Vertex {
-        Vertex { z: self.batch.z[i].clone(), f: values[i] }
-    }
-
-    /// Applies the batch that just completed.
-    fn advance(&mut self) {
-        let values = absorb(&self.batch, &mut self.evaluations, &mut self.best);
-        let n = self.n();
-        match std::mem::replace(&mut self.phase, Phase::Initial) {
-            Phase::Initial => {
-                self.simplex = (0..=n).map(|i| self.vertex(i, &values)).collect();
-                self.start_iteration();
-            }
-            Phase::Trial => {
-                let [r, e, oc, ic] = [0, 1, 2, 3].map(|i| self.vertex(i, &values));
-                self.decide(r, Some(e), Some(oc), Some(ic));
-            }
-            Phase::Reflect => {
-                let r = self.vertex(0, &values);
-                self.decide(r, None, None, None);
-            }
-            Phase::Expand { reflection } => {
-                let e = self.vertex(0, &values);
-                self.decide(reflection, Some(e), None, None);
-            }
-            Phase::Contract { reflection, outside } => {
-                let c = self.vertex(0, &values);
-                if outside {
-                    self.decide(reflection, None, Some(c), None);
-                } else {
-                    self.decide(reflection, None, None, Some(c));
-                }
-            }
-            phase @ (Phase::Shrink | Phase::Rebuild) => {
-                for i in 0..n {
-                    self.simplex[i + 1] = self.vertex(i, &values);
-                }
-                if phase == Phase::Shrink {
-                    self.iterations += 1;
-                } else {
-                    self.projected = false;
-                }
-                self.after_update();
-            }
-            Phase::Done(t) => self.phase = Phase::Done(t),
-        }
+        Vertex { z: self.run.batch.z[i].clone(), f: values[i] }
     }
 
     /// The classic decision rules; asks for a missing point in sequential mode.
@@ -328,6 +252,67 @@ impl NelderMead {
                     self.new_batch(vec![z], Phase::Contract { reflection: r, outside: false });
                 }
             }
+        }
+    }
+}
+
+impl BatchStep for NelderMead {
+    fn state(&self) -> &RunState {
+        &self.run
+    }
+
+    fn state_mut(&mut self) -> &mut RunState {
+        &mut self.run
+    }
+
+    fn done(&self) -> Option<Termination> {
+        match self.phase {
+            Phase::Done(t) => Some(t),
+            _ => None,
+        }
+    }
+
+    /// Applies the batch that just completed.
+    fn advance(&mut self) {
+        let values = self.run.absorb();
+        let n = self.n();
+        match std::mem::replace(&mut self.phase, Phase::Initial) {
+            Phase::Initial => {
+                self.simplex = (0..=n).map(|i| self.vertex(i, &values)).collect();
+                self.start_iteration();
+            }
+            Phase::Trial => {
+                let [r, e, oc, ic] = [0, 1, 2, 3].map(|i| self.vertex(i, &values));
+                self.decide(r, Some(e), Some(oc), Some(ic));
+            }
+            Phase::Reflect => {
+                let r = self.vertex(0, &values);
+                self.decide(r, None, None, None);
+            }
+            Phase::Expand { reflection } => {
+                let e = self.vertex(0, &values);
+                self.decide(reflection, Some(e), None, None);
+            }
+            Phase::Contract { reflection, outside } => {
+                let c = self.vertex(0, &values);
+                if outside {
+                    self.decide(reflection, None, Some(c), None);
+                } else {
+                    self.decide(reflection, None, None, Some(c));
+                }
+            }
+            phase @ (Phase::Shrink | Phase::Rebuild) => {
+                for i in 0..n {
+                    self.simplex[i + 1] = self.vertex(i, &values);
+                }
+                if phase == Phase::Shrink {
+                    self.run.iterations += 1;
+                } else {
+                    self.projected = false;
+                }
+                self.after_update();
+            }
+            Phase::Done(t) => self.phase = Phase::Done(t),
         }
     }
 }
@@ -377,8 +362,6 @@ fn normalized_volume(simplex: &[Vertex]) -> f64 {
     }
     det.abs() / norms
 }
-
-impl_batch_optimizer!(NelderMead);
 
 #[cfg(test)]
 mod tests {

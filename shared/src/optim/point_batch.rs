@@ -4,20 +4,15 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::batch::{Batch, BestSoFar, absorb, impl_batch_optimizer};
+use super::run::{BatchStep, RunState};
 use super::space::Space;
-use super::{CandidateId, OptimError, Termination};
+use super::{OptimError, Termination};
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct PointBatch {
-    space: Space,
-    batch: Batch,
+    #[serde(flatten)]
+    run: RunState,
     done: bool,
-    next_id: CandidateId,
-    evaluations: u64,
-    iterations: u64,
-    rounds: u64,
-    best: BestSoFar,
 }
 
 impl PointBatch {
@@ -42,22 +37,24 @@ impl PointBatch {
                 return Err(OptimError::setting("points", format!("point {k} is outside the bounds")));
             }
         }
-        let mut next_id = 0;
-        let mut batch = Batch::new(points.iter().map(|p| space.to_scaled(p)).collect(), &space, &mut next_id);
+        let scaled = points.iter().map(|p| space.to_scaled(p)).collect();
+        let mut run = RunState::new(space);
+        run.start_batch(scaled);
         // Ask exactly the given points, not their round trip through the scaled space.
-        for (c, p) in batch.candidates.iter_mut().zip(points) {
+        for (c, p) in run.batch.candidates.iter_mut().zip(points) {
             c.x.clone_from(p);
         }
-        Ok(PointBatch {
-            space,
-            batch,
-            done: false,
-            next_id,
-            evaluations: 0,
-            iterations: 0,
-            rounds: 1,
-            best: BestSoFar::default(),
-        })
+        Ok(PointBatch { run, done: false })
+    }
+}
+
+impl BatchStep for PointBatch {
+    fn state(&self) -> &RunState {
+        &self.run
+    }
+
+    fn state_mut(&mut self) -> &mut RunState {
+        &mut self.run
     }
 
     fn done(&self) -> Option<Termination> {
@@ -65,14 +62,11 @@ impl PointBatch {
     }
 
     fn advance(&mut self) {
-        absorb(&self.batch, &mut self.evaluations, &mut self.best);
-        self.iterations = 1;
+        self.run.absorb();
+        self.run.iterations = 1;
         self.done = true;
-        let _ = self.next_id;
     }
 }
-
-impl_batch_optimizer!(PointBatch);
 
 #[cfg(test)]
 mod tests {
