@@ -146,6 +146,12 @@ impl Scheduler {
             next_seq: 0,
             next_worker: 0,
         };
+        // Past every stored id, also of jobs whose state this version cannot read.
+        for id in s.store.job_ids()? {
+            if let Some(seq) = id.strip_prefix("job-").and_then(|n| n.parse::<u64>().ok()) {
+                s.next_seq = s.next_seq.max(seq.saturating_add(1));
+            }
+        }
         for (id, spec_bytes, mut state) in s.store.load_all()? {
             s.next_seq = s.next_seq.max(state.seq + 1);
             let spec = pb::JobSpec::decode(spec_bytes.as_slice()).unwrap_or_default();

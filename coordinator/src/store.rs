@@ -59,12 +59,16 @@ impl Store {
         Ok(())
     }
 
-    /// Saves the state after a completed batch, durably.
-    pub fn save_state(&self, id: &str, state: &JobState) -> Result<(), CoordinatorError> {
-        let tx = self.db.begin_write()?;
-        tx.open_table(STATES)?.insert(id, serde_json::to_string(state)?.as_str())?;
-        tx.commit()?;
-        Ok(())
+    /// The ids of every job ever stored, also those whose state cannot be read: new ids must
+    /// not reuse them (their logs are still there).
+    pub fn job_ids(&self) -> Result<Vec<String>, CoordinatorError> {
+        let tx = self.db.begin_read()?;
+        let specs = tx.open_table(SPECS)?;
+        let mut ids = vec![];
+        for entry in specs.iter()? {
+            ids.push(entry?.0.value().to_owned());
+        }
+        Ok(ids)
     }
 
     /// Every job: (id, spec bytes, state). A state that cannot be read (written by another

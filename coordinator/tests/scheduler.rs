@@ -533,3 +533,24 @@ async fn a_resumed_points_job_reports_every_point() {
         .collect();
     assert_eq!(res.evaluated, want, "every point, in the order given");
 }
+
+#[tokio::test(start_paused = true)]
+async fn a_job_whose_state_cannot_be_read_is_left_out_and_its_id_not_reused() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let old = s.submit(de_job(dir.path(), 4, 2)).await;
+    s.kill().await;
+    // As a state written by another version of fmucal would be.
+    {
+        let store = Arc::new(Store::open(dir.path()).unwrap());
+        let writer = fmucal_coordinator::store::Writer::spawn(store);
+        writer.send(fmucal_coordinator::store::Write::State { id: old.clone(), json: "{\"status\":2}".into() });
+    }
+    let s = Sched::start(dir.path());
+    let gone = s.call(|reply| Command::Get { job_id: old.clone(), reply }).await;
+    assert!(matches!(gone, Err(CoordinatorError::NotFound(_))), "{gone:?}");
+    let new = s.submit(de_job(dir.path(), 4, 2)).await;
+    assert_ne!(new, old, "a new job took the id of one whose state could not be read");
+    let listed = s.call(|reply| Command::List { reply }).await.unwrap();
+    assert_eq!(listed.jobs.iter().map(|j| j.job_id.clone()).collect::<Vec<_>>(), vec![new]);
+}

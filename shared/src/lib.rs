@@ -1,7 +1,9 @@
 //! fmucal's core library: FMU loading ([`fmu`]), time series and their files ([`series`]),
-//! simulation ([`sim`]) and the ask/tell optimizers ([`optim`]). It knows nothing of
+//! simulation ([`sim`]), the ask/tell optimizers ([`optim`]), calibration jobs ([`job`]) and
+//! the analysis of what a calibrated model still gets wrong ([`diagnose`]). It knows nothing of
 //! tokio, tonic or the network, so everything in it is testable without a server.
 
+pub mod diagnose;
 pub mod fmu;
 pub mod job;
 pub mod optim;

@@ -1,8 +1,8 @@
 //! fmucal's worker: registers with a coordinator (announcing the protocol version), heartbeats,
 //! and runs `slots` evaluation slots. Each slot long-polls the coordinator with the results of
-//! its previous points and evaluates on its own OS thread, which keeps one warm FMU instance per
-//! job (FMU instances are not `Send`). Points of an FMU that may be instantiated only once per
-//! process all go to slot 0's thread. Models and job data are fetched
+//! its previous points and evaluates them on its own thread of the warm-evaluator pool, which
+//! keeps a warm FMU instance for each of its last 4 jobs (FMU instances are not `Send`). Points
+//! of an FMU that may be instantiated only once per process all go to thread 0. Models and job data are fetched
 //! once per job and cached; unpacked models are cached by hash. On shutdown the slots finish
 //! their current point and hand its result back before the worker exits.
 

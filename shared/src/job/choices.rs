@@ -93,13 +93,6 @@ pub enum JobStatus {
     Cancelled,
 }
 
-impl JobStatus {
-    /// Whether the job has ended (succeeded, failed or was cancelled).
-    pub fn is_final(self) -> bool {
-        self != JobStatus::Running
-    }
-}
-
 /// Serde adapter: a value written as its `Display` text and read with `FromStr`.
 pub mod text {
     use super::*;

@@ -15,14 +15,36 @@ use crate::sim::{SimError, SimResult, Simulator};
 /// The result of evaluating one point.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Evaluation {
-    /// The objective value, or `None` if the simulation failed.
+    /// The objective value, or `None` if the simulation failed (an infinite value is kept
+    /// apart from a failure in JSON, so a resumed job is told the same).
+    #[serde(with = "crate::optim::serde_float::option")]
     pub value: Option<f64>,
     /// Weighted residuals, when asked for and the simulation succeeded.
+    #[serde(default, with = "optional_floats")]
     pub residuals: Option<Vec<f64>>,
     /// Why the simulation failed.
     pub error: Option<String>,
     /// Wall time of the simulation.
     pub wall: Duration,
+}
+
+/// Serde for optional residual vectors whose values may be non-finite.
+mod optional_floats {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    #[derive(serde::Serialize, serde::Deserialize)]
+    struct Floats(#[serde(with = "crate::optim::serde_float::vec")] Vec<f64>);
+
+    pub fn serialize<S: Serializer>(v: &Option<Vec<f64>>, s: S) -> Result<S::Ok, S::Error> {
+        match v {
+            Some(v) => s.serialize_some(&Floats(v.clone())),
+            None => s.serialize_none(),
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Vec<f64>>, D::Error> {
+        Ok(Option::<Floats>::deserialize(d)?.map(|f| f.0))
+    }
 }
 
 impl Evaluation {

@@ -27,7 +27,8 @@ pub trait Backend {
 /// `on_round` sees every completed round.
 ///
 /// # Errors
-/// [`JobError::Optim`] if the backend answers a different number of points than asked.
+/// [`JobError::Invalid`] (field `executor`) if the backend answers a different number of points
+/// than asked; [`JobError::Optim`] if the run refuses a result.
 pub fn execute(
     run: &mut JobRun,
     backend: &mut dyn Backend,

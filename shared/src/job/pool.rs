@@ -1,9 +1,12 @@
 //! The warm-evaluator pool: OS threads that each own the FMU instances of the jobs they have
-//! evaluated (an [`Evaluator`] per job, reset between points, re-instantiated after a failure),
-//! fed from one queue. A request may name the thread that must run it — a worker process keeps
-//! one thread per slot, and an FMU that may be instantiated only once per process runs all its
-//! points on thread 0 — or leave it to whichever thread is free. Every path that evaluates
-//! points uses it: the in-process executor, the identifiability analysis and the workers.
+//! evaluated (an [`Evaluator`] per job, for up to 4 jobs, reset between points,
+//! re-instantiated after a failure), fed from one queue. A request may name the thread that
+//! must run it (a worker keeps one thread per slot, and sends every point of an FMU that may
+//! be instantiated only once per process to thread 0) or leave it to whichever thread is
+//! free. Every path that evaluates points uses it: the in-process executor, the
+//! identifiability analysis and the workers. A panic while evaluating (a bug, or an FMU
+//! calling back into a panicking logger) fails that point only: the thread drops the job's
+//! instance and goes on, so no request is left without an answer.
 
 use std::collections::{HashMap, VecDeque};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
@@ -73,11 +76,6 @@ impl EvaluatorPool {
             })
             .collect::<std::io::Result<Vec<_>>>()?;
         Ok(EvaluatorPool { shared, threads })
-    }
-
-    /// Number of threads.
-    pub fn threads(&self) -> usize {
-        self.threads.len()
     }
 
     /// Queues `request` for thread `thread` (taken modulo the number of threads) or, with
@@ -152,15 +150,31 @@ fn serve(shared: &Shared, me: usize) {
                 q = shared.ready.wait_timeout(q, Duration::from_secs(1)).unwrap_or_else(|p| p.into_inner()).0;
             }
         };
-        let Some(Queued { request: r, reply, .. }) = task else { return };
-        if !warm.contains_key(&r.job_key) && warm.len() >= WARM_JOBS_PER_THREAD {
-            warm.clear();
-        }
-        let evaluation = match warm.entry(r.job_key) {
-            std::collections::hash_map::Entry::Occupied(e) => Ok(e.into_mut()),
-            std::collections::hash_map::Entry::Vacant(v) => Evaluator::new(&r.fmu, r.job).map(|ev| v.insert(ev)),
-        }
-        .map_or_else(|e| Evaluation::failed(e.to_string()), |ev| ev.evaluate(&r.x, r.want_residuals));
+        let Some(Queued { request, reply, .. }) = task else { return };
+        let key = request.job_key.clone();
+        let evaluation = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| evaluate(&mut warm, request)))
+            .unwrap_or_else(|panic| {
+                // The instance may be in any state now: never reuse it.
+                warm.remove(&key);
+                let why = panic
+                    .downcast_ref::<&str>()
+                    .map(|s| (*s).to_owned())
+                    .or_else(|| panic.downcast_ref::<String>().cloned())
+                    .unwrap_or_default();
+                Evaluation::failed(format!("the evaluation panicked: {why}"))
+            });
         reply(evaluation);
     }
+}
+
+/// Evaluates `r` on its job's warm instance, instantiating it first if needed.
+fn evaluate(warm: &mut HashMap<String, Evaluator>, r: EvalRequest) -> Evaluation {
+    if !warm.contains_key(&r.job_key) && warm.len() >= WARM_JOBS_PER_THREAD {
+        warm.clear();
+    }
+    match warm.entry(r.job_key) {
+        std::collections::hash_map::Entry::Occupied(e) => Ok(e.into_mut()),
+        std::collections::hash_map::Entry::Vacant(v) => Evaluator::new(&r.fmu, r.job).map(|ev| v.insert(ev)),
+    }
+    .map_or_else(|e| Evaluation::failed(e.to_string()), |ev| ev.evaluate(&r.x, r.want_residuals))
 }

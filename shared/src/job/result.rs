@@ -29,8 +29,10 @@ pub struct EvaluatedPoint {
     /// The point, in parameter order.
     pub x: Vec<f64>,
     /// The objective value, or `None` if the simulation failed.
+    #[serde(with = "crate::optim::serde_float::option")]
     pub value: Option<f64>,
     /// Weighted residuals (empty if the simulation failed).
+    #[serde(with = "crate::optim::serde_float::vec")]
     pub residuals: Vec<f64>,
     /// Why the simulation failed.
     pub message: String,

@@ -102,11 +102,6 @@ impl JobRun {
         self.optimizer.best().map_or(f64::INFINITY, |b| b.1)
     }
 
-    /// Evaluations whose simulation failed.
-    pub fn failed_evaluations(&self) -> u64 {
-        self.failed_evaluations
-    }
-
     /// The result so far: the optimum (the start point if nothing succeeded), counters, history
     /// and evaluated points. `termination` overrides the optimizer's reason (e.g. "cancelled").
     pub fn result(&self, job: &PreparedJob, elapsed_s: f64, termination: Option<&str>) -> CalibrationResult {

@@ -9,11 +9,14 @@ use serde::{Deserialize, Deserializer, Serializer};
 enum Repr {
     Num(f64),
     Text(String),
+    /// How serde_json wrote a non-finite float before this module was used (read as NaN).
+    Null(()),
 }
 
 fn decode<E: serde::de::Error>(r: Repr) -> Result<f64, E> {
     match r {
         Repr::Num(v) => Ok(v),
+        Repr::Null(()) => Ok(f64::NAN),
         Repr::Text(t) => match t.as_str() {
             "inf" => Ok(f64::INFINITY),
             "-inf" => Ok(f64::NEG_INFINITY),
@@ -63,6 +66,23 @@ pub mod vec {
     }
 }
 
+/// The same for `Option<f64>` (`None` is `null`).
+pub mod option {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &Option<f64>, s: S) -> Result<S::Ok, S::Error> {
+        match v {
+            Some(x) if x.is_finite() => s.serialize_some(x),
+            Some(x) => s.serialize_some(super::text(*x)),
+            None => s.serialize_none(),
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+        Option::<super::Repr>::deserialize(d)?.map(super::decode).transpose()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #[derive(serde::Serialize, serde::Deserialize, PartialEq, Debug)]
@@ -79,5 +99,23 @@ mod tests {
         let json = serde_json::to_string(&s).unwrap();
         assert_eq!(json, r#"{"a":"-inf","b":[1.5,"inf",-0.0]}"#);
         assert_eq!(serde_json::from_str::<S>(&json).unwrap(), s);
+        // What plain serde_json wrote for a non-finite value reads back as NaN.
+        let old: S = serde_json::from_str(r#"{"a":null,"b":[null,2.0]}"#).unwrap();
+        assert!(old.a.is_nan() && old.b[0].is_nan() && old.b[1] == 2.0);
+    }
+
+    #[derive(serde::Serialize, serde::Deserialize, PartialEq, Debug)]
+    struct O {
+        #[serde(with = "super::option")]
+        v: Option<f64>,
+    }
+
+    #[test]
+    fn optional_values_keep_none_apart_from_infinity() {
+        for v in [None, Some(2.5), Some(f64::INFINITY)] {
+            let json = serde_json::to_string(&O { v }).unwrap();
+            assert_eq!(serde_json::from_str::<O>(&json).unwrap(), O { v }, "{json}");
+        }
+        assert_eq!(serde_json::to_string(&O { v: Some(f64::INFINITY) }).unwrap(), r#"{"v":"inf"}"#);
     }
 }

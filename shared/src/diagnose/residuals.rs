@@ -1,0 +1,265 @@
+//! Residual analysis on a calibration window (the "localise" step of a diagnosis): where the
+//! simulation and the measurements disagree, whether the disagreement is noise, and which
+//! readable signal it follows.
+//!
+//! - [`windows`]: RMS of the residual in equal time windows, worst first.
+//! - [`ljung_box`]: the Ljung–Box statistic Q = n(n+2) Σₖ₌₁ʰ ρ̂ₖ²/(n−k) over the first h
+//!   autocorrelations and its p-value under whiteness (χ² with h degrees of freedom). A small
+//!   p-value says the residual is not white: some dynamics are missing.
+//! - [`correlation`]: Pearson correlation of the residual with a candidate signal (a velocity,
+//!   a temperature, an input, or its sign).
+//!
+//! Residuals are given on the objective's time grid; NaN marks a missing measurement and is
+//! left out (a window or a lag with no pair of valid samples contributes nothing).
+
+use serde::{Deserialize, Serialize};
+
+/// The RMS of the residual between two times.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WindowRms {
+    pub start_time: f64,
+    pub stop_time: f64,
+    pub rms: f64,
+    /// Valid (non-NaN) residuals in the window.
+    pub samples: usize,
+}
+
+/// RMS of `residual` over `count` windows of equal length spanning `time`, worst first
+/// (windows without a valid sample are left out).
+pub fn windows(time: &[f64], residual: &[f64], count: usize) -> Vec<WindowRms> {
+    let (Some(&t0), Some(&t1)) = (time.first(), time.last()) else { return vec![] };
+    let count = count.max(1);
+    let width = (t1 - t0) / count as f64;
+    let mut sums = vec![(0.0, 0usize); count];
+    for (t, r) in time.iter().zip(residual) {
+        if r.is_nan() {
+            continue;
+        }
+        let k = if width > 0.0 { (((t - t0) / width) as usize).min(count - 1) } else { 0 };
+        sums[k].0 += r * r;
+        sums[k].1 += 1;
+    }
+    let mut out: Vec<WindowRms> = sums
+        .into_iter()
+        .enumerate()
+        .filter(|(_, (_, n))| *n > 0)
+        .map(|(k, (s, n))| WindowRms {
+            start_time: t0 + k as f64 * width,
+            stop_time: if k + 1 == count { t1 } else { t0 + (k + 1) as f64 * width },
+            rms: (s / n as f64).sqrt(),
+            samples: n,
+        })
+        .collect();
+    out.sort_by(|a, b| b.rms.total_cmp(&a.rms));
+    out
+}
+
+/// The Ljung–Box whiteness test of a residual.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LjungBox {
+    /// Lags used (h).
+    pub lags: usize,
+    pub statistic: f64,
+    /// P(χ²ₕ ≥ statistic): near 0 when the residual is not white.
+    pub p_value: f64,
+}
+
+/// Sample autocorrelation of `x` at lags 1..=`lags`, NaN samples left out of every product.
+fn autocorrelations(x: &[f64], lags: usize) -> Vec<f64> {
+    let valid: Vec<f64> = x.iter().copied().filter(|v| !v.is_nan()).collect();
+    let mean = valid.iter().sum::<f64>() / valid.len().max(1) as f64;
+    let c0: f64 = valid.iter().map(|v| (v - mean).powi(2)).sum();
+    (1..=lags)
+        .map(|k| {
+            let ck: f64 = x
+                .iter()
+                .zip(&x[k.min(x.len())..])
+                .filter(|(a, b)| !a.is_nan() && !b.is_nan())
+                .map(|(a, b)| (a - mean) * (b - mean))
+                .sum();
+            if c0 > 0.0 { ck / c0 } else { 0.0 }
+        })
+        .collect()
+}
+
+/// Ljung–Box over the first `lags` lags (at most n − 1); `None` with fewer than 3 valid samples.
+pub fn ljung_box(residual: &[f64], lags: usize) -> Option<LjungBox> {
+    let n = residual.iter().filter(|v| !v.is_nan()).count();
+    if n < 3 {
+        return None;
+    }
+    let lags = lags.clamp(1, n - 1);
+    let rho = autocorrelations(residual, lags);
+    let nf = n as f64;
+    let statistic =
+        nf * (nf + 2.0) * rho.iter().enumerate().map(|(i, r)| r * r / (nf - (i + 1) as f64)).sum::<f64>();
+    Some(LjungBox { lags, statistic, p_value: chi_squared_survival(statistic, lags as f64) })
+}
+
+/// Pearson correlation of `a` and `b` over the samples where both are valid; 0 when either is
+/// constant there or fewer than 2 pairs remain.
+pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
+    let pairs: Vec<(f64, f64)> = a.iter().zip(b).filter(|(x, y)| !x.is_nan() && !y.is_nan()).map(|(x, y)| (*x, *y)).collect();
+    if pairs.len() < 2 {
+        return 0.0;
+    }
+    let n = pairs.len() as f64;
+    let (ma, mb) = (pairs.iter().map(|p| p.0).sum::<f64>() / n, pairs.iter().map(|p| p.1).sum::<f64>() / n);
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in &pairs {
+        sab += (x - ma) * (y - mb);
+        saa += (x - ma).powi(2);
+        sbb += (y - mb).powi(2);
+    }
+    if saa > 0.0 && sbb > 0.0 { sab / (saa * sbb).sqrt() } else { 0.0 }
+}
+
+/// P(X ≥ x) for X ~ χ² with `k` degrees of freedom: the regularized upper incomplete gamma
+/// Q(k/2, x/2), by its series below a + 1 and its continued fraction above (Lentz).
+pub fn chi_squared_survival(x: f64, k: f64) -> f64 {
+    if x.is_nan() || k <= 0.0 {
+        return f64::NAN;
+    }
+    if x <= 0.0 {
+        return 1.0;
+    }
+    let (a, x) = (k / 2.0, x / 2.0);
+    let log_prefactor = a * x.ln() - x - ln_gamma(a);
+    if x < a + 1.0 {
+        // P(a, x) = e^{-x} x^a / Γ(a) Σ xⁿ / (a (a+1) … (a+n))
+        let (mut term, mut sum, mut ap) = (1.0 / a, 1.0 / a, a);
+        for _ in 0..10_000 {
+            ap += 1.0;
+            term *= x / ap;
+            sum += term;
+            if term.abs() < sum.abs() * 1e-16 {
+                break;
+            }
+        }
+        (1.0 - sum * log_prefactor.exp()).max(0.0)
+    } else {
+        let tiny = 1e-300;
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / tiny;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..10_000 {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = b + an / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            let delta = d * c;
+            h *= delta;
+            if (delta - 1.0).abs() < 1e-16 {
+                break;
+            }
+        }
+        (log_prefactor.exp() * h).clamp(0.0, 1.0)
+    }
+}
+
+/// ln Γ(x) for x > 0 (Lanczos, g = 7, n = 9; relative error below 1e-15).
+fn ln_gamma(x: f64) -> f64 {
+    const G: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
+    if x < 0.5 {
+        // Reflection: Γ(x) Γ(1 − x) = π / sin(πx).
+        return (std::f64::consts::PI / (std::f64::consts::PI * x).sin()).ln() - ln_gamma(1.0 - x);
+    }
+    let x = x - 1.0;
+    let t = x + 7.5;
+    let sum = G[0] + G.iter().enumerate().skip(1).map(|(i, g)| g / (x + i as f64)).sum::<f64>();
+    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + sum.ln()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi_squared_survival_matches_closed_forms() {
+        // k = 2: P(X ≥ x) = e^{-x/2}; k = 1: erfc(√(x/2)), here at x = 3.841458820694124
+        // (the 95 % quantile) it is 0.05.
+        for x in [0.1, 1.0, 2.5, 10.0, 40.0] {
+            let want = (-x / 2.0f64).exp();
+            assert!((chi_squared_survival(x, 2.0) - want).abs() < 1e-14 * want.max(1e-300) + 1e-16, "{x}");
+        }
+        assert!((chi_squared_survival(3.841_458_820_694_124, 1.0) - 0.05).abs() < 1e-13);
+        // k = 4: e^{-x/2} (1 + x/2).
+        for x in [0.5, 3.0, 20.0] {
+            let want = (-x / 2.0f64).exp() * (1.0 + x / 2.0);
+            assert!((chi_squared_survival(x, 4.0) - want).abs() < 1e-13, "{x}");
+        }
+        assert_eq!(chi_squared_survival(0.0, 3.0), 1.0);
+    }
+
+    #[test]
+    fn ljung_box_by_hand_on_a_short_series() {
+        // x = [1, -1, 1, -1]: mean 0, c0 = 4, c1 = -3, c2 = 2; n = 4, h = 2:
+        // Q = 4·6·((−3/4)²/3 + (2/4)²/2) = 24·(0.1875 + 0.125) = 7.5.
+        let lb = ljung_box(&[1.0, -1.0, 1.0, -1.0], 2).unwrap();
+        assert!((lb.statistic - 7.5).abs() < 1e-12, "{lb:?}");
+        assert!((lb.p_value - (-7.5f64 / 2.0).exp()).abs() < 1e-14);
+        assert!(ljung_box(&[1.0, f64::NAN], 5).is_none());
+    }
+
+    #[test]
+    fn structure_in_the_residual_gives_a_small_p_value_and_noise_does_not() {
+        let drift: Vec<f64> = (0..200).map(|i| (i as f64 / 30.0).sin()).collect();
+        assert!(ljung_box(&drift, 10).unwrap().p_value < 1e-10);
+        // Uniform noise from a fixed xorshift64* sequence.
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let noise: Vec<f64> = (0..500)
+            .map(|_| {
+                state ^= state >> 12;
+                state ^= state << 25;
+                state ^= state >> 27;
+                (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .collect();
+        let lb = ljung_box(&noise, 10).unwrap();
+        assert!(lb.p_value > 0.05, "{lb:?}");
+    }
+
+    #[test]
+    fn windows_rank_the_worst_span_first_and_skip_missing_samples() {
+        let time: Vec<f64> = (0..=10).map(f64::from).collect();
+        let mut r = vec![0.1; 11];
+        r[7] = 2.0;
+        r[8] = f64::NAN;
+        let w = windows(&time, &r, 5);
+        assert_eq!(w.len(), 5);
+        assert_eq!((w[0].start_time, w[0].stop_time), (6.0, 8.0));
+        // Window [6, 8) holds t = 6 and 7; t = 8 (missing) would belong to [8, 10].
+        assert_eq!(w[0].samples, 2);
+        assert!((w[0].rms - ((0.01 + 4.0) / 2.0f64).sqrt()).abs() < 1e-15);
+        let last = w.iter().find(|w| w.start_time == 8.0).unwrap();
+        assert_eq!((last.stop_time, last.samples), (10.0, 2));
+    }
+
+    #[test]
+    fn correlation_finds_the_signal_a_residual_follows() {
+        let v: Vec<f64> = (0..100).map(|i| (i as f64 / 7.0).sin()).collect();
+        let r: Vec<f64> = v.iter().map(|v| -0.3 * v + 0.01).collect();
+        assert!((correlation(&r, &v) + 1.0).abs() < 1e-12);
+        let sign: Vec<f64> = v.iter().map(|v| v.signum()).collect();
+        assert!(correlation(&r, &sign) < -0.8);
+        assert_eq!(correlation(&r, &vec![1.0; 100]), 0.0);
+    }
+}
