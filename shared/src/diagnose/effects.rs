@@ -104,14 +104,48 @@ kind!(DeadZoneSpring, "dead_zone_spring", Mechanical, ["k", "width"]);
 kind!(Convection, "convection", Thermal, ["h", "t_ambient"]);
 kind!(Radiation, "radiation", Thermal, ["emissivity_area", "t_ambient"]);
 kind!(HeatLoss, "heat_loss", Thermal, ["q"]);
-kind!(SensorOffset, "sensor_offset", Sensor, ["offset"]);
-kind!(SensorGain, "sensor_gain", Sensor, ["gain"]);
 kind!(SensorLag, "sensor_lag", Sensor, ["time_constant"]);
-kind!(SensorDelay, "sensor_delay", Sensor, ["delay"]);
-kind!(ActuatorOffset, "actuator_offset", Actuator, ["offset"]);
-kind!(ActuatorGain, "actuator_gain", Actuator, ["gain"]);
-kind!(ActuatorDelay, "actuator_delay", Actuator, ["delay"]);
 kind!(ActuatorSaturation, "actuator_saturation", Actuator, ["lower", "upper"]);
+
+/// A series effect with the same formula on a sensor and on an actuator: offset, gain, delay.
+pub struct Shared {
+    name: &'static str,
+    domain: Domain,
+    formula: SharedFormula,
+}
+
+enum SharedFormula {
+    Offset,
+    Gain,
+    Delay,
+}
+
+impl Kind for Shared {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+    fn domain(&self) -> Domain {
+        self.domain
+    }
+    fn parameters(&self) -> &'static [&'static str] {
+        match self.formula {
+            SharedFormula::Offset => &["offset"],
+            SharedFormula::Gain => &["gain"],
+            SharedFormula::Delay => &["delay"],
+        }
+    }
+}
+
+const fn shared(name: &'static str, domain: Domain, formula: SharedFormula) -> Shared {
+    Shared { name, domain, formula }
+}
+
+pub const SENSOR_OFFSET: Shared = shared("sensor_offset", Domain::Sensor, SharedFormula::Offset);
+pub const SENSOR_GAIN: Shared = shared("sensor_gain", Domain::Sensor, SharedFormula::Gain);
+pub const SENSOR_DELAY: Shared = shared("sensor_delay", Domain::Sensor, SharedFormula::Delay);
+pub const ACTUATOR_OFFSET: Shared = shared("actuator_offset", Domain::Actuator, SharedFormula::Offset);
+pub const ACTUATOR_GAIN: Shared = shared("actuator_gain", Domain::Actuator, SharedFormula::Gain);
+pub const ACTUATOR_DELAY: Shared = shared("actuator_delay", Domain::Actuator, SharedFormula::Delay);
 
 impl PortEffect for ViscousDamping {
     fn term(&self, p: &[f64], v: f64) -> f64 {
@@ -188,14 +222,6 @@ impl PortEffect for HeatLoss {
     }
 }
 
-fn offset(p: &[f64], values: &[f64]) -> Vec<f64> {
-    values.iter().map(|y| y + p[0]).collect()
-}
-
-fn gain(p: &[f64], values: &[f64]) -> Vec<f64> {
-    values.iter().map(|y| y * p[0]).collect()
-}
-
 /// y(t − τ), linear between samples, the first value before t₀ + τ.
 fn delay(p: &[f64], time: &[f64], values: &[f64]) -> Vec<f64> {
     let tau = p[0].max(0.0);
@@ -216,15 +242,13 @@ fn delay(p: &[f64], time: &[f64], values: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-impl SeriesEffect for SensorOffset {
-    fn apply(&self, p: &[f64], _: &[f64], values: &[f64]) -> Vec<f64> {
-        offset(p, values)
-    }
-}
-
-impl SeriesEffect for SensorGain {
-    fn apply(&self, p: &[f64], _: &[f64], values: &[f64]) -> Vec<f64> {
-        gain(p, values)
+impl SeriesEffect for Shared {
+    fn apply(&self, p: &[f64], time: &[f64], values: &[f64]) -> Vec<f64> {
+        match self.formula {
+            SharedFormula::Offset => values.iter().map(|y| y + p[0]).collect(),
+            SharedFormula::Gain => values.iter().map(|y| y * p[0]).collect(),
+            SharedFormula::Delay => delay(p, time, values),
+        }
     }
 }
 
@@ -250,30 +274,6 @@ impl SeriesEffect for SensorLag {
             out.push(ys);
         }
         out
-    }
-}
-
-impl SeriesEffect for SensorDelay {
-    fn apply(&self, p: &[f64], time: &[f64], values: &[f64]) -> Vec<f64> {
-        delay(p, time, values)
-    }
-}
-
-impl SeriesEffect for ActuatorOffset {
-    fn apply(&self, p: &[f64], _: &[f64], values: &[f64]) -> Vec<f64> {
-        offset(p, values)
-    }
-}
-
-impl SeriesEffect for ActuatorGain {
-    fn apply(&self, p: &[f64], _: &[f64], values: &[f64]) -> Vec<f64> {
-        gain(p, values)
-    }
-}
-
-impl SeriesEffect for ActuatorDelay {
-    fn apply(&self, p: &[f64], time: &[f64], values: &[f64]) -> Vec<f64> {
-        delay(p, time, values)
     }
 }
 
@@ -304,13 +304,13 @@ pub fn port_kinds() -> &'static [&'static dyn PortEffect] {
 /// Every effect on a measured output or input.
 pub fn series_kinds() -> &'static [&'static dyn SeriesEffect] {
     &[
-        &SensorOffset,
-        &SensorGain,
+        &SENSOR_OFFSET,
+        &SENSOR_GAIN,
         &SensorLag,
-        &SensorDelay,
-        &ActuatorOffset,
-        &ActuatorGain,
-        &ActuatorDelay,
+        &SENSOR_DELAY,
+        &ACTUATOR_OFFSET,
+        &ACTUATOR_GAIN,
+        &ACTUATOR_DELAY,
         &ActuatorSaturation,
     ]
 }
