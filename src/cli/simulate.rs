@@ -96,6 +96,7 @@ pub fn run(args: Args) -> Result<()> {
         max_step: args.max_step,
         max_steps: None,
         timeout,
+        port_terms: vec![],
     };
     let fmu = Fmu::load(&path).with_context(|| format!("cannot load {}", path.display()))?;
     let result = sim::simulate(&fmu, &spec)?;

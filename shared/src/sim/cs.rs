@@ -6,6 +6,7 @@
 //! last row at `fmi2LastSuccessfulTime`, as FMPy records it), or resumes from
 //! `fmi2LastSuccessfulTime`; `fmi2Error`/`fmi2Fatal` are errors naming the time.
 
+use super::inputs::Side;
 use super::plan::Plan;
 use super::spec::{SimError, SimResult};
 use super::{Recorder, initialize, time_eps};
@@ -35,6 +36,7 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
                 _ => remaining,
             };
             plan.set_inputs(inst, t)?;
+            plan.apply_port_terms(inst, t, Side::Right)?;
             inst.set_error_time(t);
             steps += 1;
             plan.check_budget(steps, t)?;

@@ -70,8 +70,9 @@ impl Model<'_> {
         }
     }
 
-    /// Pushes time, continuous inputs and states into the FMU. Inside a segment the inputs at
-    /// the segment's end are its left limit: a jump there belongs to the next segment.
+    /// Pushes time, continuous inputs and states into the FMU, then the port terms (which
+    /// read the states). Inside a segment the inputs at the segment's end are its left limit:
+    /// a jump there belongs to the next segment.
     fn set_point(&self, inst: &mut Instance, t: f64, x: &[f64]) -> Result<(), FmuError> {
         inst.set_error_time(t);
         inst.call("fmi2SetTime", |c| c.set_time(t))?;
@@ -80,7 +81,7 @@ impl Model<'_> {
         if !x.is_empty() {
             inst.call("fmi2SetContinuousStates", |c| c.set_continuous_states(x))?;
         }
-        Ok(())
+        self.plan.apply_port_terms(inst, t, side)
     }
 
     fn rhs(&self, x: &[f64], t: f64, dx: &mut [f64]) {
@@ -230,6 +231,7 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
             model.set_point(&mut inst, p.t, &p.x)?;
             inst.call("fmi2EnterEventMode", |c| c.enter_event_mode())?;
             plan.set_inputs(&mut inst, p.t)?;
+            plan.apply_port_terms(&mut inst, p.t, Side::Right)?;
         }
         rec.event_times.push(p.t);
         info = event_iteration(&model, p.t)?;

@@ -10,7 +10,7 @@ pub mod plan;
 pub mod spec;
 
 pub use inputs::InputTable;
-pub use spec::{OutputTimes, SimError, SimResult, SimSpec, SimStats, Solver};
+pub use spec::{OutputTimes, PortTerm, SimError, SimResult, SimSpec, SimStats, Solver};
 
 use crate::fmu::{Fmu, FmuError, Instance, Interface};
 use plan::Plan;

@@ -5,7 +5,8 @@
 use std::time::Instant;
 
 use super::inputs::Side;
-use super::spec::{OutputTimes, SimError, SimSpec, Solver};
+use super::spec::{OutputTimes, PortTerm, SimError, SimSpec, Solver};
+use crate::diagnose::effects::{self, PortEffect};
 use crate::fmu::schema::{Causality, ScalarVariable, VarType, Variability};
 use crate::fmu::{FmuError, Instance, Interface, ModelDescription};
 use crate::series::TimeSeries;
@@ -35,6 +36,31 @@ pub struct InputBinding {
     pub hold: bool,
 }
 
+/// A port term resolved against the model: the effect, the port and signal value references,
+/// and what the port holds without the effect.
+#[derive(Clone)]
+pub struct PlannedTerm {
+    pub effect: &'static dyn PortEffect,
+    pub parameters: Vec<f64>,
+    pub signal_vr: u32,
+    pub port_vr: u32,
+    /// The input column mapped to the port, else the port's start value.
+    pub base: PortBase,
+}
+
+impl std::fmt::Debug for PlannedTerm {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}({:?}) of vr {} into vr {}", self.effect.name(), self.parameters, self.signal_vr, self.port_vr)
+    }
+}
+
+/// What an injection port holds before effects are added.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PortBase {
+    Column(usize),
+    Value(f64),
+}
+
 /// The resolved request.
 #[derive(Debug, Clone)]
 pub struct Plan {
@@ -54,10 +80,76 @@ pub struct Plan {
     /// Value references of the Real outputs and their positions in `outputs`.
     pub real_output_vrs: Vec<u32>,
     pub real_output_slots: Vec<usize>,
+    pub port_terms: Vec<PlannedTerm>,
 }
 
 fn invalid(msg: impl Into<String>) -> SimError {
     SimError::Invalid(msg.into())
+}
+
+/// Resolves a port term: a known port effect, a continuous Real input as port, a readable
+/// Real signal that does not depend directly on the port (an algebraic loop).
+fn plan_term(
+    md: &ModelDescription,
+    t: &PortTerm,
+    starts: &[(String, String)],
+    inputs: Option<&TimeSeries>,
+    bindings: &[InputBinding],
+) -> Result<PlannedTerm, SimError> {
+    let effect = match effects::find(&t.kind).map_err(|e| invalid(e.to_string()))? {
+        effects::Found::Port(e) => e,
+        effects::Found::Series(_) => {
+            return Err(invalid(format!("{} changes a measured series, it is not added to a port", t.kind)));
+        }
+    };
+    if t.parameters.len() != effect.parameters().len() {
+        return Err(invalid(format!(
+            "{} takes {} parameters ({}), got {}",
+            t.kind,
+            effect.parameters().len(),
+            effect.parameters().join(", "),
+            t.parameters.len()
+        )));
+    }
+    let port = md.variable(&t.port).ok_or_else(|| invalid(format!("port {:?} is not a variable of the model", t.port)))?;
+    if port.causality != Causality::Input || port.var_type != VarType::Real || port.variability != Variability::Continuous
+    {
+        return Err(invalid(format!("port {:?} is not a continuous Real input of the model", t.port)));
+    }
+    let signal =
+        md.variable(&t.signal).ok_or_else(|| invalid(format!("signal {:?} is not a variable of the model", t.signal)))?;
+    if signal.var_type != VarType::Real {
+        return Err(invalid(format!("signal {:?} is not a Real variable", t.signal)));
+    }
+    let port_index = md.variables.iter().position(|v| v.name == port.name).map(|i| i + 1);
+    let feeds_through = md.model_structure.outputs.iter().any(|u| {
+        md.variables.get(u.index - 1).is_some_and(|v| v.name == signal.name)
+            && u.dependencies.as_ref().is_some_and(|d| port_index.is_some_and(|p| d.contains(&p)))
+    });
+    if feeds_through {
+        return Err(invalid(format!(
+            "signal {:?} depends directly on port {:?}: adding the effect would make an algebraic loop",
+            t.signal, t.port
+        )));
+    }
+    let base = match bindings.iter().find(|b| b.var.vr == port.value_reference) {
+        Some(b) if inputs.is_some() => PortBase::Column(b.column),
+        _ => {
+            let set = starts.iter().rev().find(|(n, _)| *n == port.name).and_then(|(_, v)| v.parse::<f64>().ok());
+            let start = match &port.start {
+                Some(crate::fmu::schema::Value::Real(v)) => *v,
+                _ => 0.0,
+            };
+            PortBase::Value(set.unwrap_or(start))
+        }
+    };
+    Ok(PlannedTerm {
+        effect,
+        parameters: t.parameters.clone(),
+        signal_vr: signal.value_reference,
+        port_vr: port.value_reference,
+        base,
+    })
 }
 
 fn var_ref(v: &ScalarVariable) -> VarRef {
@@ -147,6 +239,11 @@ impl Plan {
                 .collect::<Result<Vec<_>, _>>()?
         };
 
+        let port_terms = spec
+            .port_terms
+            .iter()
+            .map(|t| plan_term(md, t, &spec.parameters, spec.inputs.as_ref(), &input_bindings))
+            .collect::<Result<Vec<_>, _>>()?;
         let real: Vec<(usize, u32)> =
             outputs.iter().enumerate().filter(|(_, o)| o.var_type == VarType::Real).map(|(i, o)| (i, o.vr)).collect();
         Ok(Plan {
@@ -167,7 +264,38 @@ impl Plan {
             inputs,
             input_bindings,
             outputs,
+            port_terms,
         })
+    }
+
+    /// Adds the port terms to their ports at time `t`: reads each signal (the states must be
+    /// set), and sets each port to its base value (input column from `side`, or start value)
+    /// plus the sum of its terms.
+    ///
+    /// # Errors
+    /// [`FmuError::Call`] if the FMU rejects a call.
+    pub fn apply_port_terms(&self, inst: &mut Instance, t: f64, side: Side) -> Result<(), FmuError> {
+        let mut ports: Vec<(u32, f64)> = vec![];
+        for term in &self.port_terms {
+            let mut s = [0.0];
+            inst.call("fmi2GetReal", |c| c.get_real(&[term.signal_vr], &mut s))?;
+            let add = term.effect.term(&term.parameters, s[0]);
+            match ports.iter_mut().find(|(vr, _)| *vr == term.port_vr) {
+                Some((_, v)) => *v += add,
+                None => {
+                    let base = match (term.base, &self.inputs) {
+                        (PortBase::Column(col), Some(table)) => table.value_on(side, col, t, false),
+                        (PortBase::Column(_), None) => 0.0,
+                        (PortBase::Value(v), _) => v,
+                    };
+                    ports.push((term.port_vr, base + add));
+                }
+            }
+        }
+        for (vr, v) in ports {
+            inst.call("fmi2SetReal", |c| c.set_real(&[vr], &[v]))?;
+        }
+        Ok(())
     }
 
     /// Sets parameters and start values (before `fmi2EnterInitializationMode`).

@@ -86,6 +86,20 @@ pub struct SimSpec {
     pub max_steps: Option<u64>,
     /// Wall-clock budget. Default: none.
     pub timeout: Option<Duration>,
+    /// Effects added to injection ports (see [`crate::diagnose::effects`]).
+    pub port_terms: Vec<PortTerm>,
+}
+
+/// An effect added to an injection port: `kind`'s term of the value of `signal`, with
+/// `parameters` in the kind's order, added to the input `port` (on top of any input column
+/// mapped to it). Model Exchange evaluates it inside every derivative evaluation, after the
+/// states are set; Co-Simulation at every communication point (first order in the step).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PortTerm {
+    pub kind: String,
+    pub port: String,
+    pub signal: String,
+    pub parameters: Vec<f64>,
 }
 
 /// Counters of one simulation.
