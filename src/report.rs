@@ -68,6 +68,41 @@ fn range(points: impl Iterator<Item = f64>) -> (f64, f64) {
 
 type DrawResult = Result<(), Box<dyn std::error::Error>>;
 
+/// Draws `points` as a line in `style`, labelled in the legend with a short line of that style.
+fn draw_line<'a, DB, CT>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    points: impl IntoIterator<Item = (f64, f64)>,
+    style: ShapeStyle,
+    label: &str,
+) -> DrawResult
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    CT: CoordTranslate<From = (f64, f64)>,
+{
+    chart
+        .draw_series(LineSeries::new(points, style))?
+        .label(label)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
+    Ok(())
+}
+
+/// The legend of the labelled series (at the middle right of the chart).
+fn draw_legend<'a, DB, CT>(chart: &mut ChartContext<'a, DB, CT>) -> DrawResult
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    CT: CoordTranslate,
+{
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 12))
+        .draw()?;
+    Ok(())
+}
+
 fn draw_fit<B: DrawingBackend>(root: DrawingArea<B, Shift>, series: &[Series]) -> DrawResult
 where
     B::ErrorType: 'static,
@@ -84,25 +119,14 @@ where
             .y_label_area_size(60)
             .build_cartesian_2d(t0..t1, y0..y1)?;
         chart.configure_mesh().x_desc("time").label_style(("sans-serif", 12)).draw()?;
-        chart
-            .draw_series(LineSeries::new(s.nominal.iter().copied(), BLUE.stroke_width(1)))?
-            .label("nominal")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
-        chart
-            .draw_series(LineSeries::new(s.optimized.iter().copied(), RED.stroke_width(1)))?
-            .label("optimized")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
+        draw_line(&mut chart, s.nominal.iter().copied(), BLUE.into(), "nominal")?;
+        draw_line(&mut chart, s.optimized.iter().copied(), RED.into(), "optimized")?;
         // Measurements on top, so they stay visible where the fit is good.
         chart
             .draw_series(s.measured.iter().map(|p| Circle::new(*p, 1, BLACK.mix(0.5).filled())))?
             .label("measured")
             .legend(|(x, y)| Circle::new((x + 10, y), 3, BLACK.filled()));
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 12))
-            .draw()?;
+        draw_legend(&mut chart)?;
     }
     root.present()?;
     Ok(())
@@ -144,26 +168,12 @@ where
             .y_label_formatter(&|v| format!("{v:.0e}"))
             .label_style(("sans-serif", 12))
             .draw()?;
-        chart
-            .draw_series(LineSeries::new(nominal, BLUE.stroke_width(1)))?
-            .label("measurement - nominal")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
-        chart
-            .draw_series(LineSeries::new(optimized, RED.stroke_width(1)))?
-            .label("measurement - optimized")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
+        draw_line(&mut chart, nominal, BLUE.into(), "measurement - nominal")?;
+        draw_line(&mut chart, optimized, RED.into(), "measurement - optimized")?;
         if let Some(t) = split {
-            chart
-                .draw_series(LineSeries::new([(t, lo), (t, hi)], BLACK.stroke_width(2)))?
-                .label("end of the calibration window")
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+            draw_line(&mut chart, [(t, lo), (t, hi)], BLACK.stroke_width(2), "end of the calibration window")?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 12))
-            .draw()?;
+        draw_legend(&mut chart)?;
     }
     root.present()?;
     Ok(())

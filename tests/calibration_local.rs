@@ -37,29 +37,13 @@ fn data(dir: &std::path::Path) -> std::path::PathBuf {
 }
 
 fn job(dir: &std::path::Path, extra: &str) -> JobSpec {
-    let toml = format!(
-        r#"
-[model]
-path = "{}"
-[data]
-path = "{}"
-[[outputs]]
-variable = "x"
-column = "x"
-[[parameters]]
-name = "k"
-start = 1.0
-lower = 0.1
-upper = 5.0
-[simulation]
-tolerance = 1e-10
-[optimizer]
-x_tol = 1e-8
-f_tol = 1e-14
-{extra}
-"#,
-        common::example("decay").display(),
-        data(dir).display()
+    let toml = common::job_toml(
+        &common::example("decay"),
+        Some(&data(dir)),
+        &[("x", "x")],
+        &[],
+        &[("k", 1.0, 0.1, 5.0)],
+        &format!("[simulation]\ntolerance = 1e-10\n[optimizer]\nx_tol = 1e-8\nf_tol = 1e-14\n{extra}\n"),
     );
     JobSpec::from_toml(&toml, dir).unwrap()
 }
@@ -143,4 +127,3 @@ fn in_process_identifiability_uses_each_difference_points_own_residuals() {
     assert!(analysed.standard_errors[0] > 0.0 && analysed.standard_errors[0].is_finite(), "{analysed:?}");
     assert_eq!(analysed.residuals, prepared.objective.times.len() - 1, "one measurement is missing");
 }
-

@@ -109,7 +109,7 @@ fn no_binary_for_this_platform_lists_those_present() {
 #[test]
 fn binary_missing_an_fmi2_symbol() {
     let tmp = tempfile::tempdir().unwrap();
-    let fmu = fmucal_models::missing_symbol_fixture();
+    let fmu = fmucal_models::Fixture::MissingSymbol.path();
     assert_fails(&simulate(&fmu, &[], tmp.path()), &["does not export fmi2GetReal"]);
 }
 

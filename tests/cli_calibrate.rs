@@ -22,16 +22,25 @@ fn write_job(dir: &Path, extra: &str) -> std::path::PathBuf {
     }
     std::fs::write(dir.join("data.csv"), csv).unwrap();
     let job = dir.join("job.toml");
-    std::fs::write(
-        &job,
-        format!(
-            "[model]\npath = \"example:decay\"\n[data]\npath = \"data.csv\"\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n\
-             [[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.1\nupper = 5.0\n[simulation]\ntolerance = 1e-10\n\
-             [optimizer]\nx_tol = 1e-8\nf_tol = 1e-14\n{extra}"
-        ),
-    )
-    .unwrap();
+    let text = common::job_toml(
+        Path::new("example:decay"),
+        Some(Path::new("data.csv")),
+        &[("x", "x")],
+        &[],
+        &[("k", 1.0, 0.1, 5.0)],
+        &format!("[simulation]\ntolerance = 1e-10\n[optimizer]\nx_tol = 1e-8\nf_tol = 1e-14\n{extra}"),
+    );
+    std::fs::write(&job, text).unwrap();
     job
+}
+
+/// Writes the job (see [`write_job`]) and calibrates it with `workers` local worker processes
+/// into `dir/out`, which must succeed.
+fn calibrate_locally(dir: &Path, extra: &str, workers: &str) -> std::process::Output {
+    let job = write_job(dir, extra);
+    let out = fmucal(&["calibrate", job.to_str().unwrap(), "--workers", workers, "--out", "out"], dir);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    out
 }
 
 fn fmucal(args: &[&str], dir: &Path) -> std::process::Output {
@@ -50,9 +59,7 @@ fn result(dir: &Path) -> serde_json::Value {
 #[test]
 fn local_run_writes_result_convergence_and_fit() {
     let dir = tempfile::tempdir().unwrap();
-    let job = write_job(dir.path(), "");
-    let out = fmucal(&["calibrate", job.to_str().unwrap(), "--workers", "2", "--out", "out"], dir.path());
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = calibrate_locally(dir.path(), "", "2");
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("k = 1.7"), "{stdout}");
     let r = result(&dir.path().join("out"));
@@ -137,14 +144,10 @@ fn a_bad_job_is_one_error_line() {
 fn an_output_with_weight_zero_leaves_the_result_unchanged() {
     // Stopped early, so the objective is far from zero and an extra output would show in it.
     let plain = tempfile::tempdir().unwrap();
-    let job = write_job(plain.path(), "max_iters = 3\n");
-    let out = fmucal(&["calibrate", job.to_str().unwrap(), "--workers", "1", "--out", "out"], plain.path());
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    calibrate_locally(plain.path(), "max_iters = 3\n", "1");
     let zero = tempfile::tempdir().unwrap();
     let extra = "max_iters = 3\n[[outputs]]\nvariable = \"xAlias\"\ncolumn = \"x\"\nweight = 0.0\n";
-    let job = write_job(zero.path(), extra);
-    let out = fmucal(&["calibrate", job.to_str().unwrap(), "--workers", "1", "--out", "out"], zero.path());
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    calibrate_locally(zero.path(), extra, "1");
     let (a, b) = (result(&plain.path().join("out")), result(&zero.path().join("out")));
     assert!(a["f_opt"].as_f64().unwrap() > 1e-3, "{a}");
     assert_eq!(a["f_opt"], b["f_opt"]);

@@ -46,38 +46,13 @@ fn furuta_job(dir: &Path, max_iters: u64) -> (JobSpec, MeasurementTable) {
             ("u".into(), u),
         ],
     };
-    let toml = format!(
-        r#"
-[model]
-path = "{}"
-[data]
-[[outputs]]
-variable = "armJoint.phi"
-column = "phi"
-[[outputs]]
-variable = "pendulumJoint.phi"
-column = "theta"
-[[inputs]]
-column = "u"
-variable = "u"
-[[parameters]]
-name = "armFriction"
-start = 0.012
-lower = 0.0
-upper = 0.022
-[[parameters]]
-name = "pendulumFriction"
-start = 0.002
-lower = 0.0
-upper = 0.012
-[simulation]
-tolerance = 1e-8
-[optimizer]
-x_tol = 1e-6
-f_tol = 1e-14
-max_iters = {max_iters}
-"#,
-        common::example("furuta").display()
+    let toml = common::job_toml(
+        &common::example("furuta"),
+        None,
+        &[("armJoint.phi", "phi"), ("pendulumJoint.phi", "theta")],
+        &[("u", "u")],
+        &[("armFriction", 0.012, 0.0, 0.022), ("pendulumFriction", 0.002, 0.0, 0.012)],
+        &format!("[simulation]\ntolerance = 1e-8\n[optimizer]\nx_tol = 1e-6\nf_tol = 1e-14\nmax_iters = {max_iters}\n"),
     );
     (JobSpec::from_toml(&toml, dir).unwrap(), data)
 }
@@ -351,33 +326,16 @@ async fn crashing_job(mode: &str) {
     let r = simulate(&fmu, &SimSpec { parameters: vec![("k".into(), "1.7".into())], ..Default::default() }).unwrap();
     let data = MeasurementTable { time: r.time.clone(), columns: vec![("x".into(), r.column("x").unwrap().to_vec())] };
     // crashTime below the stop time (2 s) kills the worker process (SIGSEGV or SIGABRT).
-    let toml = format!(
-        r#"
-[model]
-path = "{}"
-[data]
-[[outputs]]
-variable = "x"
-column = "x"
-[[parameters]]
-name = "k"
-start = 1.0
-lower = 0.5
-upper = 3.0
-[[parameters]]
-name = "crashTime"
-start = 2.5
-lower = 1.0
-upper = 3.0
-[simulation]
-set = {{ crashMode = "{mode}" }}
-[optimizer]
-algorithm = "differential-evolution"
-population = 8
-max_iters = 4
-seed = 1
-"#,
-        common::example("decay").display()
+    let toml = common::job_toml(
+        &common::example("decay"),
+        None,
+        &[("x", "x")],
+        &[],
+        &[("k", 1.0, 0.5, 3.0), ("crashTime", 2.5, 1.0, 3.0)],
+        &format!(
+            "[simulation]\nset = {{ crashMode = \"{mode}\" }}\n[optimizer]\nalgorithm = \"differential-evolution\"\n\
+             population = 8\nmax_iters = 4\nseed = 1\n"
+        ),
     );
     let spec = JobSpec::from_toml(&toml, dir.path()).unwrap();
     let coord = start_coordinator(&dir.path().join("coord")).await;
@@ -505,9 +463,13 @@ async fn a_once_per_process_fmu_runs_on_a_multi_slot_worker() {
     let fmu = common::load(&once, &dir.path().join("cache"));
     let r = simulate(&fmu, &SimSpec { parameters: vec![("k".into(), "1.7".into())], ..Default::default() }).unwrap();
     let data = MeasurementTable { time: r.time.clone(), columns: vec![("x".into(), r.column("x").unwrap().to_vec())] };
-    let toml = format!(
-        "[model]\npath = \"{}\"\n[data]\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n[[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.1\nupper = 5.0\n[optimizer]\nalgorithm = \"differential-evolution\"\npopulation = 12\nmax_iters = 3\n",
-        once.display()
+    let toml = common::job_toml(
+        &once,
+        None,
+        &[("x", "x")],
+        &[],
+        &[("k", 1.0, 0.1, 5.0)],
+        "[optimizer]\nalgorithm = \"differential-evolution\"\npopulation = 12\nmax_iters = 3\n",
     );
     let spec = JobSpec::from_toml(&toml, dir.path()).unwrap();
     let coord = start_coordinator(&dir.path().join("coord")).await;

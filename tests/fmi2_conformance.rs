@@ -38,7 +38,7 @@ fn spec(interface: Interface, stop: f64, dt: f64) -> SimSpec {
 #[test]
 fn derivative_attributes_outside_model_structure_load_and_simulate_as_the_plain_model() {
     let tmp = tempfile::tempdir().unwrap();
-    let tooly = common::load(&fmucal_models::derivative_attributes_fixture(), tmp.path());
+    let tooly = common::load(&fmucal_models::Fixture::DerivativeAttributes.path(), tmp.path());
     let states: Vec<&str> = tooly.description.states().iter().map(|(s, _)| s.name.as_str()).collect();
     assert_eq!(states, ["h", "v"]);
     let plain = common::load_example("bouncing-ball", tmp.path());
@@ -58,7 +58,7 @@ fn pulse() -> InputTable {
 #[test]
 fn stick_slip_breaks_away_when_the_input_force_exceeds_stiction() {
     let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::stick_slip_fixture(), tmp.path());
+    let fmu = common::load(&fmucal_models::Fixture::StickSlip.path(), tmp.path());
     let run = simulate(&fmu, &SimSpec { inputs: Some(pulse()), ..spec(Interface::ModelExchange, 20.0, 0.01) }).unwrap();
     // The body at x = 0 sticks until F = 6.5 (t − 8) reaches Fs = 1.
     let breakaway = 8.0 + 1.0 / 6.5;
@@ -72,7 +72,7 @@ fn stick_slip_breaks_away_when_the_input_force_exceeds_stiction() {
 #[test]
 fn a_model_without_states_finds_the_events_its_input_causes() {
     let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::threshold_fixture(), tmp.path());
+    let fmu = common::load(&fmucal_models::Fixture::Threshold.path(), tmp.path());
     // u rises from 0 to 2 over [1, 1.205] and falls back by 1.41: it crosses 1 at 1.1025 and
     // 1.3075, between output points.
     let u = common::table(vec![0.0, 1.0, 1.205, 1.41, 3.0], vec![("u", vec![0.0, 0.0, 2.0, 0.0, 0.0])]);
@@ -92,7 +92,7 @@ fn a_model_without_states_finds_the_events_its_input_causes() {
 #[test]
 fn every_completed_step_is_reported_to_the_fmu() {
     let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::input_kinds_fixture(), tmp.path());
+    let fmu = common::load(&fmucal_models::Fixture::InputKinds.path(), tmp.path());
     let s = SimSpec {
         inputs: Some(common::every_kind_of_input()),
         outputs: vec!["completedSteps".into()],
@@ -108,7 +108,7 @@ fn every_completed_step_is_reported_to_the_fmu() {
 #[test]
 fn stick_slip_trajectory_matches_a_run_at_a_thousandth_of_the_step() {
     let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::stick_slip_fixture(), tmp.path());
+    let fmu = common::load(&fmucal_models::Fixture::StickSlip.path(), tmp.path());
     let base = SimSpec {
         inputs: Some(common::sine_force()),
         outputs: vec!["x".into(), "v".into(), "stuck".into()],
@@ -166,7 +166,7 @@ fn integral_of_inputs(table: &InputTable, t: f64) -> f64 {
 #[test]
 fn held_inputs_are_set_in_event_mode_and_integrate_exactly() {
     let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::input_kinds_fixture(), tmp.path());
+    let fmu = common::load(&fmucal_models::Fixture::InputKinds.path(), tmp.path());
     let inputs = common::every_kind_of_input();
     let run = simulate(&fmu, &SimSpec { inputs: Some(inputs.clone()), ..spec(Interface::ModelExchange, 4.0, 0.01) })
         .unwrap_or_else(|e| panic!("{e}"));
@@ -261,7 +261,7 @@ fn logged(f: impl FnOnce()) -> Vec<String> {
 #[test]
 fn model_exchange_gets_no_tolerance_and_co_simulation_does() {
     let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::input_kinds_fixture(), tmp.path());
+    let fmu = common::load(&fmucal_models::Fixture::InputKinds.path(), tmp.path());
     let mut seen = vec![];
     let lines = logged(|| {
         for interface in [Interface::ModelExchange, Interface::CoSimulation] {
@@ -276,7 +276,7 @@ fn model_exchange_gets_no_tolerance_and_co_simulation_does() {
 #[test]
 fn a_repeated_fmu_message_is_logged_once_per_instance_with_a_count() {
     let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::input_kinds_fixture(), tmp.path());
+    let fmu = common::load(&fmucal_models::Fixture::InputKinds.path(), tmp.path());
     let s = SimSpec {
         parameters: vec![("ucMax".into(), "0.5".into())],
         inputs: Some(common::table(vec![0.0, 1.0], vec![("uc", vec![1.0, 1.0])])),

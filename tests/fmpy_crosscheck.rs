@@ -20,7 +20,7 @@ use std::sync::OnceLock;
 
 use fmucal_shared::fmu::Interface;
 use fmucal_shared::fmu::schema::{ModelDescription, VarType};
-use fmucal_shared::sim::{OutputTimes, SimSpec, csv_io, simulate};
+use fmucal_shared::sim::{InputTable, OutputTimes, SimSpec, csv_io, simulate};
 
 fn python() -> &'static Path {
     static PY: OnceLock<PathBuf> = OnceLock::new();
@@ -57,7 +57,7 @@ impl Case<'_> {
     }
 }
 
-fn fmpy(case: &Case, variables: &[String], dir: &Path) -> fmucal_shared::sim::InputTable {
+fn fmpy(case: &Case, variables: &[String], dir: &Path) -> InputTable {
     let out = dir.join(format!("fmpy-{}.csv", case.label().replace(' ', "-")));
     let mut cmd = Command::new(python());
     cmd.arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmpy/simulate.py"))
@@ -133,7 +133,7 @@ fn compare(case: &Case, dir: &Path) -> f64 {
 }
 
 /// Writes `table` as `dir/name` for both simulators to read.
-fn input_file(dir: &Path, name: &str, table: &fmucal_shared::sim::InputTable) -> PathBuf {
+fn input_file(dir: &Path, name: &str, table: &InputTable) -> PathBuf {
     let path = dir.join(name);
     common::write_input_csv(table, &path);
     path
@@ -191,32 +191,29 @@ fn inputs_are_applied_as_fmpy_applies_them() {
     }
 }
 
+/// Checks `fmu` driven by `inputs` (written to `file`) up to `stop`: in Co-Simulation every
+/// 0.01 s, at the same communication points and with the same held values, to round-off; in
+/// Model Exchange on a 1 ms grid to `me_bound`, since FMPy holds continuous inputs over each
+/// output interval there while fmucal interpolates them.
+fn check_driven(fmu: PathBuf, inputs: &InputTable, file: &str, stop: f64, me_bound: f64) {
+    let tmp = tempfile::tempdir().unwrap();
+    let input = input_file(tmp.path(), file, inputs);
+    let case = |interface, interval| Case { input: Some(&input), ..Case::new(fmu.clone(), interface, interval, stop) };
+    check(case(Interface::CoSimulation, 0.01), 1e-9, tmp.path());
+    check(case(Interface::ModelExchange, 1e-3), me_bound, tmp.path());
+}
+
 #[test]
 fn inputs_of_every_kind_are_applied_as_fmpy_applies_them() {
-    let tmp = tempfile::tempdir().unwrap();
-    let input = input_file(tmp.path(), "kinds.csv", &common::every_kind_of_input());
-    let case = |interface, interval| Case {
-        input: Some(&input),
-        ..Case::new(fmucal_models::input_kinds_fixture(), interface, interval, 4.0)
-    };
-    // Same communication points and the same held values: equal to round-off.
-    check(case(Interface::CoSimulation, 0.01), 1e-9, tmp.path());
-    // FMPy holds uc over each 1 ms output interval, fmucal interpolates it: x differs by about
-    // |uc'| · 1 ms · t / 2 (analytic check of fmucal in fmi2_conformance.rs).
-    check(case(Interface::ModelExchange, 1e-3), 1e-3, tmp.path());
+    // x differs by about |uc'| · 1 ms · t / 2 in Model Exchange (analytic check of fmucal in
+    // fmi2_conformance.rs).
+    check_driven(fmucal_models::Fixture::InputKinds.path(), &common::every_kind_of_input(), "kinds.csv", 4.0, 1e-3);
 }
 
 #[test]
 fn stick_slip_friction_matches_fmpy() {
-    let tmp = tempfile::tempdir().unwrap();
-    let input = input_file(tmp.path(), "force.csv", &common::sine_force());
-    let case = |interface, interval| Case {
-        input: Some(&input),
-        ..Case::new(fmucal_models::stick_slip_fixture(), interface, interval, 20.0)
-    };
-    check(case(Interface::CoSimulation, 0.01), 1e-9, tmp.path());
-    // FMPy holds F over each output interval (here 1 ms); stick and slip times move by up to that.
-    check(case(Interface::ModelExchange, 1e-3), 2e-3, tmp.path());
+    // Stick and slip times move by up to the 1 ms output interval in Model Exchange.
+    check_driven(fmucal_models::Fixture::StickSlip.path(), &common::sine_force(), "force.csv", 20.0, 2e-3);
 }
 
 #[test]
@@ -226,7 +223,7 @@ fn a_model_without_states_matches_fmpy_in_co_simulation() {
     let input = input_file(tmp.path(), "u.csv", &u);
     // Model Exchange is checked against the analytic switch times in fmi2_conformance.rs: FMPy
     // holds u between output points there, which moves the switches to output points.
-    let case = Case::new(fmucal_models::threshold_fixture(), Interface::CoSimulation, 0.01, 3.0);
+    let case = Case::new(fmucal_models::Fixture::Threshold.path(), Interface::CoSimulation, 0.01, 3.0);
     check(Case { input: Some(&input), ..case }, 1e-9, tmp.path());
 }
 
@@ -234,7 +231,7 @@ fn a_model_without_states_matches_fmpy_in_co_simulation() {
 fn tool_style_derivative_attributes_match_fmpy() {
     let tmp = tempfile::tempdir().unwrap();
     for (interface, bound) in [(Interface::ModelExchange, 1e-4), (Interface::CoSimulation, 1e-9)] {
-        check(Case::new(fmucal_models::derivative_attributes_fixture(), interface, 0.01, 3.0), bound, tmp.path());
+        check(Case::new(fmucal_models::Fixture::DerivativeAttributes.path(), interface, 0.01, 3.0), bound, tmp.path());
     }
 }
 

@@ -144,7 +144,7 @@ fn second_load_reuses_the_unpacked_directory() {
 #[test]
 fn failed_reset_falls_back_to_a_fresh_instance() {
     let cache = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::reset_fails_fixture(), cache.path());
+    let fmu = common::load(&fmucal_models::Fixture::ResetFails.path(), cache.path());
     for interface in [Interface::ModelExchange, Interface::CoSimulation] {
         let mut sim = Simulator::new(&fmu, Some(interface)).unwrap();
         let spec = SimSpec { interface: Some(interface), ..Default::default() };

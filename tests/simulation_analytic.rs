@@ -5,7 +5,7 @@
 mod common;
 
 use fmucal_shared::fmu::Interface;
-use fmucal_shared::sim::{OutputTimes, SimSpec, Simulator, Solver, simulate};
+use fmucal_shared::sim::{OutputTimes, SimResult, SimSpec, Simulator, Solver, simulate};
 
 fn spec(interface: Interface) -> SimSpec {
     SimSpec { interface: Some(interface), ..Default::default() }
@@ -15,13 +15,15 @@ fn set(spec: &mut SimSpec, name: &str, value: &str) {
     spec.parameters.push((name.into(), value.into()));
 }
 
+/// Runs `spec` on the example `name`, unpacked into a cache of its own.
+fn simulate_example(name: &str, spec: &SimSpec) -> SimResult {
+    let cache = tempfile::tempdir().unwrap();
+    simulate(&common::load_example(name, cache.path()), spec).unwrap()
+}
+
 #[test]
 fn bouncing_ball_impact_times_match_closed_form() {
-    let cache = tempfile::tempdir().unwrap();
-    let fmu = common::load_example("bouncing-ball", cache.path());
-    let mut s = spec(Interface::ModelExchange);
-    s.tolerance = Some(1e-10);
-    let r = simulate(&fmu, &s).unwrap();
+    let r = simulate_example("bouncing-ball", &SimSpec { tolerance: Some(1e-10), ..spec(Interface::ModelExchange) });
     let (g, e, h0) = (9.81f64, 0.7f64, 1.0f64);
     let t1 = (2.0 * h0 / g).sqrt();
     let v1 = g * t1;
@@ -84,18 +86,16 @@ fn time_event_adds_the_kick_at_the_requested_time() {
 
 #[test]
 fn integer_and_boolean_parameters_change_the_dynamics() {
-    let cache = tempfile::tempdir().unwrap();
-    let fmu = common::load_example("decay", cache.path());
     let mut s = spec(Interface::ModelExchange);
     s.tolerance = Some(1e-9);
     set(&mut s, "power", "2");
-    let r = simulate(&fmu, &s).unwrap();
+    let r = simulate_example("decay", &s);
     let err = r.time.iter().zip(r.column("x").unwrap()).map(|(t, x)| (x - 1.0 / (1.0 + t)).abs()).fold(0.0, f64::max);
     assert!(err < 1e-6, "x' = -x^2 should give 1/(1+t); max error {err:e}");
 
     let mut s = spec(Interface::CoSimulation);
     set(&mut s, "enabled", "false");
-    let r = simulate(&fmu, &s).unwrap();
+    let r = simulate_example("decay", &s);
     assert!(r.column("x").unwrap().iter().all(|x| *x == 1.0), "enabled=false must freeze x");
 }
 
@@ -103,11 +103,7 @@ fn integer_and_boolean_parameters_change_the_dynamics() {
 fn robertson_reaches_reference_values_with_bdf() {
     // Reference at t = 40 (Hairer & Wanner, Solving ODEs II).
     let reference = [0.7158270687, 9.185534765e-6, 0.2841637457];
-    let cache = tempfile::tempdir().unwrap();
-    let fmu = common::load_example("robertson", cache.path());
-    let mut s = spec(Interface::ModelExchange);
-    s.tolerance = Some(1e-8);
-    let r = simulate(&fmu, &s).unwrap();
+    let r = simulate_example("robertson", &SimSpec { tolerance: Some(1e-8), ..spec(Interface::ModelExchange) });
     for (name, want) in ["y1", "y2", "y3"].iter().zip(reference) {
         let got = *r.column(name).unwrap().last().unwrap();
         assert!(((got - want) / want).abs() < 1e-5, "{name}: got {got}, reference {want}");
@@ -199,11 +195,7 @@ fn terminate_simulation_ends_the_run_early() {
 
 #[test]
 fn max_step_splits_co_simulation_steps() {
-    let cache = tempfile::tempdir().unwrap();
-    let fmu = common::load_example("decay", cache.path());
-    let mut s = spec(Interface::CoSimulation);
-    s.max_step = Some(0.001);
-    let r = simulate(&fmu, &s).unwrap();
+    let r = simulate_example("decay", &SimSpec { max_step: Some(0.001), ..spec(Interface::CoSimulation) });
     assert_eq!(r.stats.steps, 2000, "0.01 output steps over 2 s split into 0.001 doSteps");
     assert_eq!(r.time.len(), 201);
     let err = r.time.iter().zip(r.column("x").unwrap()).map(|(t, x)| (x - (-t).exp()).abs()).fold(0.0, f64::max);

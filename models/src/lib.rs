@@ -5,8 +5,8 @@
 //!
 //! The examples' bytes are embedded in every binary that links this crate, so `example:NAME`
 //! works from `cargo install` or a container image: [`install_example`] writes one into a
-//! folder the first time it is asked for. [`example`] and the fixtures point into the build
-//! tree, for tests and benchmarks.
+//! folder the first time it is asked for. [`example`] and [`Fixture::path`] point into the
+//! build tree, for tests and benchmarks.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -70,36 +70,39 @@ pub fn example(name: &str) -> Option<PathBuf> {
     examples().into_iter().find(|(n, _)| *n == name).map(|(_, p)| p)
 }
 
-/// Test fixture: the Decay FMU with `fmi2GetReal` missing from its binary.
-pub fn missing_symbol_fixture() -> PathBuf {
-    fmu_dir().join("MissingSymbol.fmu")
+/// The test fixtures: FMUs built like the examples but not listed as examples, either broken or
+/// behaving as tool-exported FMUs do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fixture {
+    /// The Decay FMU with `fmi2GetReal` missing from its binary.
+    MissingSymbol,
+    /// The Decay FMU whose `fmi2Reset` always returns `fmi2Error`.
+    ResetFails,
+    /// Conformance: a stick-slip friction oscillator driven by a continuous input `F`
+    /// (stiction, Coulomb friction, event indicators on the velocity and on the force balance).
+    StickSlip,
+    /// Conformance: a continuous Real, a discrete Real, an Integer and a Boolean input, with the
+    /// FMI rule that discrete inputs cannot be set in Continuous-Time Mode enforced.
+    InputKinds,
+    /// Conformance: a comparator without continuous states whose one event indicator only its
+    /// continuous input `u` moves.
+    Threshold,
+    /// Conformance: the bouncing ball with `derivative` attributes on variables that
+    /// `ModelStructure/Derivatives` does not list (aliases, non-state velocities).
+    DerivativeAttributes,
 }
 
-/// Test fixture: the Decay FMU whose `fmi2Reset` always returns `fmi2Error`.
-pub fn reset_fails_fixture() -> PathBuf {
-    fmu_dir().join("ResetFails.fmu")
-}
-
-/// Conformance fixture: a stick-slip friction oscillator driven by a continuous input `F`
-/// (stiction, Coulomb friction, event indicators on the velocity and on the force balance).
-pub fn stick_slip_fixture() -> PathBuf {
-    fmu_dir().join("StickSlip.fmu")
-}
-
-/// Conformance fixture: a continuous Real, a discrete Real, an Integer and a Boolean input,
-/// with the FMI rule that discrete inputs cannot be set in Continuous-Time Mode enforced.
-pub fn input_kinds_fixture() -> PathBuf {
-    fmu_dir().join("InputKinds.fmu")
-}
-
-/// Conformance fixture: a comparator without continuous states whose one event indicator only
-/// its continuous input `u` moves.
-pub fn threshold_fixture() -> PathBuf {
-    fmu_dir().join("Threshold.fmu")
-}
-
-/// Conformance fixture: the bouncing ball with `derivative` attributes on variables that
-/// `ModelStructure/Derivatives` does not list (aliases, non-state velocities).
-pub fn derivative_attributes_fixture() -> PathBuf {
-    fmu_dir().join("DerivativeAttributes.fmu")
+impl Fixture {
+    /// Path of the fixture's `.fmu` in the build tree.
+    pub fn path(self) -> PathBuf {
+        let file = match self {
+            Fixture::MissingSymbol => "MissingSymbol.fmu",
+            Fixture::ResetFails => "ResetFails.fmu",
+            Fixture::StickSlip => "StickSlip.fmu",
+            Fixture::InputKinds => "InputKinds.fmu",
+            Fixture::Threshold => "Threshold.fmu",
+            Fixture::DerivativeAttributes => "DerivativeAttributes.fmu",
+        };
+        fmu_dir().join(file)
+    }
 }

@@ -1,5 +1,6 @@
-//! Helpers shared by the integration tests: example FMUs, a per-test unpack cache, and
-//! repacking an example with edited entries (to build hostile or unusual archives).
+//! Helpers shared by the integration tests: example FMUs, a per-test unpack cache, repacking an
+//! example with edited entries (to build hostile or unusual archives), input tables and their
+//! CSV files, and the TOML text of jobs.
 #![allow(dead_code)]
 
 use std::io::{Read, Write};
@@ -110,4 +111,35 @@ pub fn write_input_csv(table: &InputTable, path: &Path) {
         text.push('\n');
     }
     std::fs::write(path, text).unwrap();
+}
+
+/// The TOML text of a job on the FMU at `model`: `data` is the measurement file (`None`: the
+/// table is handed over separately), then one `[[outputs]]` per (variable, column), one
+/// `[[inputs]]` per (column, variable), one `[[parameters]]` per (name, start, lower, upper),
+/// and last `tables` (`[simulation]`, `[optimizer]`, ...) as written.
+pub fn job_toml(
+    model: &Path,
+    data: Option<&Path>,
+    outputs: &[(&str, &str)],
+    inputs: &[(&str, &str)],
+    parameters: &[(&str, f64, f64, f64)],
+    tables: &str,
+) -> String {
+    let mut text = format!("[model]\npath = \"{}\"\n[data]\n", model.display());
+    if let Some(data) = data {
+        text.push_str(&format!("path = \"{}\"\n", data.display()));
+    }
+    for (variable, column) in outputs {
+        text.push_str(&format!("[[outputs]]\nvariable = \"{variable}\"\ncolumn = \"{column}\"\n"));
+    }
+    for (column, variable) in inputs {
+        text.push_str(&format!("[[inputs]]\ncolumn = \"{column}\"\nvariable = \"{variable}\"\n"));
+    }
+    // `{:?}` keeps the decimal point (1.0, not 1) and every digit.
+    for (name, start, lower, upper) in parameters {
+        text.push_str(&format!(
+            "[[parameters]]\nname = \"{name}\"\nstart = {start:?}\nlower = {lower:?}\nupper = {upper:?}\n"
+        ));
+    }
+    text + tables
 }

@@ -22,6 +22,7 @@ use fmucal_shared::job::pool::EvaluatorPool;
 use tokio::sync::watch;
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
+use tonic_health::ServingStatus;
 
 /// The client type the worker uses.
 pub type Client = WorkerPoolClient<InterceptedService<Channel, AttachToken>>;
@@ -64,8 +65,10 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
         .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES)
         .max_encoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES);
 
+    // Health is reported under the name of the service the worker takes part in, though it
+    // serves only the health check itself.
     let (health_reporter, health_service) = tonic_health::server::health_reporter();
-    health_reporter.set_not_serving::<pb::worker_pool_server::WorkerPoolServer<Unused>>().await;
+    health_reporter.set_service_status(pb::worker_pool_server::SERVICE_NAME, ServingStatus::NotServing).await;
     if let Some(addr) = config.health_listen {
         tokio::spawn(async move {
             if let Err(e) = tonic::transport::Server::builder().add_service(health_service).serve(addr).await {
@@ -76,7 +79,7 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
 
     let reg = register(&mut client, &config).await?;
     let worker_id = Arc::new(tokio::sync::RwLock::new(reg.worker_id));
-    health_reporter.set_serving::<pb::worker_pool_server::WorkerPoolServer<Unused>>().await;
+    health_reporter.set_service_status(pb::worker_pool_server::SERVICE_NAME, ServingStatus::Serving).await;
     let (stop_tx, stop_rx) = watch::channel(false);
     tokio::spawn(async move {
         shutdown.await;
@@ -126,48 +129,9 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
     for s in slots {
         let _ = s.await;
     }
-    health_reporter.set_not_serving::<pb::worker_pool_server::WorkerPoolServer<Unused>>().await;
+    health_reporter.set_service_status(pb::worker_pool_server::SERVICE_NAME, ServingStatus::NotServing).await;
     tracing::info!("worker stopped");
     Ok(())
-}
-
-/// Placeholder service type naming the worker in the health registry.
-#[derive(Clone)]
-pub struct Unused;
-
-#[tonic::async_trait]
-impl pb::worker_pool_server::WorkerPool for Unused {
-    async fn register(
-        &self,
-        _: tonic::Request<pb::RegisterRequest>,
-    ) -> Result<tonic::Response<pb::RegisterResponse>, tonic::Status> {
-        Err(tonic::Status::unimplemented("health only"))
-    }
-    async fn heartbeat(
-        &self,
-        _: tonic::Request<pb::HeartbeatRequest>,
-    ) -> Result<tonic::Response<pb::HeartbeatResponse>, tonic::Status> {
-        Err(tonic::Status::unimplemented("health only"))
-    }
-    type FetchModelStream = tokio_stream::wrappers::ReceiverStream<Result<pb::FetchModelResponse, tonic::Status>>;
-    async fn fetch_model(
-        &self,
-        _: tonic::Request<pb::FetchModelRequest>,
-    ) -> Result<tonic::Response<Self::FetchModelStream>, tonic::Status> {
-        Err(tonic::Status::unimplemented("health only"))
-    }
-    async fn fetch_job(
-        &self,
-        _: tonic::Request<pb::FetchJobRequest>,
-    ) -> Result<tonic::Response<pb::FetchJobResponse>, tonic::Status> {
-        Err(tonic::Status::unimplemented("health only"))
-    }
-    async fn poll_work(
-        &self,
-        _: tonic::Request<pb::PollWorkRequest>,
-    ) -> Result<tonic::Response<pb::PollWorkResponse>, tonic::Status> {
-        Err(tonic::Status::unimplemented("health only"))
-    }
 }
 
 async fn connect(url: &str) -> Result<Channel, WorkerError> {

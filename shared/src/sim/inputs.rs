@@ -112,23 +112,24 @@ mod tests {
         TimeSeries { time: vec![0.0, 1.0, 1.0, 3.0], columns: vec![("u".into(), vec![0.0, 2.0, 5.0, 9.0])] }
     }
 
+    /// Asserts `read(table(), 0, t, hold) == want` for each (t, hold, want).
+    fn assert_reads(read: fn(&TimeSeries, usize, f64, bool) -> f64, cases: &[(f64, bool, f64)]) {
+        let table = table();
+        for &(t, hold, want) in cases {
+            assert_eq!(read(&table, 0, t, hold), want, "at t = {t}, hold {hold}");
+        }
+    }
+
     #[test]
     fn linear_interpolation_takes_the_right_value_at_a_jump() {
-        let t = table();
-        assert_eq!(t.value(0, 0.5, false), 1.0);
-        assert_eq!(t.value(0, 1.0, false), 5.0);
-        assert_eq!(t.value(0, 2.0, false), 7.0);
-        assert_eq!(t.value(0, -1.0, false), 0.0);
-        assert_eq!(t.value(0, 10.0, false), 9.0);
+        let cases = [(0.5, false, 1.0), (1.0, false, 5.0), (2.0, false, 7.0), (-1.0, false, 0.0), (10.0, false, 9.0)];
+        assert_reads(TimeSeries::value, &cases);
     }
 
     #[test]
     fn left_limit_at_a_jump_is_the_value_before_it() {
-        let t = table();
-        assert_eq!(t.value_before(0, 1.0, false), 2.0);
-        assert_eq!(t.value_before(0, 0.5, false), 1.0);
-        assert_eq!(t.value_before(0, 1.0, true), 0.0);
-        assert_eq!(t.value_before(0, 0.0, false), 0.0);
+        let cases = [(1.0, false, 2.0), (0.5, false, 1.0), (1.0, true, 0.0), (0.0, false, 0.0)];
+        assert_reads(TimeSeries::value_before, &cases);
     }
 
     #[test]
@@ -143,9 +144,7 @@ mod tests {
 
     #[test]
     fn hold_keeps_the_last_sample() {
-        let t = table();
-        assert_eq!(t.value(0, 0.99, true), 0.0);
-        assert_eq!(t.value(0, 2.5, true), 5.0);
+        assert_reads(TimeSeries::value, &[(0.99, true, 0.0), (2.5, true, 5.0)]);
     }
 
     #[test]
