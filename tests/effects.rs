@@ -7,6 +7,7 @@
 mod common;
 
 use fmucal_shared::fmu::{Fmu, Interface};
+use fmucal_shared::job::{JobSpec, MeasurementTable, PreparedJob, local};
 use fmucal_shared::sim::{OutputTimes, PortTerm, SimResult, SimSpec, simulate};
 
 const OUTPUTS: [&str; 2] = ["armJoint.phi", "pendulumJoint.phi"];
@@ -95,13 +96,202 @@ fn bad_port_terms_are_refused_naming_the_culprit() {
     let cases = [
         (term("coulomb", "armJoint.tauExt", "armJoint.w", vec![0.1]), "\"coulomb\" is not an effect kind"),
         (term("sensor_offset", "armJoint.tauExt", "armJoint.w", vec![0.1]), "sensor_offset changes a measured series"),
-        (term("viscous_damping", "armFriction", "armJoint.w", vec![0.1]), "port \"armFriction\" is not a continuous Real input"),
+        (
+            term("viscous_damping", "armFriction", "armJoint.w", vec![0.1]),
+            "port \"armFriction\" is not a continuous Real input",
+        ),
         (term("viscous_damping", "nope", "armJoint.w", vec![0.1]), "port \"nope\" is not a variable"),
-        (term("viscous_damping", "armJoint.tauExt", "armJoint.v", vec![0.1]), "signal \"armJoint.v\" is not a variable"),
-        (term("linear_spring", "armJoint.tauExt", "armJoint.phi", vec![0.1]), "linear_spring takes 2 parameters (k, x0), got 1"),
+        (
+            term("viscous_damping", "armJoint.tauExt", "armJoint.v", vec![0.1]),
+            "signal \"armJoint.v\" is not a variable",
+        ),
+        (
+            term("linear_spring", "armJoint.tauExt", "armJoint.phi", vec![0.1]),
+            "linear_spring takes 2 parameters (k, x0), got 1",
+        ),
     ];
     for (t, want) in cases {
         let e = simulate(&fmu, &spec(Interface::ModelExchange, (0.0, 0.0), vec![t], None)).unwrap_err().to_string();
         assert!(e.contains(want), "{want:?} not in {e:?}");
+    }
+}
+
+/// The Furuta example's job up to 10 s, calibrating either the model's own frictions or, with
+/// those set to zero, two injected viscous dampings.
+fn furuta_job(dir: &std::path::Path, injected: bool) -> JobSpec {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta/FurutaData.mat");
+    let (parameters, effects) = if injected {
+        (
+            "",
+            r#"
+[[effects]]
+kind = "viscous_damping"
+port = "armJoint.tauExt"
+signal = "armJoint.w"
+parameters = { c = { start = 0.012, lower = 0.0, upper = 0.022 } }
+[[effects]]
+kind = "viscous_damping"
+port = "pendulumJoint.tauExt"
+signal = "pendulumJoint.w"
+parameters = { c = { start = 0.002, lower = 0.0, upper = 0.012 } }
+"#,
+        )
+    } else {
+        (
+            r#"
+[[parameters]]
+name = "armFriction"
+start = 0.012
+lower = 0.0
+upper = 0.022
+[[parameters]]
+name = "pendulumFriction"
+start = 0.002
+lower = 0.0
+upper = 0.012
+"#,
+            "",
+        )
+    };
+    let set = if injected { "set = { armFriction = 0.0, pendulumFriction = 0.0 }" } else { "" };
+    let toml = format!(
+        r#"
+[model]
+path = "{}"
+[data]
+path = "{}"
+[[outputs]]
+variable = "armJoint.phi"
+column = "phi"
+[[outputs]]
+variable = "pendulumJoint.phi"
+column = "theta"
+[[inputs]]
+column = "u"
+variable = "u"
+{parameters}
+{effects}
+[simulation]
+stop_time = 10.0
+tolerance = 1e-8
+{set}
+[optimizer]
+x_tol = 1e-4
+f_tol = 1e-6
+"#,
+        common::example("furuta").display(),
+        data.display()
+    );
+    let spec = JobSpec::from_toml(&toml, dir).unwrap();
+    spec.validate().unwrap();
+    spec
+}
+
+fn calibrate(dir: &std::path::Path, spec: &JobSpec) -> fmucal_shared::job::CalibrationResult {
+    let fmu = std::sync::Arc::new(furuta(dir));
+    let data = MeasurementTable::read(spec.data.path.as_ref().unwrap(), "time").unwrap();
+    let job = PreparedJob::new(spec, &fmu.description, &fmu.interfaces(), &data).unwrap();
+    local::calibrate(fmu, std::sync::Arc::new(job), 2, |_| {}).unwrap()
+}
+
+#[test]
+fn a_job_with_injected_damping_recovers_the_frictions_the_model_itself_finds() {
+    let dir = tempfile::tempdir().unwrap();
+    let own = calibrate(dir.path(), &furuta_job(dir.path(), false));
+    let injected = calibrate(dir.path(), &furuta_job(dir.path(), true));
+    let (a, b) = (injected.x_opt["effects[0].c"], injected.x_opt["effects[1].c"]);
+    assert!((a - own.x_opt["armFriction"]).abs() < 1e-6, "{a} vs {:?}", own.x_opt);
+    assert!((b - own.x_opt["pendulumFriction"]).abs() < 1e-6, "{b} vs {:?}", own.x_opt);
+    assert!((injected.f_opt - own.f_opt).abs() <= 1e-6 * own.f_opt, "{} vs {}", injected.f_opt, own.f_opt);
+}
+
+#[test]
+fn a_sensor_offset_in_the_data_is_calibrated_as_an_effect() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = std::sync::Arc::new(common::load_example("decay", &dir.path().join("cache")));
+    let truth = SimSpec { parameters: vec![("k".into(), "1.7".into())], tolerance: Some(1e-10), ..Default::default() };
+    let r = simulate(&fmu, &truth).unwrap();
+    let mut csv = String::from("time,x\n");
+    for (t, x) in r.time.iter().zip(r.column("x").unwrap()).step_by(5) {
+        csv.push_str(&format!("{t},{}\n", x + 0.05));
+    }
+    std::fs::write(dir.path().join("d.csv"), csv).unwrap();
+    let toml = format!(
+        r#"
+[model]
+path = "{}"
+[data]
+path = "d.csv"
+[[outputs]]
+variable = "x"
+column = "x"
+[[parameters]]
+name = "k"
+start = 1.0
+lower = 0.1
+upper = 5.0
+[[effects]]
+kind = "sensor_offset"
+output = "x"
+parameters = {{ offset = {{ start = 0.0, lower = -0.2, upper = 0.2 }} }}
+[simulation]
+tolerance = 1e-10
+[optimizer]
+x_tol = 1e-9
+f_tol = 1e-16
+"#,
+        common::example("decay").display()
+    );
+    let spec = JobSpec::from_toml(&toml, dir.path()).unwrap();
+    let data = MeasurementTable::read(&dir.path().join("d.csv"), "time").unwrap();
+    let job = PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), &data).unwrap();
+    assert_eq!(job.parameter_names, ["k", "effects[0].offset"]);
+    let r = local::calibrate(fmu, std::sync::Arc::new(job), 2, |_| {}).unwrap();
+    assert!((r.x_opt["k"] - 1.7).abs() < 1e-5, "{:?}", r.x_opt);
+    assert!((r.x_opt["effects[0].offset"] - 0.05).abs() < 1e-6, "{:?}", r.x_opt);
+}
+
+#[test]
+fn bad_effects_in_a_job_name_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = toml::to_string(&furuta_job(dir.path(), true)).unwrap();
+    let fmu = furuta(dir.path());
+    let data = MeasurementTable::read(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta/FurutaData.mat"),
+        "time",
+    )
+    .unwrap();
+    let cases = [
+        ("kind = \"viscous_damping\"", "kind = \"viscous\"", "effects[0].kind: \"viscous\" is not an effect kind"),
+        (
+            "[effects.parameters.c]",
+            "[effects.parameters.cc]",
+            "effects[0].parameters: viscous_damping has no parameter \"cc\"",
+        ),
+        ("port = \"armJoint.tauExt\"\n", "", "effects[0].port: viscous_damping needs a port"),
+        (
+            "port = \"armJoint.tauExt\"",
+            "port = \"armFriction\"",
+            "effects[0]: port \"armFriction\" is not a continuous Real input",
+        ),
+        ("signal = \"armJoint.w\"", "signal = \"armJoint.x\"", "effects[0]: signal \"armJoint.x\" is not a variable"),
+        (
+            "kind = \"viscous_damping\"",
+            "kind = \"sensor_offset\"",
+            "effects[0].parameters: sensor_offset has no parameter \"c\"",
+        ),
+        ("start = 0.012", "start = 0.5", "effects[0].parameters.c.start: start 0.5 is outside [0, 0.022]"),
+    ];
+    for (from, to, want) in cases {
+        assert!(good.contains(from), "{from:?} not in {good}");
+        let text = good.replacen(from, to, 1);
+        let err = match JobSpec::from_toml(&text, dir.path()) {
+            Err(e) => e.to_string(),
+            Ok(spec) => PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), &data)
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default(),
+        };
+        assert!(err.starts_with(want), "{want:?} is not the start of {err:?}");
     }
 }

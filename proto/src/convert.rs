@@ -5,7 +5,8 @@
 use crate::v1 as pb;
 use fmucal_shared::job::choices::{interface_name, parse_interface};
 use fmucal_shared::job::spec::{
-    DataRef, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec, WorkersSpec,
+    Bounds, DataRef, EffectSpec, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec,
+    WorkersSpec,
 };
 use fmucal_shared::job::{
     CalibrationResult, EvaluatedPoint, Evaluation, HistoryPoint, JobKind, JobSpec, JobStatus, MeasurementTable,
@@ -26,7 +27,9 @@ fn choice<T>(field: &'static str, text: Option<String>) -> Result<Option<T>, Con
 where
     T: std::str::FromStr<Err = String>,
 {
-    text.filter(|t| !t.is_empty()).map(|t| t.parse().map_err(|message| ConvertError::Invalid { field, message })).transpose()
+    text.filter(|t| !t.is_empty())
+        .map(|t| t.parse().map_err(|message| ConvertError::Invalid { field, message }))
+        .transpose()
 }
 
 impl From<JobStatus> for pb::JobStatus {
@@ -69,11 +72,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
             }
         };
         let spec = JobSpec {
-            model: ModelRef {
-                path: None,
-                id: Some(p.model_id),
-                interface,
-            },
+            model: ModelRef { path: None, id: Some(p.model_id), interface },
             data: DataRef { path: None, time_column: "time".into() },
             outputs: p
                 .outputs
@@ -113,6 +112,22 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 mutation_rate: o.mutation_rate,
                 elitism: o.elitism.map(|v| v as usize),
             },
+            effects: p
+                .effects
+                .into_iter()
+                .map(|e| EffectSpec {
+                    kind: e.kind,
+                    port: e.port,
+                    signal: e.signal,
+                    output: e.output,
+                    input: e.input,
+                    parameters: e
+                        .parameters
+                        .into_iter()
+                        .map(|(n, b)| (n, Bounds { start: b.start, lower: b.lower, upper: b.upper }))
+                        .collect(),
+                })
+                .collect(),
             workers: WorkersSpec::default(),
             kind,
         };
@@ -177,6 +192,22 @@ pub fn job_to_proto(spec: &JobSpec, data: &MeasurementTable, model_id: &str) -> 
             JobKind::Calibration => pb::JobKind::Calibration,
             JobKind::EvaluatePoints(_) => pb::JobKind::EvaluatePoints,
         } as i32,
+        effects: spec
+            .effects
+            .iter()
+            .map(|e| pb::EffectSpec {
+                kind: e.kind.clone(),
+                port: e.port.clone(),
+                signal: e.signal.clone(),
+                output: e.output.clone(),
+                input: e.input.clone(),
+                parameters: e
+                    .parameters
+                    .iter()
+                    .map(|(n, b)| (n.clone(), pb::Bounds { start: b.start, lower: b.lower, upper: b.upper }))
+                    .collect(),
+            })
+            .collect(),
         points: match &spec.kind {
             JobKind::Calibration => vec![],
             JobKind::EvaluatePoints(points) => points.iter().map(|x| pb::Point { x: x.clone() }).collect(),

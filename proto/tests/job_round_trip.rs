@@ -8,10 +8,12 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use fmucal_proto::convert::{SubmittedJob, job_to_proto};
-use fmucal_shared::job::spec::{
-    DataRef, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec, WorkersSpec,
-};
+use fmucal_shared::diagnose::effects;
 use fmucal_shared::fmu::Interface;
+use fmucal_shared::job::spec::{
+    Bounds, DataRef, EffectSpec, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec,
+    WorkersSpec,
+};
 use fmucal_shared::job::{Algorithm, JobKind, JobSpec, MeasurementTable};
 use fmucal_shared::sim::Solver;
 use proptest::prelude::*;
@@ -83,6 +85,28 @@ fn simulation() -> impl Strategy<Value = SimulationSpec> {
         })
 }
 
+/// A port effect of a few kinds, every parameter with finite, ordered bounds around its start.
+fn effect() -> impl Strategy<Value = EffectSpec> {
+    let kind = prop_oneof![Just("viscous_damping"), Just("linear_spring"), Just("stribeck_friction")];
+    (kind, name(), name(), finite(), 0.0..1e3f64).prop_map(|(kind, port, signal, start, width)| {
+        let names = match effects::find(kind) {
+            Ok(found) => found.kind().parameters(),
+            Err(e) => panic!("{e}"),
+        };
+        EffectSpec {
+            kind: kind.into(),
+            port: Some(port),
+            signal: Some(signal),
+            output: None,
+            input: None,
+            parameters: names
+                .iter()
+                .map(|n| (n.to_string(), Bounds { start, lower: start - width, upper: start + width }))
+                .collect(),
+        }
+    })
+}
+
 fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
     let algorithm =
         prop_oneof![Just(Algorithm::NelderMead), Just(Algorithm::DifferentialEvolution), Just(Algorithm::Genetic)];
@@ -126,14 +150,16 @@ fn job() -> impl Strategy<Value = JobSpec> {
         prop::collection::vec((name(), name()).prop_map(|(column, variable)| InputMap { column, variable }), 0..3),
         parameters(),
         simulation(),
+        prop::collection::vec(effect(), 0..3),
     )
-        .prop_flat_map(|(id, interface, outputs, inputs, parameters, simulation)| {
+        .prop_flat_map(|(id, interface, outputs, inputs, parameters, simulation, effects)| {
             optimizer().prop_map(move |optimizer| JobSpec {
                 model: ModelRef { path: None, id: Some(id.clone()), interface },
                 data: DataRef { path: None, time_column: "time".into() },
                 outputs: outputs.clone(),
                 inputs: inputs.clone(),
                 parameters: parameters.clone(),
+                effects: effects.clone(),
                 simulation: simulation.clone(),
                 optimizer,
                 workers: WorkersSpec::default(),
@@ -216,4 +242,21 @@ fn an_output_weight_of_zero_stays_zero() {
     let mut message = job_to_proto(&spec, &data, "m");
     message.outputs[0].weight = None;
     assert_eq!(SubmittedJob::try_from(message).unwrap().spec.outputs[0].weight, 1.0);
+}
+
+#[test]
+fn effects_survive_toml_and_the_protocol() {
+    let mut text = toml::to_string(&small_job(1.0)).unwrap();
+    text.push_str(
+        "[[effects]]\nkind = \"coulomb_friction\"\nport = \"p\"\nsignal = \"s\"\n\
+         parameters = { force = { start = 0.01, lower = 0.0, upper = 0.05 } }\n\
+         [[effects]]\nkind = \"sensor_offset\"\noutput = \"y\"\n\
+         parameters = { offset = { start = 0.0, lower = -1.0, upper = 1.0 } }\n",
+    );
+    let spec = JobSpec::from_toml(&text, Path::new(".")).unwrap();
+    spec.validate().unwrap();
+    assert_eq!(spec.effects.len(), 2);
+    assert_eq!(spec.parameter_vectors().0, ["k", "effects[0].force", "effects[1].offset"]);
+    let back = SubmittedJob::try_from(job_to_proto(&spec, &data(), "m")).unwrap();
+    assert_eq!(back.spec, spec);
 }

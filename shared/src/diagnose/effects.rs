@@ -352,8 +352,7 @@ pub fn find(name: &str) -> Result<Found, EffectError> {
     if let Some(k) = series_kinds().iter().find(|k| k.name() == name) {
         return Ok(Found::Series(*k));
     }
-    let all: Vec<&str> =
-        port_kinds().iter().map(|k| k.name()).chain(series_kinds().iter().map(|k| k.name())).collect();
+    let all: Vec<&str> = port_kinds().iter().map(|k| k.name()).chain(series_kinds().iter().map(|k| k.name())).collect();
     Err(EffectError::UnknownKind(name.to_owned(), all.join(", ")))
 }
 
@@ -427,7 +426,10 @@ mod tests {
         assert_eq!(port("cubic_spring").term(&[2.0], -2.0), 16.0);
         assert_eq!(port("constant_load").term(&[3.5], 9.0), 3.5);
         let dz = port("dead_zone_spring");
-        assert_eq!([dz.term(&[4.0, 0.5], 0.3), dz.term(&[4.0, 0.5], 1.5), dz.term(&[4.0, 0.5], -1.5)], [0.0, -4.0, 4.0]);
+        assert_eq!(
+            [dz.term(&[4.0, 0.5], 0.3), dz.term(&[4.0, 0.5], 1.5), dz.term(&[4.0, 0.5], -1.5)],
+            [0.0, -4.0, 4.0]
+        );
         assert!((port("convection").term(&[10.0, 293.15], 303.15) + 100.0).abs() < 1e-9);
         let r = port("radiation").term(&[0.5, 300.0], 400.0);
         assert!((r - 0.5 * SIGMA * (300.0f64.powi(4) - 400.0f64.powi(4))).abs() < 1e-9);

@@ -91,15 +91,15 @@ pub fn ljung_box(residual: &[f64], lags: usize) -> Option<LjungBox> {
     let lags = lags.clamp(1, n - 1);
     let rho = autocorrelations(residual, lags);
     let nf = n as f64;
-    let statistic =
-        nf * (nf + 2.0) * rho.iter().enumerate().map(|(i, r)| r * r / (nf - (i + 1) as f64)).sum::<f64>();
+    let statistic = nf * (nf + 2.0) * rho.iter().enumerate().map(|(i, r)| r * r / (nf - (i + 1) as f64)).sum::<f64>();
     Some(LjungBox { lags, statistic, p_value: chi_squared_survival(statistic, lags as f64) })
 }
 
 /// Pearson correlation of `a` and `b` over the samples where both are valid; 0 when either is
 /// constant there or fewer than 2 pairs remain.
 pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
-    let pairs: Vec<(f64, f64)> = a.iter().zip(b).filter(|(x, y)| !x.is_nan() && !y.is_nan()).map(|(x, y)| (*x, *y)).collect();
+    let pairs: Vec<(f64, f64)> =
+        a.iter().zip(b).filter(|(x, y)| !x.is_nan() && !y.is_nan()).map(|(x, y)| (*x, *y)).collect();
     if pairs.len() < 2 {
         return 0.0;
     }

@@ -69,12 +69,14 @@ impl Evaluator {
         Ok(Evaluator { simulator: Simulator::new(fmu, Some(job.interface))?, job })
     }
 
-    /// Simulates at `x` on the measurement grid.
+    /// Simulates at `x` on the measurement grid, sensor effects applied.
     ///
     /// # Errors
     /// The simulation's error.
     pub fn simulate(&mut self, x: &[f64]) -> Result<SimResult, SimError> {
-        self.simulator.run(&self.job.sim_spec(x))
+        let mut sim = self.simulator.run(&self.job.sim_spec(x))?;
+        self.job.apply_sensor_effects(x, &mut sim);
+        Ok(sim)
     }
 
     /// Evaluates the objective at `x`.

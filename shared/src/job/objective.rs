@@ -12,11 +12,12 @@ use serde::{Deserialize, Serialize};
 
 use super::JobError;
 use super::data::MeasurementTable;
-use super::spec::JobSpec;
+use super::spec::{EffectSpec, JobSpec};
+use crate::diagnose::effects;
 use crate::fmu::schema::{Causality, VarType};
 use crate::fmu::{Interface, ModelDescription};
 use crate::sim::plan::Plan;
-use crate::sim::{InputTable, OutputTimes, SimResult, SimSpec};
+use crate::sim::{InputTable, OutputTimes, PortTerm, SimResult, SimSpec};
 
 /// One output's targets at the unique measurement times (NaN = missing).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -77,7 +78,11 @@ pub struct PreparedJob {
     /// The simulation of one evaluation, without the parameters.
     pub template: SimSpec,
     pub interface: Interface,
+    /// Every calibrated name: the model's parameters, then the effects' (`effects[K].NAME`).
     pub parameter_names: Vec<String>,
+    /// How many of `parameter_names` are the model's.
+    pub fmu_parameters: usize,
+    pub effects: Vec<PreparedEffect>,
 }
 
 impl PreparedJob {
@@ -250,19 +255,40 @@ impl PreparedJob {
             solver,
             ..Default::default()
         };
-        // Everything the simulation would reject, rejected now, with the start values set.
         let (names, x0, _, _) = spec.parameter_vectors();
-        let mut check = template.clone();
-        check.parameters.extend(names.iter().zip(&x0).map(|(n, v)| (n.clone(), format!("{v}"))));
-        Plan::new(md, interfaces, &check).map_err(|e| JobError::invalid("simulation", e.to_string()))?;
-
-        Ok(PreparedJob {
+        let mut offset = spec.parameters.len();
+        let mut effects = vec![];
+        for (k, e) in spec.effects.iter().enumerate() {
+            let count = e.ordered_parameters(k)?.len();
+            effects.push(PreparedEffect { spec: e.clone(), offset, count });
+            offset += count;
+        }
+        let job = PreparedJob {
             spec: spec.clone(),
             objective: Objective { times, targets },
             template,
             interface,
             parameter_names: names,
-        })
+            fmu_parameters: spec.parameters.len(),
+            effects,
+        };
+        // Everything the simulation would reject, rejected now, with the start values set:
+        // first each port effect on its own (to name it), then the whole job.
+        let check = job.sim_spec(&x0);
+        for (k, effect) in job.effects.iter().enumerate() {
+            if let Some(term) = effect.port_term(&x0) {
+                let one = SimSpec { port_terms: vec![term], ..check.clone() };
+                Plan::new(md, interfaces, &one).map_err(|e| {
+                    let why = match e {
+                        crate::sim::SimError::Invalid(why) => why,
+                        other => other.to_string(),
+                    };
+                    JobError::invalid(format!("effects[{k}]"), why)
+                })?;
+            }
+        }
+        Plan::new(md, interfaces, &check).map_err(|e| JobError::invalid("simulation", e.to_string()))?;
+        Ok(job)
     }
 
     /// The same job, asked to evaluate `points` instead of calibrating.
@@ -270,11 +296,62 @@ impl PreparedJob {
         PreparedJob { spec: self.spec.evaluating_points(points), ..self.clone() }
     }
 
-    /// The simulation request of one evaluation at `x` (user units, in parameter order).
+    /// The simulation request of one evaluation at `x` (user units, in parameter order): the
+    /// model's parameters, the port effects, and the actuator effects applied to their inputs.
     pub fn sim_spec(&self, x: &[f64]) -> SimSpec {
         let mut s = self.template.clone();
+        let n = self.fmu_parameters.min(x.len());
         // `{}` prints the shortest text that parses back to the same f64.
-        s.parameters.extend(self.parameter_names.iter().zip(x).map(|(n, v)| (n.clone(), format!("{v}"))));
+        s.parameters.extend(self.parameter_names.iter().zip(&x[..n]).map(|(n, v)| (n.clone(), format!("{v}"))));
+        for e in &self.effects {
+            let p = e.values(x);
+            if let Some(term) = e.port_term(x) {
+                s.port_terms.push(term);
+            } else if let (Some(input), Some(table), Ok(effects::Found::Series(kind))) =
+                (&e.spec.input, s.inputs.as_mut(), effects::find(&e.spec.kind))
+                && let Some((_, column)) = table.columns.iter_mut().find(|(name, _)| name == input)
+            {
+                *column = kind.apply(p, &table.time, column);
+            }
+        }
         s
+    }
+
+    /// Applies the sensor effects at `x` to the simulated outputs they name.
+    pub fn apply_sensor_effects(&self, x: &[f64], sim: &mut SimResult) {
+        for e in &self.effects {
+            let (Some(output), Ok(effects::Found::Series(kind))) = (&e.spec.output, effects::find(&e.spec.kind)) else {
+                continue;
+            };
+            if let Some(i) = sim.names.iter().position(|n| n == output) {
+                sim.columns[i] = kind.apply(e.values(x), &sim.time, &sim.columns[i]);
+            }
+        }
+    }
+}
+
+/// An effect of the job and where its parameters sit in a point.
+#[derive(Debug, Clone)]
+pub struct PreparedEffect {
+    pub spec: EffectSpec,
+    pub offset: usize,
+    pub count: usize,
+}
+
+impl PreparedEffect {
+    /// Its parameter values in the point `x` (none if `x` is too short).
+    fn values<'a>(&self, x: &'a [f64]) -> &'a [f64] {
+        x.get(self.offset..self.offset + self.count).unwrap_or_default()
+    }
+
+    /// The port term at `x`, for an effect on a port.
+    fn port_term(&self, x: &[f64]) -> Option<PortTerm> {
+        let (port, signal) = (self.spec.port.as_ref()?, self.spec.signal.as_ref()?);
+        Some(PortTerm {
+            kind: self.spec.kind.clone(),
+            port: port.clone(),
+            signal: signal.clone(),
+            parameters: self.values(x).to_vec(),
+        })
     }
 }

@@ -80,12 +80,7 @@ impl EvaluatorPool {
 
     /// Queues `request` for thread `thread` (taken modulo the number of threads) or, with
     /// `None`, for the first free thread; `reply` receives the evaluation on that thread.
-    pub fn submit(
-        &self,
-        thread: Option<usize>,
-        request: EvalRequest,
-        reply: impl FnOnce(Evaluation) + Send + 'static,
-    ) {
+    pub fn submit(&self, thread: Option<usize>, request: EvalRequest, reply: impl FnOnce(Evaluation) + Send + 'static) {
         let thread = thread.map(|t| t % self.threads.len());
         self.shared.lock().tasks.push_back(Queued { thread, request, reply: Box::new(reply) });
         self.shared.ready.notify_all();

@@ -53,6 +53,7 @@ use serde::{Deserialize, Serialize};
 
 use super::JobError;
 use super::choices::{Algorithm, JobKind, optional_interface, optional_text, text};
+use crate::diagnose::effects::{self, Domain};
 use crate::fmu::Interface;
 use crate::sim::Solver;
 
@@ -64,7 +65,11 @@ pub struct JobSpec {
     pub outputs: Vec<OutputMap>,
     #[serde(default)]
     pub inputs: Vec<InputMap>,
+    #[serde(default)]
     pub parameters: Vec<ParameterSpec>,
+    /// Effects the model lacks, added by fmucal; their parameters are calibrated too.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub effects: Vec<EffectSpec>,
     #[serde(default)]
     pub simulation: SimulationSpec,
     #[serde(default)]
@@ -129,6 +134,68 @@ pub struct ParameterSpec {
     pub start: f64,
     pub lower: f64,
     pub upper: f64,
+}
+
+/// An effect of the library ([`crate::diagnose::effects`]) added to the model:
+///
+/// ```toml
+/// [[effects]]
+/// kind = "coulomb_friction"          # a port effect: a term added to an FMU input
+/// port = "pendulumJoint.tauExt"      # the input (summed with any data column mapped to it)
+/// signal = "pendulumJoint.w"         # what the term depends on
+/// parameters = { force = { start = 0.0, lower = 0.0, upper = 0.05 } }
+///
+/// [[effects]]
+/// kind = "sensor_offset"             # a sensor effect, on a mapped output
+/// output = "armJoint.phi"
+/// parameters = { offset = { start = 0.0, lower = -0.1, upper = 0.1 } }
+/// ```
+///
+/// Actuator effects name a mapped `input`. Each parameter is calibrated as
+/// `effects[K].NAME`, after the `[[parameters]]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EffectSpec {
+    pub kind: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub port: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub signal: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub input: Option<String>,
+    pub parameters: std::collections::BTreeMap<String, Bounds>,
+}
+
+/// Start value and bounds of a calibrated value.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bounds {
+    pub start: f64,
+    pub lower: f64,
+    pub upper: f64,
+}
+
+impl EffectSpec {
+    /// The kind's parameters in its order, with their bounds.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] for an unknown kind or a misspelled or missing parameter.
+    pub fn ordered_parameters(&self, k: usize) -> Result<Vec<(&'static str, Bounds)>, JobError> {
+        let found =
+            effects::find(&self.kind).map_err(|e| JobError::invalid(format!("effects[{k}].kind"), e.to_string()))?;
+        let kind = found.kind();
+        let given: Vec<(String, f64)> = self.parameters.keys().map(|n| (n.clone(), 0.0)).collect();
+        effects::parameter_values(kind, &given)
+            .map_err(|e| JobError::invalid(format!("effects[{k}].parameters"), e.to_string()))?;
+        Ok(kind.parameters().iter().map(|n| (*n, self.parameters[*n])).collect())
+    }
+
+    /// What the effect acts on.
+    pub fn domain(&self) -> Option<Domain> {
+        effects::find(&self.kind).ok().map(|f| f.kind().domain())
+    }
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -313,8 +380,8 @@ impl JobSpec {
                 ));
             }
         }
-        if self.parameters.is_empty() {
-            return Err(JobError::invalid("parameters", "at least one parameter is needed"));
+        if self.parameters.is_empty() && self.effects.is_empty() {
+            return Err(JobError::invalid("parameters", "at least one parameter (or effect) is needed"));
         }
         for (k, p) in self.parameters.iter().enumerate() {
             let f = |name: &str| format!("parameters[{k}].{name}");
@@ -337,7 +404,74 @@ impl JobSpec {
                 ));
             }
         }
+        for (k, e) in self.effects.iter().enumerate() {
+            self.validate_effect(k, e)?;
+        }
         Ok(())
+    }
+
+    /// An effect names a known kind with exactly its parameters, in bounds, and what it acts
+    /// on: a port and a signal, a mapped output (sensor) or a mapped input (actuator).
+    fn validate_effect(&self, k: usize, e: &EffectSpec) -> Result<(), JobError> {
+        for (name, b) in e.ordered_parameters(k)? {
+            if b.lower.is_nan() || b.upper.is_nan() || b.lower > b.upper {
+                return Err(JobError::invalid(
+                    format!("effects[{k}].parameters.{name}.lower"),
+                    format!("lower {} is above upper {}", b.lower, b.upper),
+                ));
+            }
+            if !(b.start.is_finite() && b.start >= b.lower && b.start <= b.upper) {
+                return Err(JobError::invalid(
+                    format!("effects[{k}].parameters.{name}.start"),
+                    format!("start {} is outside [{}, {}]", b.start, b.lower, b.upper),
+                ));
+            }
+        }
+        let field = |f: &str| format!("effects[{k}].{f}");
+        let (needed, unused): (&[(&str, &Option<String>)], [(&str, &Option<String>); 4]) = (
+            match e.domain() {
+                Some(Domain::Mechanical | Domain::Thermal) => &[("port", &e.port), ("signal", &e.signal)],
+                Some(Domain::Sensor) => &[("output", &e.output)],
+                _ => &[("input", &e.input)],
+            },
+            [("port", &e.port), ("signal", &e.signal), ("output", &e.output), ("input", &e.input)],
+        );
+        for (name, value) in needed {
+            if value.as_deref().is_none_or(str::is_empty) {
+                return Err(JobError::invalid(field(name), format!("{} needs a {name}", e.kind)));
+            }
+        }
+        for (name, value) in unused {
+            if value.is_some() && !needed.iter().any(|(n, _)| *n == name) {
+                return Err(JobError::invalid(field(name), format!("{} takes no {name}", e.kind)));
+            }
+        }
+        if let Some(out) = &e.output
+            && !self.outputs.iter().any(|o| &o.variable == out)
+        {
+            return Err(JobError::invalid(field("output"), format!("{out:?} is not one of the job's [[outputs]]")));
+        }
+        if let Some(input) = &e.input
+            && !self.inputs.iter().any(|i| &i.variable == input)
+        {
+            return Err(JobError::invalid(field("input"), format!("{input:?} is not one of the job's [[inputs]]")));
+        }
+        Ok(())
+    }
+
+    /// The calibrated names, starts and bounds of the effects' parameters (`effects[K].NAME`),
+    /// after the `[[parameters]]`; an invalid effect contributes nothing (see [`Self::validate`]).
+    fn effect_parameters(&self) -> Vec<(String, Bounds)> {
+        self.effects
+            .iter()
+            .enumerate()
+            .flat_map(|(k, e)| {
+                e.ordered_parameters(k)
+                    .unwrap_or_default()
+                    .into_iter()
+                    .map(move |(n, b)| (format!("effects[{k}].{n}"), b))
+            })
+            .collect()
     }
 
     /// The same model, data and mapping, asked to evaluate `points` instead of calibrating.
@@ -345,14 +479,20 @@ impl JobSpec {
         JobSpec { kind: JobKind::EvaluatePoints(points), optimizer: OptimizerSpec::default(), ..self.clone() }
     }
 
-    /// Parameter names, starts and bounds as vectors.
+    /// Names, starts and bounds of every calibrated value: the `[[parameters]]`, then the
+    /// effects' parameters.
     pub fn parameter_vectors(&self) -> (Vec<String>, Vec<f64>, Vec<f64>, Vec<f64>) {
-        let p = &self.parameters;
+        let all: Vec<(String, Bounds)> = self
+            .parameters
+            .iter()
+            .map(|p| (p.name.clone(), Bounds { start: p.start, lower: p.lower, upper: p.upper }))
+            .chain(self.effect_parameters())
+            .collect();
         (
-            p.iter().map(|p| p.name.clone()).collect(),
-            p.iter().map(|p| p.start).collect(),
-            p.iter().map(|p| p.lower).collect(),
-            p.iter().map(|p| p.upper).collect(),
+            all.iter().map(|p| p.0.clone()).collect(),
+            all.iter().map(|p| p.1.start).collect(),
+            all.iter().map(|p| p.1.lower).collect(),
+            all.iter().map(|p| p.1.upper).collect(),
         )
     }
 }

@@ -111,13 +111,17 @@ fn plan_term(
             t.parameters.len()
         )));
     }
-    let port = md.variable(&t.port).ok_or_else(|| invalid(format!("port {:?} is not a variable of the model", t.port)))?;
-    if port.causality != Causality::Input || port.var_type != VarType::Real || port.variability != Variability::Continuous
+    let port =
+        md.variable(&t.port).ok_or_else(|| invalid(format!("port {:?} is not a variable of the model", t.port)))?;
+    if port.causality != Causality::Input
+        || port.var_type != VarType::Real
+        || port.variability != Variability::Continuous
     {
         return Err(invalid(format!("port {:?} is not a continuous Real input of the model", t.port)));
     }
-    let signal =
-        md.variable(&t.signal).ok_or_else(|| invalid(format!("signal {:?} is not a variable of the model", t.signal)))?;
+    let signal = md
+        .variable(&t.signal)
+        .ok_or_else(|| invalid(format!("signal {:?} is not a variable of the model", t.signal)))?;
     if signal.var_type != VarType::Real {
         return Err(invalid(format!("signal {:?} is not a Real variable", t.signal)));
     }
