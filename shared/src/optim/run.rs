@@ -1,23 +1,33 @@
-//! What every batch optimizer keeps besides its own algorithm, and the one
-//! [`Optimizer`] implementation they all share.
+//! The shape every batch optimizer shares, as in argmin: the solver's state is kept apart from
+//! the solver and handed to it.
 //!
 //! - [`RunState`] holds the search space, the current [`Batch`], the best point so far, the next
-//!   candidate id and the evaluation, iteration and round counters. Each optimizer embeds it as
-//!   its field `run`, marked `#[serde(flatten)]`, so a checkpoint keeps the same JSON keys as
-//!   when these fields sat in every optimizer (states saved before still load).
-//! - An optimizer implements the internal trait [`BatchStep`]: where its `RunState` is, whether
-//!   it is done, and `advance`, which consumes the batch that has just been fully told and
-//!   either asks the next one ([`RunState::start_batch`]) or stops ([`RunState::stop_if`]).
-//! - The blanket `impl<T: BatchStep> Optimizer for T` does the rest: `ask` returns the batch's
-//!   open candidates, `tell` records a result and calls `advance` once the batch is complete,
-//!   and the getters read the `RunState`. Nothing in here does I/O, keeps time or spawns threads.
-//!   Being generic, this impl is compiled in whichever crate uses an optimizer, so the `Batch`
-//!   methods it calls are `#[inline]` (else the bench loses ~2 % to cross-crate calls).
+//!   candidate id and the evaluation, iteration and round counters.
+//! - An algorithm (Nelder–Mead's simplex, DE's or GA's population, a point list) implements the
+//!   internal trait [`Step`]: whether it is done, and `advance`, which gets the `RunState` whose
+//!   batch has just been fully told and either asks the next batch ([`RunState::start_batch`])
+//!   or stops ([`RunState::stop_if`]).
+//! - [`BatchOptimizer<A>`] pairs the two and implements [`Optimizer`] once: `ask` returns the
+//!   batch's open candidates, `tell` records a result and calls `advance` once the batch is
+//!   complete, and the getters read the `RunState`. The public optimizers are its instances
+//!   (`NelderMead = BatchOptimizer<NelderMeadSteps>` and so on) with their constructors as
+//!   inherent impls. Nothing in here does I/O, keeps time or spawns threads. Being generic, the
+//!   impl is compiled in whichever crate uses an optimizer, so the `Batch` methods it calls are
+//!   `#[inline]` (else the bench loses ~2 % to cross-crate calls).
+//! - Serialized, both parts are flattened (`#[serde(flatten)]`) into one object with the same
+//!   keys and values as when all these fields sat in one struct per optimizer, so states saved
+//!   before still load. `Deserialize` is written out ([`AlgorithmEntries`]): it reads the
+//!   algorithm's own fields straight from the input and buffers only the other entries for the
+//!   `RunState`, because serde buffers every flattened field in a form without 128-bit integers
+//!   and the DE and GA random generators keep a `u128`.
 //!
 //! The pieces only DE and GA share (the generational [`PopulationPhase`] and
 //! [`population_space`]) live here too.
 
-use serde::{Deserialize, Serialize};
+use std::marker::PhantomData;
+
+use serde::de::{DeserializeSeed, Error as _, IntoDeserializer, MapAccess, Visitor};
+use serde::{Deserialize, Deserializer, Serialize};
 
 use super::batch::Batch;
 use super::fitness::Fitness;
@@ -108,56 +118,145 @@ impl BestSoFar {
     }
 }
 
-/// One step of a batch optimizer: everything [`Optimizer`] needs beyond the [`RunState`].
-pub(crate) trait BatchStep {
-    fn state(&self) -> &RunState;
-
-    fn state_mut(&mut self) -> &mut RunState;
-
+/// The algorithm part of a batch optimizer: everything [`Optimizer`] needs beyond the
+/// [`RunState`], which it is given.
+pub(crate) trait Step {
     /// Why the run ended, if it has.
     fn done(&self) -> Option<Termination>;
 
-    /// Consumes the batch that has just been completed: asks the next one or stops.
-    fn advance(&mut self);
+    /// Consumes `run`'s batch, which has just been completed: asks the next one or stops.
+    fn advance(&mut self, run: &mut RunState);
 }
 
-impl<T: BatchStep> Optimizer for T {
+/// A batch optimizer: the run's bookkeeping and the algorithm `A` that steps it; see the module
+/// docs. [`NelderMead`](super::NelderMead), [`DifferentialEvolution`](super::DifferentialEvolution),
+/// [`GeneticAlgorithm`](super::GeneticAlgorithm) and [`PointBatch`](super::PointBatch) are its
+/// instances.
+#[derive(Debug, Clone, Serialize)]
+pub struct BatchOptimizer<A> {
+    #[serde(flatten)]
+    pub(super) run: RunState,
+    #[serde(flatten)]
+    pub(super) algorithm: A,
+}
+
+impl<A: Step> Optimizer for BatchOptimizer<A> {
     fn ask(&mut self) -> Vec<Candidate> {
-        if self.done().is_some() { vec![] } else { self.state().batch.open() }
+        if self.algorithm.done().is_some() { vec![] } else { self.run.batch.open() }
     }
 
     fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<(), OptimError> {
-        if self.done().is_some() {
+        if self.algorithm.done().is_some() {
             return Err(OptimError::UnknownCandidate(id));
         }
-        if self.state_mut().batch.tell(id, outcome)? {
-            self.advance();
+        if self.run.batch.tell(id, outcome)? {
+            self.algorithm.advance(&mut self.run);
         }
         Ok(())
     }
 
     fn status(&self) -> Status {
-        match self.done() {
+        match self.algorithm.done() {
             Some(t) => Status::Done(t),
             None => Status::Running,
         }
     }
 
     fn best(&self) -> Option<(Vec<f64>, f64)> {
-        let run = self.state();
-        run.best.get(&run.space)
+        self.run.best.get(&self.run.space)
     }
 
     fn evaluations(&self) -> u64 {
-        self.state().evaluations
+        self.run.evaluations
     }
 
     fn iterations(&self) -> u64 {
-        self.state().iterations
+        self.run.iterations
     }
 
     fn rounds(&self) -> u64 {
-        self.state().rounds
+        self.run.rounds
+    }
+}
+
+/// Reads the object `Serialize` writes: the algorithm's own fields straight into `A` (so its
+/// `u128` generator state survives), every other entry into the `RunState`.
+impl<'de, A: Deserialize<'de>> Deserialize<'de> for BatchOptimizer<A> {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserializer.deserialize_map(BatchOptimizerVisitor(PhantomData))
+    }
+}
+
+struct BatchOptimizerVisitor<A>(PhantomData<A>);
+
+impl<'de, A: Deserialize<'de>> Visitor<'de> for BatchOptimizerVisitor<A> {
+    type Value = BatchOptimizer<A>;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("an optimizer state")
+    }
+
+    fn visit_map<M: MapAccess<'de>>(self, mut map: M) -> Result<Self::Value, M::Error> {
+        let mut rest = serde_json::Map::new();
+        let algorithm = A::deserialize(AlgorithmEntries { map: &mut map, rest: &mut rest })?;
+        let run = RunState::deserialize(serde_json::Value::Object(rest)).map_err(M::Error::custom)?;
+        Ok(BatchOptimizer { run, algorithm })
+    }
+}
+
+/// The entries of an optimizer's object, as a deserializer for its algorithm struct: the
+/// entries named by that struct's fields are passed on, the others are kept in `rest`.
+struct AlgorithmEntries<'a, M> {
+    map: &'a mut M,
+    rest: &'a mut serde_json::Map<String, serde_json::Value>,
+}
+
+impl<'de, M: MapAccess<'de>> Deserializer<'de> for AlgorithmEntries<'_, M> {
+    type Error = M::Error;
+
+    fn deserialize_struct<V: Visitor<'de>>(
+        self,
+        _name: &'static str,
+        fields: &'static [&'static str],
+        visitor: V,
+    ) -> Result<V::Value, M::Error> {
+        visitor.visit_map(FieldEntries { map: self.map, fields, rest: self.rest })
+    }
+
+    fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, M::Error> {
+        self.deserialize_struct("", &[], visitor)
+    }
+
+    serde::forward_to_deserialize_any! {
+        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string
+        bytes byte_buf option unit unit_struct newtype_struct seq tuple
+        tuple_struct map enum identifier ignored_any
+    }
+}
+
+/// The map access behind [`AlgorithmEntries`].
+struct FieldEntries<'a, M> {
+    map: &'a mut M,
+    fields: &'static [&'static str],
+    rest: &'a mut serde_json::Map<String, serde_json::Value>,
+}
+
+impl<'de, M: MapAccess<'de>> MapAccess<'de> for FieldEntries<'_, M> {
+    type Error = M::Error;
+
+    fn next_key_seed<K: DeserializeSeed<'de>>(&mut self, seed: K) -> Result<Option<K::Value>, M::Error> {
+        while let Some(key) = self.map.next_key::<String>()? {
+            if self.fields.contains(&key.as_str()) {
+                return seed.deserialize(key.into_deserializer()).map(Some);
+            }
+            let value = self.map.next_value()?;
+            self.rest.insert(key, value);
+        }
+        Ok(None)
+    }
+
+    fn next_value_seed<V: DeserializeSeed<'de>>(&mut self, seed: V) -> Result<V::Value, M::Error> {
+        self.map.next_value_seed(seed)
     }
 }
 
@@ -204,7 +303,9 @@ pub(crate) fn population_space(
 
 #[cfg(test)]
 mod tests {
-    use crate::optim::{AnyOptimizer, Optimizer};
+    use crate::optim::{
+        AnyOptimizer, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, Optimizer, Outcome,
+    };
 
     /// A sequential Nelder–Mead checkpoint written before `RunState` existed, when every
     /// optimizer had its own `space`, `batch`, `best`, `next_id` and counters.
@@ -222,5 +323,28 @@ mod tests {
         assert_eq!((asked[0].id, asked[0].x.as_slice()), (7, [-0.9599999999999997, 1.1499999999999997].as_slice()));
         opt.tell(7, crate::optim::Outcome::Value(1.0)).unwrap();
         assert_eq!(opt.ask()[0].id, 8);
+    }
+
+    /// DE and GA keep their generator state as a `u128`, which serde cannot buffer for a
+    /// flattened field: it must come back exactly, and the run go on as if never stopped.
+    #[test]
+    fn generator_states_survive_a_checkpoint() {
+        let (lower, upper) = ([0.0, -1.0], [2.0, 1.0]);
+        let de = DifferentialEvolution::new(&lower, &upper, None, DeSettings::new(2)).unwrap();
+        let ga = GeneticAlgorithm::new(&lower, &upper, None, GaSettings::new(2)).unwrap();
+        for mut opt in [AnyOptimizer::DifferentialEvolution(de), AnyOptimizer::Genetic(ga)] {
+            let json = serde_json::to_string(&opt).unwrap();
+            let mut resumed: AnyOptimizer = serde_json::from_str(&json).unwrap();
+            assert_eq!(serde_json::to_string(&resumed).unwrap(), json);
+            for _ in 0..3 {
+                let asked = opt.ask();
+                assert_eq!(resumed.ask(), asked);
+                for c in asked {
+                    let f = Outcome::Value(c.x.iter().map(|x| x * x).sum());
+                    opt.tell(c.id, f).unwrap();
+                    resumed.tell(c.id, f).unwrap();
+                }
+            }
+        }
     }
 }
