@@ -14,20 +14,14 @@
 //!   inherent impls. Nothing in here does I/O, keeps time or spawns threads. Being generic, the
 //!   impl is compiled in whichever crate uses an optimizer, so the `Batch` methods it calls are
 //!   `#[inline]` (else the bench loses ~2 % to cross-crate calls).
-//! - Serialized, both parts are flattened (`#[serde(flatten)]`) into one object with the same
-//!   keys and values as when all these fields sat in one struct per optimizer, so states saved
-//!   before still load. `Deserialize` is written out ([`AlgorithmEntries`]): it reads the
-//!   algorithm's own fields straight from the input and buffers only the other entries for the
-//!   `RunState`, because serde buffers every flattened field in a form without 128-bit integers
-//!   and the DE and GA random generators keep a `u128`.
+//! - Serialized, a checkpoint is `{"run": {...}, "algorithm": {...}}` (derived serde, no
+//!   flattening: serde cannot buffer the DE and GA generators' `u128` through a flattened
+//!   field).
 //!
 //! The pieces only DE and GA share (the generational [`PopulationPhase`] and
 //! [`population_space`]) live here too.
 
-use std::marker::PhantomData;
-
-use serde::de::{DeserializeSeed, Error as _, IntoDeserializer, MapAccess, Visitor};
-use serde::{Deserialize, Deserializer, Serialize};
+use serde::{Deserialize, Serialize};
 
 use super::batch::Batch;
 use super::fitness::Fitness;
@@ -132,11 +126,9 @@ pub(crate) trait Step {
 /// docs. [`NelderMead`](super::NelderMead), [`DifferentialEvolution`](super::DifferentialEvolution),
 /// [`GeneticAlgorithm`](super::GeneticAlgorithm) and [`PointBatch`](super::PointBatch) are its
 /// instances.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct BatchOptimizer<A> {
-    #[serde(flatten)]
     pub(super) run: RunState,
-    #[serde(flatten)]
     pub(super) algorithm: A,
 }
 
@@ -176,87 +168,6 @@ impl<A: Step> Optimizer for BatchOptimizer<A> {
 
     fn rounds(&self) -> u64 {
         self.run.rounds
-    }
-}
-
-/// Reads the object `Serialize` writes: the algorithm's own fields straight into `A` (so its
-/// `u128` generator state survives), every other entry into the `RunState`.
-impl<'de, A: Deserialize<'de>> Deserialize<'de> for BatchOptimizer<A> {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        deserializer.deserialize_map(BatchOptimizerVisitor(PhantomData))
-    }
-}
-
-struct BatchOptimizerVisitor<A>(PhantomData<A>);
-
-impl<'de, A: Deserialize<'de>> Visitor<'de> for BatchOptimizerVisitor<A> {
-    type Value = BatchOptimizer<A>;
-
-    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-        f.write_str("an optimizer state")
-    }
-
-    fn visit_map<M: MapAccess<'de>>(self, mut map: M) -> Result<Self::Value, M::Error> {
-        let mut rest = serde_json::Map::new();
-        let algorithm = A::deserialize(AlgorithmEntries { map: &mut map, rest: &mut rest })?;
-        let run = RunState::deserialize(serde_json::Value::Object(rest)).map_err(M::Error::custom)?;
-        Ok(BatchOptimizer { run, algorithm })
-    }
-}
-
-/// The entries of an optimizer's object, as a deserializer for its algorithm struct: the
-/// entries named by that struct's fields are passed on, the others are kept in `rest`.
-struct AlgorithmEntries<'a, M> {
-    map: &'a mut M,
-    rest: &'a mut serde_json::Map<String, serde_json::Value>,
-}
-
-impl<'de, M: MapAccess<'de>> Deserializer<'de> for AlgorithmEntries<'_, M> {
-    type Error = M::Error;
-
-    fn deserialize_struct<V: Visitor<'de>>(
-        self,
-        _name: &'static str,
-        fields: &'static [&'static str],
-        visitor: V,
-    ) -> Result<V::Value, M::Error> {
-        visitor.visit_map(FieldEntries { map: self.map, fields, rest: self.rest })
-    }
-
-    fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, M::Error> {
-        self.deserialize_struct("", &[], visitor)
-    }
-
-    serde::forward_to_deserialize_any! {
-        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string
-        bytes byte_buf option unit unit_struct newtype_struct seq tuple
-        tuple_struct map enum identifier ignored_any
-    }
-}
-
-/// The map access behind [`AlgorithmEntries`].
-struct FieldEntries<'a, M> {
-    map: &'a mut M,
-    fields: &'static [&'static str],
-    rest: &'a mut serde_json::Map<String, serde_json::Value>,
-}
-
-impl<'de, M: MapAccess<'de>> MapAccess<'de> for FieldEntries<'_, M> {
-    type Error = M::Error;
-
-    fn next_key_seed<K: DeserializeSeed<'de>>(&mut self, seed: K) -> Result<Option<K::Value>, M::Error> {
-        while let Some(key) = self.map.next_key::<String>()? {
-            if self.fields.contains(&key.as_str()) {
-                return seed.deserialize(key.into_deserializer()).map(Some);
-            }
-            let value = self.map.next_value()?;
-            self.rest.insert(key, value);
-        }
-        Ok(None)
-    }
-
-    fn next_value_seed<V: DeserializeSeed<'de>>(&mut self, seed: V) -> Result<V::Value, M::Error> {
-        self.map.next_value_seed(seed)
     }
 }
 
@@ -307,26 +218,8 @@ mod tests {
         AnyOptimizer, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, Optimizer, Outcome,
     };
 
-    /// A sequential Nelder–Mead checkpoint written before `RunState` existed, when every
-    /// optimizer had its own `space`, `batch`, `best`, `next_id` and counters.
-    const OLD_CHECKPOINT: &str = r#"{"NelderMead":{"space":{"lower":["-inf","-inf"],"upper":["inf","inf"],"offset":[0.0,0.0],"scale":[1.2,1.0]},"settings":{"parallel":false,"initial_step":0.05,"stopping":{"x_tol":1e-6,"f_tol":1e-8,"max_iters":2000,"max_fevals":null},"nominal":null},"simplex":[{"z":[-0.8999999999999999,1.125],"f":{"Value":4.4977959999999975}},{"z":[-0.8999999999999999,1.0749999999999997],"f":{"Value":5.161795999999999}},{"z":[-1.0,1.05],"f":{"Value":20.049999999999994}}],"phase":"Reflect","batch":{"z":[[-0.7999999999999998,1.1499999999999997]],"candidates":[{"id":7,"x":[-0.9599999999999997,1.1499999999999997]}],"results":[null]},"projected":false,"next_id":8,"evaluations":7,"iterations":2,"rounds":6,"best":[[-0.8999999999999999,1.125],4.4977959999999975]}}"#;
-
-    #[test]
-    fn checkpoints_keep_their_json_keys_and_older_ones_resume() {
-        let mut opt: AnyOptimizer = serde_json::from_str(OLD_CHECKPOINT).unwrap();
-        let old: serde_json::Value = serde_json::from_str(OLD_CHECKPOINT).unwrap();
-        assert_eq!(serde_json::to_value(&opt).unwrap(), old);
-        assert_eq!((opt.evaluations(), opt.iterations(), opt.rounds()), (7, 2, 6));
-        assert_eq!(opt.best(), Some((vec![-1.0799999999999998, 1.125], 4.4977959999999975)));
-        let asked = opt.ask();
-        assert_eq!(asked.len(), 1);
-        assert_eq!((asked[0].id, asked[0].x.as_slice()), (7, [-0.9599999999999997, 1.1499999999999997].as_slice()));
-        opt.tell(7, crate::optim::Outcome::Value(1.0)).unwrap();
-        assert_eq!(opt.ask()[0].id, 8);
-    }
-
-    /// DE and GA keep their generator state as a `u128`, which serde cannot buffer for a
-    /// flattened field: it must come back exactly, and the run go on as if never stopped.
+    /// DE and GA keep their generator state as a `u128`: it must come back exactly, and the
+    /// run go on as if never stopped.
     #[test]
     fn generator_states_survive_a_checkpoint() {
         let (lower, upper) = ([0.0, -1.0], [2.0, 1.0]);
