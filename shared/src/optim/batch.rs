@@ -38,10 +38,13 @@ impl Batch {
     /// Records a result; returns true when the batch is complete.
     #[inline] // called from the generic `Optimizer` impl, which is instantiated in other crates
     pub fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<bool, OptimError> {
-        let i = self
-            .candidates
-            .iter()
-            .position(|c| c.id == id)
+        // `Batch::new` numbers a batch consecutively, so `id` is normally at its offset from the
+        // first id; any other layout (a hand-edited state) is searched.
+        let first = self.candidates.first().map_or(0, |c| c.id);
+        let i = usize::try_from(id.wrapping_sub(first))
+            .ok()
+            .filter(|&i| self.candidates.get(i).is_some_and(|c| c.id == id))
+            .or_else(|| self.candidates.iter().position(|c| c.id == id))
             .filter(|&i| self.results[i].is_none())
             .ok_or(OptimError::UnknownCandidate(id))?;
         self.results[i] = Some(outcome.into());
@@ -51,5 +54,28 @@ impl Batch {
     /// The results, in creation order (only valid once complete).
     pub fn values(&self) -> Vec<Fitness> {
         self.results.iter().map(|r| r.unwrap_or(Fitness::Failed)).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tell_finds_each_id_once_whether_or_not_ids_are_consecutive() {
+        let space = Space::new(&[0.0], &[1.0], None, None).unwrap();
+        let mut next_id = 5;
+        let consecutive = Batch::new(vec![vec![0.1], vec![0.2], vec![0.3]], &space, &mut next_id);
+        let mut renumbered = consecutive.clone();
+        for (c, id) in renumbered.candidates.iter_mut().zip([9, 2, 7]) {
+            c.id = id;
+        }
+        for (mut batch, ids) in [(consecutive, [6, 5, 7]), (renumbered, [7, 9, 2])] {
+            for (k, id) in ids.into_iter().enumerate() {
+                assert!(batch.tell(4, Outcome::Failed).is_err());
+                assert_eq!(batch.tell(id, Outcome::Value(1.0)), Ok(k == 2));
+                assert_eq!(batch.tell(id, Outcome::Value(1.0)), Err(OptimError::UnknownCandidate(id)));
+            }
+        }
     }
 }

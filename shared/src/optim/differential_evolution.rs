@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use super::fitness::Fitness;
 use super::random::Random;
-use super::run::{BatchStep, PopulationPhase as Phase, RunState, population_space};
+use super::run::{BatchOptimizer, PopulationPhase as Phase, RunState, Step, population_space};
 use super::space::Space;
 use super::{OptimError, Stopping, Termination};
 
@@ -49,12 +49,13 @@ impl DeSettings {
     }
 }
 
-/// The differential evolution state machine; see the module docs.
+/// The differential evolution optimizer; see the module docs. Its `iterations` are the
+/// generations completed.
+pub type DifferentialEvolution = BatchOptimizer<DifferentialEvolutionSteps>;
+
+/// The algorithm part of [`DifferentialEvolution`]: the population and the generator.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct DifferentialEvolution {
-    /// Its `iterations` are the generations completed.
-    #[serde(flatten)]
-    run: RunState,
+pub struct DifferentialEvolutionSteps {
     settings: DeSettings,
     population: Vec<(Vec<f64>, Fitness)>,
     phase: Phase,
@@ -87,10 +88,13 @@ impl DifferentialEvolution {
         }
         let mut run = RunState::new(space);
         run.start_batch(points);
-        Ok(DifferentialEvolution { run, settings, population: vec![], phase: Phase::Initial, rng })
+        let algorithm = DifferentialEvolutionSteps { settings, population: vec![], phase: Phase::Initial, rng };
+        Ok(BatchOptimizer { run, algorithm })
     }
+}
 
-    fn trial(&mut self, i: usize) -> Vec<f64> {
+impl DifferentialEvolutionSteps {
+    fn trial(&mut self, space: &Space, i: usize) -> Vec<f64> {
         let np = self.population.len();
         let pick = |exclude: &[usize], rng: &mut Random| loop {
             let r = rng.below(np);
@@ -101,7 +105,7 @@ impl DifferentialEvolution {
         let r1 = pick(&[i], &mut self.rng);
         let r2 = pick(&[i, r1], &mut self.rng);
         let r3 = pick(&[i, r1, r2], &mut self.rng);
-        let n = self.run.space.dim();
+        let n = space.dim();
         let forced = self.rng.below(n);
         let target = &self.population[i].0;
         let mut u = target.clone();
@@ -109,7 +113,7 @@ impl DifferentialEvolution {
             if j == forced || self.rng.chance(self.settings.crossover) {
                 let v = self.population[r1].0[j]
                     + self.settings.weight * (self.population[r2].0[j] - self.population[r3].0[j]);
-                let (lo, hi) = self.run.space.z_bounds(j);
+                let (lo, hi) = space.z_bounds(j);
                 u[j] = if v < lo {
                     target[j] + self.rng.uniform() * (lo - target[j])
                 } else if v > hi {
@@ -122,46 +126,38 @@ impl DifferentialEvolution {
         u
     }
 
-    fn check_and_continue(&mut self) {
+    fn check_and_continue(&mut self, run: &mut RunState) {
         let pop = &self.population;
         let best = pop.iter().min_by(|a, b| a.1.cmp(&b.1)).map(|p| p.0.as_slice()).unwrap_or_default();
         let points = pop.iter().map(|p| p.0.as_slice());
-        if let Some(t) = self.run.stop_if(&self.settings.stopping, best, points, pop.iter().map(|p| p.1)) {
+        if let Some(t) = run.stop_if(&self.settings.stopping, best, points, pop.iter().map(|p| p.1)) {
             self.phase = Phase::Done(t);
             return;
         }
-        let trials = (0..self.population.len()).map(|i| self.trial(i)).collect();
-        self.run.start_batch(trials);
+        let trials = (0..self.population.len()).map(|i| self.trial(&run.space, i)).collect();
+        run.start_batch(trials);
         self.phase = Phase::Generation;
     }
 }
 
-impl BatchStep for DifferentialEvolution {
-    fn state(&self) -> &RunState {
-        &self.run
-    }
-
-    fn state_mut(&mut self) -> &mut RunState {
-        &mut self.run
-    }
-
+impl Step for DifferentialEvolutionSteps {
     fn done(&self) -> Option<Termination> {
         self.phase.done()
     }
 
-    fn advance(&mut self) {
-        let values = self.run.absorb();
+    fn advance(&mut self, run: &mut RunState) {
+        let values = run.absorb();
         if self.phase == Phase::Initial {
-            self.population = self.run.batch.z.iter().cloned().zip(values).collect();
+            self.population = run.batch.z.iter().cloned().zip(values).collect();
         } else {
-            for (i, (z, f)) in self.run.batch.z.iter().zip(values).enumerate() {
+            for (i, (z, f)) in run.batch.z.iter().zip(values).enumerate() {
                 if !self.population[i].1.lt(&f) {
                     self.population[i] = (z.clone(), f);
                 }
             }
-            self.run.iterations += 1;
+            run.iterations += 1;
         }
-        self.check_and_continue();
+        self.check_and_continue(run);
     }
 }
 

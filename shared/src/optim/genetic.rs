@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use super::fitness::Fitness;
 use super::random::Random;
-use super::run::{BatchStep, PopulationPhase as Phase, RunState, population_space};
+use super::run::{BatchOptimizer, PopulationPhase as Phase, RunState, Step, population_space};
 use super::{OptimError, Stopping, Termination};
 
 /// Genetic algorithm settings.
@@ -63,12 +63,14 @@ struct Individual {
     f: Fitness,
 }
 
-/// The genetic algorithm state machine; see the module docs.
+/// The genetic algorithm optimizer; see the module docs. Its `iterations` are the generations
+/// completed.
+pub type GeneticAlgorithm = BatchOptimizer<GeneticSteps>;
+
+/// The algorithm part of [`GeneticAlgorithm`]: the population, the children being evaluated
+/// and the generator.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct GeneticAlgorithm {
-    /// Its `iterations` are the generations completed.
-    #[serde(flatten)]
-    run: RunState,
+pub struct GeneticSteps {
     settings: GaSettings,
     population: Vec<Individual>,
     /// Genes of the children in the current batch.
@@ -110,21 +112,22 @@ impl GeneticAlgorithm {
         while genomes.len() < settings.population {
             genomes.push((0..n).map(|_| random_bits(&mut rng, settings.bits)).collect());
         }
-        let run = RunState::new(space);
-        let mut ga =
-            GeneticAlgorithm { run, settings, population: vec![], children: vec![], phase: Phase::Initial, rng };
-        ga.ask_children(genomes, Phase::Initial);
-        Ok(ga)
+        let mut run = RunState::new(space);
+        let mut algorithm = GeneticSteps { settings, population: vec![], children: vec![], phase: Phase::Initial, rng };
+        algorithm.ask_children(&mut run, genomes, Phase::Initial);
+        Ok(BatchOptimizer { run, algorithm })
     }
+}
 
+impl GeneticSteps {
     fn decode(&self, genes: &[u64]) -> Vec<f64> {
         let max = ((1u64 << self.settings.bits) - 1) as f64;
         genes.iter().map(|&g| g as f64 / max).collect()
     }
 
-    fn ask_children(&mut self, genomes: Vec<Vec<u64>>, phase: Phase) {
+    fn ask_children(&mut self, run: &mut RunState, genomes: Vec<Vec<u64>>, phase: Phase) {
         let points = genomes.iter().map(|g| self.decode(g)).collect();
-        self.run.start_batch(points);
+        run.start_batch(points);
         self.children = genomes;
         self.phase = phase;
     }
@@ -144,8 +147,9 @@ impl GeneticAlgorithm {
         n - 1
     }
 
-    fn breed(&mut self) -> Vec<Vec<u64>> {
-        let (bits, n) = (self.settings.bits as usize, self.run.space.dim());
+    /// The children of the next generation, for `n` parameters.
+    fn breed(&mut self, n: usize) -> Vec<Vec<u64>> {
+        let bits = self.settings.bits as usize;
         let want = self.settings.population - self.settings.elitism;
         let mut out = Vec::with_capacity(want);
         while out.len() < want {
@@ -180,36 +184,26 @@ impl GeneticAlgorithm {
         out
     }
 
-    fn check_and_continue(&mut self) {
+    fn check_and_continue(&mut self, run: &mut RunState) {
         self.population.sort_by(|a, b| a.f.cmp(&b.f));
         let decoded: Vec<Vec<f64>> = self.population.iter().map(|ind| self.decode(&ind.genes)).collect();
         let values = self.population.iter().map(|p| p.f);
-        if let Some(t) =
-            self.run.stop_if(&self.settings.stopping, &decoded[0], decoded.iter().map(Vec::as_slice), values)
-        {
+        if let Some(t) = run.stop_if(&self.settings.stopping, &decoded[0], decoded.iter().map(Vec::as_slice), values) {
             self.phase = Phase::Done(t);
             return;
         }
-        let children = self.breed();
-        self.ask_children(children, Phase::Generation);
+        let children = self.breed(run.space.dim());
+        self.ask_children(run, children, Phase::Generation);
     }
 }
 
-impl BatchStep for GeneticAlgorithm {
-    fn state(&self) -> &RunState {
-        &self.run
-    }
-
-    fn state_mut(&mut self) -> &mut RunState {
-        &mut self.run
-    }
-
+impl Step for GeneticSteps {
     fn done(&self) -> Option<Termination> {
         self.phase.done()
     }
 
-    fn advance(&mut self) {
-        let values = self.run.absorb();
+    fn advance(&mut self, run: &mut RunState) {
+        let values = run.absorb();
         let children: Vec<Individual> = std::mem::take(&mut self.children)
             .into_iter()
             .zip(values)
@@ -220,9 +214,9 @@ impl BatchStep for GeneticAlgorithm {
         } else {
             self.population.truncate(self.settings.elitism);
             self.population.extend(children);
-            self.run.iterations += 1;
+            run.iterations += 1;
         }
-        self.check_and_continue();
+        self.check_and_continue(run);
     }
 }
 

@@ -11,10 +11,11 @@
 //! ([`space::Space`]). A failed evaluation ranks worse than any value ([`fitness::Fitness`]);
 //! NaN counts as failed.
 //!
-//! Each optimizer is only its algorithm: the bookkeeping they share (space, current batch,
-//! best point, ids and counters) is one embedded `RunState`, and `ask`, `tell` and the getters
-//! come from one blanket implementation over the internal `BatchStep` trait (both in the
-//! private module `run`).
+//! As in argmin, an optimizer's algorithm is kept apart from the state of its run: each public
+//! optimizer is a [`BatchOptimizer`] of the bookkeeping they share (space, current batch, best
+//! point, ids and counters; the internal `RunState`) and its own algorithm part, which is handed
+//! that state to take a step (the internal `Step` trait). `ask`, `tell` and the getters are
+//! implemented once, on `BatchOptimizer` (all in the private module `run`).
 //!
 //! - [`nelder_mead`]: Nelder–Mead with bounds, parallel (batches of 4) or sequential.
 //! - [`differential_evolution`]: DE rand/1/bin.
@@ -42,6 +43,7 @@ pub use fitness::Fitness;
 pub use genetic::{GaSettings, GeneticAlgorithm};
 pub use nelder_mead::{NelderMead, NmSettings};
 pub use point_batch::PointBatch;
+pub use run::BatchOptimizer;
 pub use space::Space;
 
 /// Identifies a candidate between `ask` and `tell`; unique within one optimizer run.

@@ -25,7 +25,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::fitness::Fitness;
-use super::run::{BatchStep, RunState};
+use super::run::{BatchOptimizer, RunState, Step};
 use super::space::Space;
 use super::{OptimError, Stopping, Termination};
 
@@ -80,11 +80,12 @@ enum Phase {
     Done(Termination),
 }
 
-/// The Nelder–Mead state machine; see the module docs.
+/// The Nelder–Mead optimizer; see the module docs.
+pub type NelderMead = BatchOptimizer<NelderMeadSteps>;
+
+/// The algorithm part of [`NelderMead`]: the simplex and where the iteration stands.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct NelderMead {
-    #[serde(flatten)]
-    run: RunState,
+pub struct NelderMeadSteps {
     settings: NmSettings,
     /// Sorted best first once evaluated.
     simplex: Vec<Vertex>,
@@ -123,15 +124,14 @@ impl NelderMead {
         }
         let mut run = RunState::new(space);
         run.start_batch(points);
-        Ok(NelderMead { run, settings, simplex: vec![], phase: Phase::Initial, projected: false })
+        let algorithm = NelderMeadSteps { settings, simplex: vec![], phase: Phase::Initial, projected: false };
+        Ok(BatchOptimizer { run, algorithm })
     }
+}
 
-    fn n(&self) -> usize {
-        self.run.space.dim()
-    }
-
-    fn new_batch(&mut self, points: Vec<Vec<f64>>, phase: Phase) {
-        self.run.start_batch(points);
+impl NelderMeadSteps {
+    fn new_batch(&mut self, run: &mut RunState, points: Vec<Vec<f64>>, phase: Phase) {
+        run.start_batch(points);
         self.phase = phase;
     }
 
@@ -141,27 +141,27 @@ impl NelderMead {
     }
 
     /// Sorts the simplex and either stops or asks the next trial points.
-    fn start_iteration(&mut self) {
+    fn start_iteration(&mut self, run: &mut RunState) {
         self.simplex.sort_by(|a, b| a.f.cmp(&b.f));
         let simplex = &self.simplex;
         let points = simplex.iter().map(|v| v.z.as_slice());
-        if let Some(t) = self.run.stop_if(&self.settings.stopping, &simplex[0].z, points, simplex.iter().map(|v| v.f)) {
+        if let Some(t) = run.stop_if(&self.settings.stopping, &simplex[0].z, points, simplex.iter().map(|v| v.f)) {
             self.phase = Phase::Done(t);
             return;
         }
         self.projected = false;
         if self.settings.parallel {
-            let pts = [1.0, 2.0, 0.5, -0.5].iter().map(|&d| self.trial(d)).collect();
-            self.new_batch(pts, Phase::Trial);
+            let pts = [1.0, 2.0, 0.5, -0.5].iter().map(|&d| self.trial(&run.space, d)).collect();
+            self.new_batch(run, pts, Phase::Trial);
         } else {
-            let r = self.trial(1.0);
-            self.new_batch(vec![r], Phase::Reflect);
+            let r = self.trial(&run.space, 1.0);
+            self.new_batch(run, vec![r], Phase::Reflect);
         }
     }
 
     /// x_c + δ (x_c − x_worst), projected onto the box.
-    fn trial(&mut self, delta: f64) -> Vec<f64> {
-        let n = self.n();
+    fn trial(&mut self, space: &Space, delta: f64) -> Vec<f64> {
+        let n = space.dim();
         let mut c = vec![0.0; n];
         for v in &self.simplex[..n] {
             for (ci, zi) in c.iter_mut().zip(&v.z) {
@@ -171,7 +171,7 @@ impl NelderMead {
         let w = &self.simplex[n].z;
         let mut z: Vec<f64> = c.iter().zip(w).map(|(ci, wi)| ci + delta * (ci - wi)).collect();
         let before = z.clone();
-        self.run.space.project(&mut z);
+        space.project(&mut z);
         if z != before {
             self.projected = true;
         }
@@ -179,92 +179,85 @@ impl NelderMead {
     }
 
     /// Replaces the worst vertex and goes on.
-    fn accept(&mut self, v: Vertex) {
-        let n = self.n();
+    fn accept(&mut self, run: &mut RunState, v: Vertex) {
+        let n = run.space.dim();
         self.simplex[n] = v;
-        self.run.iterations += 1;
-        self.after_update();
+        run.iterations += 1;
+        self.after_update(run);
     }
 
-    fn shrink(&mut self) {
+    fn shrink(&mut self, run: &mut RunState) {
         let best = self.simplex[0].z.clone();
         let pts = self.simplex[1..]
             .iter()
             .map(|v| v.z.iter().zip(&best).map(|(zi, bi)| bi + 0.5 * (zi - bi)).collect())
             .collect();
-        self.new_batch(pts, Phase::Shrink);
+        self.new_batch(run, pts, Phase::Shrink);
     }
 
     /// Rebuilds the simplex if projection flattened it, else starts the next iteration.
-    fn after_update(&mut self) {
+    fn after_update(&mut self, run: &mut RunState) {
         if self.projected && normalized_volume(&self.simplex) < 1e-10 {
             self.simplex.sort_by(|a, b| a.f.cmp(&b.f));
             let floor = 10.0 * self.settings.stopping.x_tol.unwrap_or(1e-8);
             let step = self.size().max(floor).min(self.settings.initial_step);
             let z0 = self.simplex[0].z.clone();
-            let pts = (0..self.n())
+            let pts = (0..run.space.dim())
                 .map(|i| {
                     let mut z = z0.clone();
-                    z[i] = step_along(&self.run.space, &z0, i, step);
+                    z[i] = step_along(&run.space, &z0, i, step);
                     z
                 })
                 .collect();
             tracing::debug!(step, "Nelder–Mead simplex flattened by projection; rebuilding");
-            self.new_batch(pts, Phase::Rebuild);
+            self.new_batch(run, pts, Phase::Rebuild);
         } else {
-            self.start_iteration();
+            self.start_iteration(run);
         }
     }
 
-    fn vertex(&self, i: usize, values: &[Fitness]) -> Vertex {
-        Vertex { z: self.run.batch.z[i].clone(), f: values[i] }
-    }
-
     /// The classic decision rules; asks for a missing point in sequential mode.
-    fn decide(&mut self, r: Vertex, e: Option<Vertex>, oc: Option<Vertex>, ic: Option<Vertex>) {
-        let n = self.n();
+    fn decide(&mut self, run: &mut RunState, r: Vertex, e: Option<Vertex>, oc: Option<Vertex>, ic: Option<Vertex>) {
+        let n = run.space.dim();
         let (f1, fn_, fw) = (self.simplex[0].f, self.simplex[n - 1].f, self.simplex[n].f);
         if r.f.lt(&f1) {
             match e {
-                Some(e) => self.accept(if e.f.lt(&r.f) { e } else { r }),
+                Some(e) => self.accept(run, if e.f.lt(&r.f) { e } else { r }),
                 None => {
-                    let z = self.trial(2.0);
-                    self.new_batch(vec![z], Phase::Expand { reflection: r });
+                    let z = self.trial(&run.space, 2.0);
+                    self.new_batch(run, vec![z], Phase::Expand { reflection: r });
                 }
             }
         } else if r.f.lt(&fn_) {
-            self.accept(r);
+            self.accept(run, r);
         } else if r.f.lt(&fw) {
             match oc {
-                Some(oc) if !r.f.lt(&oc.f) => self.accept(oc),
-                Some(_) => self.shrink(),
+                Some(oc) if !r.f.lt(&oc.f) => self.accept(run, oc),
+                Some(_) => self.shrink(run),
                 None => {
-                    let z = self.trial(0.5);
-                    self.new_batch(vec![z], Phase::Contract { reflection: r, outside: true });
+                    let z = self.trial(&run.space, 0.5);
+                    self.new_batch(run, vec![z], Phase::Contract { reflection: r, outside: true });
                 }
             }
         } else {
             match ic {
-                Some(ic) if ic.f.lt(&fw) => self.accept(ic),
-                Some(_) => self.shrink(),
+                Some(ic) if ic.f.lt(&fw) => self.accept(run, ic),
+                Some(_) => self.shrink(run),
                 None => {
-                    let z = self.trial(-0.5);
-                    self.new_batch(vec![z], Phase::Contract { reflection: r, outside: false });
+                    let z = self.trial(&run.space, -0.5);
+                    self.new_batch(run, vec![z], Phase::Contract { reflection: r, outside: false });
                 }
             }
         }
     }
 }
 
-impl BatchStep for NelderMead {
-    fn state(&self) -> &RunState {
-        &self.run
-    }
+/// Vertex `i` of `run`'s completed batch, with its value from `values`.
+fn vertex(run: &RunState, i: usize, values: &[Fitness]) -> Vertex {
+    Vertex { z: run.batch.z[i].clone(), f: values[i] }
+}
 
-    fn state_mut(&mut self) -> &mut RunState {
-        &mut self.run
-    }
-
+impl Step for NelderMeadSteps {
     fn done(&self) -> Option<Termination> {
         match self.phase {
             Phase::Done(t) => Some(t),
@@ -273,44 +266,44 @@ impl BatchStep for NelderMead {
     }
 
     /// Applies the batch that just completed.
-    fn advance(&mut self) {
-        let values = self.run.absorb();
-        let n = self.n();
+    fn advance(&mut self, run: &mut RunState) {
+        let values = run.absorb();
+        let n = run.space.dim();
         match std::mem::replace(&mut self.phase, Phase::Initial) {
             Phase::Initial => {
-                self.simplex = (0..=n).map(|i| self.vertex(i, &values)).collect();
-                self.start_iteration();
+                self.simplex = (0..=n).map(|i| vertex(run, i, &values)).collect();
+                self.start_iteration(run);
             }
             Phase::Trial => {
-                let [r, e, oc, ic] = [0, 1, 2, 3].map(|i| self.vertex(i, &values));
-                self.decide(r, Some(e), Some(oc), Some(ic));
+                let [r, e, oc, ic] = [0, 1, 2, 3].map(|i| vertex(run, i, &values));
+                self.decide(run, r, Some(e), Some(oc), Some(ic));
             }
             Phase::Reflect => {
-                let r = self.vertex(0, &values);
-                self.decide(r, None, None, None);
+                let r = vertex(run, 0, &values);
+                self.decide(run, r, None, None, None);
             }
             Phase::Expand { reflection } => {
-                let e = self.vertex(0, &values);
-                self.decide(reflection, Some(e), None, None);
+                let e = vertex(run, 0, &values);
+                self.decide(run, reflection, Some(e), None, None);
             }
             Phase::Contract { reflection, outside } => {
-                let c = self.vertex(0, &values);
+                let c = vertex(run, 0, &values);
                 if outside {
-                    self.decide(reflection, None, Some(c), None);
+                    self.decide(run, reflection, None, Some(c), None);
                 } else {
-                    self.decide(reflection, None, None, Some(c));
+                    self.decide(run, reflection, None, None, Some(c));
                 }
             }
             phase @ (Phase::Shrink | Phase::Rebuild) => {
                 for i in 0..n {
-                    self.simplex[i + 1] = self.vertex(i, &values);
+                    self.simplex[i + 1] = vertex(run, i, &values);
                 }
                 if phase == Phase::Shrink {
-                    self.run.iterations += 1;
+                    run.iterations += 1;
                 } else {
                     self.projected = false;
                 }
-                self.after_update();
+                self.after_update(run);
             }
             Phase::Done(t) => self.phase = Phase::Done(t),
         }
@@ -436,7 +429,7 @@ mod tests {
         let inf = f64::INFINITY;
         let seq = minimize(tp::rosenbrock, &[-inf, -inf], &[inf, inf], &[-1.2, 1.0], tight(2, false));
         let par = minimize(tp::rosenbrock, &[-inf, -inf], &[inf, inf], &[-1.2, 1.0], tight(2, true));
-        assert_eq!(seq.simplex, par.simplex);
+        assert_eq!(seq.algorithm.simplex, par.algorithm.simplex);
         assert_eq!(seq.iterations(), par.iterations());
         assert!(par.rounds() < seq.evaluations(), "{} rounds vs {} evaluations", par.rounds(), seq.evaluations());
         assert!(seq.evaluations() < par.evaluations(), "sequential mode should need fewer evaluations");
@@ -455,7 +448,7 @@ mod tests {
         s.stopping = Stopping { x_tol: Some(1e-3), f_tol: None, max_iters: None, max_fevals: None };
         let nm = minimize(tp::sphere, &[-inf, -inf], &[inf, inf], &[1.0, 1.0], s.clone());
         assert_eq!(nm.status(), Status::Done(Termination::XTol));
-        assert!(nm.size() <= 1e-3);
+        assert!(nm.algorithm.size() <= 1e-3);
         s.stopping = Stopping { x_tol: None, f_tol: Some(1e-3), max_iters: None, max_fevals: None };
         let nm = minimize(tp::sphere, &[-inf, -inf], &[inf, inf], &[1.0, 1.0], s);
         assert_eq!(nm.status(), Status::Done(Termination::FTol));

@@ -4,14 +4,16 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::run::{BatchStep, RunState};
+use super::run::{BatchOptimizer, RunState, Step};
 use super::space::Space;
 use super::{OptimError, Termination};
 
+/// One batch of given points, then done; see the module docs.
+pub type PointBatch = BatchOptimizer<PointBatchSteps>;
+
+/// The algorithm part of [`PointBatch`]: whether the batch has been told.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct PointBatch {
-    #[serde(flatten)]
-    run: RunState,
+pub struct PointBatchSteps {
     done: bool,
 }
 
@@ -44,26 +46,18 @@ impl PointBatch {
         for (c, p) in run.batch.candidates.iter_mut().zip(points) {
             c.x.clone_from(p);
         }
-        Ok(PointBatch { run, done: false })
+        Ok(BatchOptimizer { run, algorithm: PointBatchSteps { done: false } })
     }
 }
 
-impl BatchStep for PointBatch {
-    fn state(&self) -> &RunState {
-        &self.run
-    }
-
-    fn state_mut(&mut self) -> &mut RunState {
-        &mut self.run
-    }
-
+impl Step for PointBatchSteps {
     fn done(&self) -> Option<Termination> {
         self.done.then_some(Termination::MaxIters)
     }
 
-    fn advance(&mut self) {
-        self.run.absorb();
-        self.run.iterations = 1;
+    fn advance(&mut self, run: &mut RunState) {
+        run.absorb();
+        run.iterations = 1;
         self.done = true;
     }
 }

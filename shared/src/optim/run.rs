@@ -1,18 +1,22 @@
-//! What every batch optimizer keeps besides its own algorithm, and the one
-//! [`Optimizer`] implementation they all share.
+//! The shape every batch optimizer shares, as in argmin: the solver's state is kept apart from
+//! the solver and handed to it.
 //!
 //! - [`RunState`] holds the search space, the current [`Batch`], the best point so far, the next
-//!   candidate id and the evaluation, iteration and round counters. Each optimizer embeds it as
-//!   its field `run`, marked `#[serde(flatten)]`, so a checkpoint keeps the same JSON keys as
-//!   when these fields sat in every optimizer (states saved before still load).
-//! - An optimizer implements the internal trait [`BatchStep`]: where its `RunState` is, whether
-//!   it is done, and `advance`, which consumes the batch that has just been fully told and
-//!   either asks the next one ([`RunState::start_batch`]) or stops ([`RunState::stop_if`]).
-//! - The blanket `impl<T: BatchStep> Optimizer for T` does the rest: `ask` returns the batch's
-//!   open candidates, `tell` records a result and calls `advance` once the batch is complete,
-//!   and the getters read the `RunState`. Nothing in here does I/O, keeps time or spawns threads.
-//!   Being generic, this impl is compiled in whichever crate uses an optimizer, so the `Batch`
-//!   methods it calls are `#[inline]` (else the bench loses ~2 % to cross-crate calls).
+//!   candidate id and the evaluation, iteration and round counters.
+//! - An algorithm (Nelder–Mead's simplex, DE's or GA's population, a point list) implements the
+//!   internal trait [`Step`]: whether it is done, and `advance`, which gets the `RunState` whose
+//!   batch has just been fully told and either asks the next batch ([`RunState::start_batch`])
+//!   or stops ([`RunState::stop_if`]).
+//! - [`BatchOptimizer<A>`] pairs the two and implements [`Optimizer`] once: `ask` returns the
+//!   batch's open candidates, `tell` records a result and calls `advance` once the batch is
+//!   complete, and the getters read the `RunState`. The public optimizers are its instances
+//!   (`NelderMead = BatchOptimizer<NelderMeadSteps>` and so on) with their constructors as
+//!   inherent impls. Nothing in here does I/O, keeps time or spawns threads. Being generic, the
+//!   impl is compiled in whichever crate uses an optimizer, so the `Batch` methods it calls are
+//!   `#[inline]` (else the bench loses ~2 % to cross-crate calls).
+//! - Serialized, a checkpoint is `{"run": {...}, "algorithm": {...}}` (derived serde, no
+//!   flattening: serde cannot buffer the DE and GA generators' `u128` through a flattened
+//!   field).
 //!
 //! The pieces only DE and GA share (the generational [`PopulationPhase`] and
 //! [`population_space`]) live here too.
@@ -108,56 +112,62 @@ impl BestSoFar {
     }
 }
 
-/// One step of a batch optimizer: everything [`Optimizer`] needs beyond the [`RunState`].
-pub(crate) trait BatchStep {
-    fn state(&self) -> &RunState;
-
-    fn state_mut(&mut self) -> &mut RunState;
-
+/// The algorithm part of a batch optimizer: everything [`Optimizer`] needs beyond the
+/// [`RunState`], which it is given.
+pub(crate) trait Step {
     /// Why the run ended, if it has.
     fn done(&self) -> Option<Termination>;
 
-    /// Consumes the batch that has just been completed: asks the next one or stops.
-    fn advance(&mut self);
+    /// Consumes `run`'s batch, which has just been completed: asks the next one or stops.
+    fn advance(&mut self, run: &mut RunState);
 }
 
-impl<T: BatchStep> Optimizer for T {
+/// A batch optimizer: the run's bookkeeping and the algorithm `A` that steps it; see the module
+/// docs. [`NelderMead`](super::NelderMead), [`DifferentialEvolution`](super::DifferentialEvolution),
+/// [`GeneticAlgorithm`](super::GeneticAlgorithm) and [`PointBatch`](super::PointBatch) are its
+/// instances.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct BatchOptimizer<A> {
+    pub(super) run: RunState,
+    pub(super) algorithm: A,
+}
+
+impl<A: Step> Optimizer for BatchOptimizer<A> {
     fn ask(&mut self) -> Vec<Candidate> {
-        if self.done().is_some() { vec![] } else { self.state().batch.open() }
+        if self.algorithm.done().is_some() { vec![] } else { self.run.batch.open() }
     }
 
     fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<(), OptimError> {
-        if self.done().is_some() {
+        if self.algorithm.done().is_some() {
             return Err(OptimError::UnknownCandidate(id));
         }
-        if self.state_mut().batch.tell(id, outcome)? {
-            self.advance();
+        if self.run.batch.tell(id, outcome)? {
+            self.algorithm.advance(&mut self.run);
         }
         Ok(())
     }
 
     fn status(&self) -> Status {
-        match self.done() {
+        match self.algorithm.done() {
             Some(t) => Status::Done(t),
             None => Status::Running,
         }
     }
 
     fn best(&self) -> Option<(Vec<f64>, f64)> {
-        let run = self.state();
-        run.best.get(&run.space)
+        self.run.best.get(&self.run.space)
     }
 
     fn evaluations(&self) -> u64 {
-        self.state().evaluations
+        self.run.evaluations
     }
 
     fn iterations(&self) -> u64 {
-        self.state().iterations
+        self.run.iterations
     }
 
     fn rounds(&self) -> u64 {
-        self.state().rounds
+        self.run.rounds
     }
 }
 
@@ -204,23 +214,30 @@ pub(crate) fn population_space(
 
 #[cfg(test)]
 mod tests {
-    use crate::optim::{AnyOptimizer, Optimizer};
+    use crate::optim::{
+        AnyOptimizer, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, Optimizer, Outcome,
+    };
 
-    /// A sequential Nelder–Mead checkpoint written before `RunState` existed, when every
-    /// optimizer had its own `space`, `batch`, `best`, `next_id` and counters.
-    const OLD_CHECKPOINT: &str = r#"{"NelderMead":{"space":{"lower":["-inf","-inf"],"upper":["inf","inf"],"offset":[0.0,0.0],"scale":[1.2,1.0]},"settings":{"parallel":false,"initial_step":0.05,"stopping":{"x_tol":1e-6,"f_tol":1e-8,"max_iters":2000,"max_fevals":null},"nominal":null},"simplex":[{"z":[-0.8999999999999999,1.125],"f":{"Value":4.4977959999999975}},{"z":[-0.8999999999999999,1.0749999999999997],"f":{"Value":5.161795999999999}},{"z":[-1.0,1.05],"f":{"Value":20.049999999999994}}],"phase":"Reflect","batch":{"z":[[-0.7999999999999998,1.1499999999999997]],"candidates":[{"id":7,"x":[-0.9599999999999997,1.1499999999999997]}],"results":[null]},"projected":false,"next_id":8,"evaluations":7,"iterations":2,"rounds":6,"best":[[-0.8999999999999999,1.125],4.4977959999999975]}}"#;
-
+    /// DE and GA keep their generator state as a `u128`: it must come back exactly, and the
+    /// run go on as if never stopped.
     #[test]
-    fn checkpoints_keep_their_json_keys_and_older_ones_resume() {
-        let mut opt: AnyOptimizer = serde_json::from_str(OLD_CHECKPOINT).unwrap();
-        let old: serde_json::Value = serde_json::from_str(OLD_CHECKPOINT).unwrap();
-        assert_eq!(serde_json::to_value(&opt).unwrap(), old);
-        assert_eq!((opt.evaluations(), opt.iterations(), opt.rounds()), (7, 2, 6));
-        assert_eq!(opt.best(), Some((vec![-1.0799999999999998, 1.125], 4.4977959999999975)));
-        let asked = opt.ask();
-        assert_eq!(asked.len(), 1);
-        assert_eq!((asked[0].id, asked[0].x.as_slice()), (7, [-0.9599999999999997, 1.1499999999999997].as_slice()));
-        opt.tell(7, crate::optim::Outcome::Value(1.0)).unwrap();
-        assert_eq!(opt.ask()[0].id, 8);
+    fn generator_states_survive_a_checkpoint() {
+        let (lower, upper) = ([0.0, -1.0], [2.0, 1.0]);
+        let de = DifferentialEvolution::new(&lower, &upper, None, DeSettings::new(2)).unwrap();
+        let ga = GeneticAlgorithm::new(&lower, &upper, None, GaSettings::new(2)).unwrap();
+        for mut opt in [AnyOptimizer::DifferentialEvolution(de), AnyOptimizer::Genetic(ga)] {
+            let json = serde_json::to_string(&opt).unwrap();
+            let mut resumed: AnyOptimizer = serde_json::from_str(&json).unwrap();
+            assert_eq!(serde_json::to_string(&resumed).unwrap(), json);
+            for _ in 0..3 {
+                let asked = opt.ask();
+                assert_eq!(resumed.ask(), asked);
+                for c in asked {
+                    let f = Outcome::Value(c.x.iter().map(|x| x * x).sum());
+                    opt.tell(c.id, f).unwrap();
+                    resumed.tell(c.id, f).unwrap();
+                }
+            }
+        }
     }
 }
