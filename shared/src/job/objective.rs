@@ -309,6 +309,7 @@ impl PreparedJob {
                 s.port_terms.push(term);
             } else if let (Some(input), Some(table), Ok(effects::Found::Series(kind))) =
                 (&e.spec.input, s.inputs.as_mut(), effects::find(&e.spec.kind))
+                && p.len() == e.count
                 && let Some((_, column)) = table.columns.iter_mut().find(|(name, _)| name == input)
             {
                 *column = kind.apply(p, &table.time, column);
@@ -323,7 +324,9 @@ impl PreparedJob {
             let (Some(output), Ok(effects::Found::Series(kind))) = (&e.spec.output, effects::find(&e.spec.kind)) else {
                 continue;
             };
-            if let Some(i) = sim.names.iter().position(|n| n == output) {
+            if let Some(i) = sim.names.iter().position(|n| n == output)
+                && e.values(x).len() == e.count
+            {
                 sim.columns[i] = kind.apply(e.values(x), &sim.time, &sim.columns[i]);
             }
         }
@@ -339,7 +342,8 @@ pub struct PreparedEffect {
 }
 
 impl PreparedEffect {
-    /// Its parameter values in the point `x` (none if `x` is too short).
+    /// Its parameter values in the point `x` (none if `x` is too short, which a point from the
+    /// job's optimizer never is; the effect is then left out rather than indexed past the end).
     fn values<'a>(&self, x: &'a [f64]) -> &'a [f64] {
         x.get(self.offset..self.offset + self.count).unwrap_or_default()
     }
