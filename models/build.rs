@@ -1,8 +1,9 @@
 //! Compiles the example models' C sources into shared libraries with the `cc` crate's compiler
 //! and packages each into a real `.fmu` (zip with modelDescription.xml, binaries/linux64,
 //! sources/ and resources/). Also builds the fixture FMUs the tests need: broken ones
-//! (MissingSymbol.fmu, ResetFails.fmu) and ones that behave as tool-exported FMUs do
-//! (StickSlip.fmu, InputKinds.fmu, Threshold.fmu, DerivativeAttributes.fmu).
+//! (MissingSymbol.fmu, ResetFails.fmu), ones that behave as tool-exported FMUs do
+//! (StickSlip.fmu, InputKinds.fmu, Threshold.fmu, DerivativeAttributes.fmu), and a Furuta
+//! with an effect its description does not mention (FurutaHiddenCoulomb.fmu).
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -61,6 +62,14 @@ fn main() {
     let so = out.join("ResetFails.so");
     compile(&root.join("c").join(decay.source), &so, &["-DFMUCAL_RESET_FAILS"]);
     package(&root, decay, &xml, &so, &out.join("ResetFails.fmu"));
+
+    // Fixture: the Furuta pendulum with a Coulomb friction of 0.004 N·m in the pendulum joint
+    // that its description does not mention: data with an effect the base model lacks.
+    let furuta = &MODELS[0];
+    let so = out.join("FurutaHiddenCoulomb.so");
+    compile(&root.join("c").join(furuta.source), &so, &["-DHIDDEN_PENDULUM_COULOMB=0.004"]);
+    let xml = fs::read(root.join("xml").join("Furuta.xml")).unwrap();
+    package(&root, furuta, &xml, &so, &out.join("FurutaHiddenCoulomb.fmu"));
 
     // Fixture: the bouncing ball described as tools export it, with `derivative` attributes on
     // aliases and on variables that are not continuous states (FMI 2.0 allows them; only

@@ -295,3 +295,82 @@ fn bad_effects_in_a_job_name_the_field() {
         assert!(err.starts_with(want), "{want:?} is not the start of {err:?}");
     }
 }
+
+/// Writes `time,phi,theta,u` from the hidden-Coulomb Furuta variant driven by the example's
+/// motor torque over 10 s: data with an effect the base model's equations lack.
+fn hidden_coulomb_data(dir: &std::path::Path) -> std::path::PathBuf {
+    let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta/FurutaData.mat");
+    let measured = MeasurementTable::read(&example, "time").unwrap();
+    let u = measured.column("u").unwrap().to_vec();
+    let fmu = common::load(&fmucal_models::Fixture::FurutaHiddenCoulomb.path(), &dir.join("cache"));
+    let spec = SimSpec {
+        stop_time: Some(10.0),
+        output_times: Some(OutputTimes::Interval(0.01)),
+        inputs: Some(common::table(measured.time.clone(), vec![("u", u.clone())])),
+        outputs: OUTPUTS.iter().map(|s| s.to_string()).collect(),
+        tolerance: Some(1e-9),
+        ..Default::default()
+    };
+    let r = simulate(&fmu, &spec).unwrap();
+    let mut csv = String::from("time,phi,theta,u\n");
+    for (i, t) in r.time.iter().enumerate() {
+        let k = measured.time.partition_point(|m| m <= t).saturating_sub(1);
+        csv.push_str(&format!("{t},{},{},{}\n", r.columns[0][i], r.columns[1][i], u[k]));
+    }
+    let path = dir.join("hidden.csv");
+    std::fs::write(&path, csv).unwrap();
+    path
+}
+
+#[test]
+fn a_coulomb_friction_hidden_in_the_models_c_code_is_recovered_as_an_effect() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = hidden_coulomb_data(dir.path());
+    let job = |effect: &str| {
+        let toml = format!(
+            r#"
+[model]
+path = "{}"
+[data]
+path = "{}"
+[[outputs]]
+variable = "armJoint.phi"
+column = "phi"
+[[outputs]]
+variable = "pendulumJoint.phi"
+column = "theta"
+[[inputs]]
+column = "u"
+variable = "u"
+[[parameters]]
+name = "pendulumFriction"
+start = 0.003
+lower = 0.0
+upper = 0.012
+{effect}
+[simulation]
+stop_time = 10.0
+tolerance = 1e-9
+[optimizer]
+x_tol = 1e-6
+f_tol = 1e-14
+"#,
+            common::example("furuta").display(),
+            data.display()
+        );
+        JobSpec::from_toml(&toml, dir.path()).unwrap()
+    };
+    let without = calibrate(dir.path(), &job(""));
+    let with = calibrate(
+        dir.path(),
+        &job(
+            "[[effects]]\nkind = \"coulomb_friction\"\nport = \"pendulumJoint.tauExt\"\nsignal = \"pendulumJoint.w\"\n\
+             parameters = { force = { start = 0.001, lower = 0.0, upper = 0.02 } }",
+        ),
+    );
+    let force = with.x_opt["effects[0].force"];
+    assert!((force - 0.004).abs() < 1e-5, "force {force}, {:?}", with.x_opt);
+    assert!((with.x_opt["pendulumFriction"] - 0.002).abs() < 1e-5, "{:?}", with.x_opt);
+    // The gap shrinks: the base model cannot fit the data, the model with the effect can.
+    assert!(with.f_opt < 1e-6 * without.f_opt, "f_opt {} with the effect, {} without", with.f_opt, without.f_opt);
+}

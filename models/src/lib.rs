@@ -90,6 +90,10 @@ pub enum Fixture {
     /// Conformance: the bouncing ball with `derivative` attributes on variables that
     /// `ModelStructure/Derivatives` does not list (aliases, non-state velocities).
     DerivativeAttributes,
+    /// Discrepancy: the Furuta pendulum with Coulomb friction (0.004 N·m, smoothed as
+    /// fmucal's `coulomb_friction`) in the pendulum joint, in its C code but not in its
+    /// description.
+    FurutaHiddenCoulomb,
 }
 
 impl Fixture {
@@ -102,6 +106,7 @@ impl Fixture {
             Fixture::InputKinds => "InputKinds.fmu",
             Fixture::Threshold => "Threshold.fmu",
             Fixture::DerivativeAttributes => "DerivativeAttributes.fmu",
+            Fixture::FurutaHiddenCoulomb => "FurutaHiddenCoulomb.fmu",
         };
         fmu_dir().join(file)
     }
