@@ -116,6 +116,36 @@ fn bad_port_terms_are_refused_naming_the_culprit() {
     }
 }
 
+/// A job on the Furuta example FMU fitting both angles to `data` (time, phi, theta, u) with
+/// the motor torque as input; `body` holds its `[[parameters]]` and `[[effects]]`, then the
+/// `[simulation]` and `[optimizer]` entries.
+fn furuta_toml(data: &std::path::Path, body: &str, simulation: &str, optimizer: &str) -> String {
+    format!(
+        r#"
+[model]
+path = "{}"
+[data]
+path = "{}"
+[[outputs]]
+variable = "armJoint.phi"
+column = "phi"
+[[outputs]]
+variable = "pendulumJoint.phi"
+column = "theta"
+[[inputs]]
+column = "u"
+variable = "u"
+{body}
+[simulation]
+{simulation}
+[optimizer]
+{optimizer}
+"#,
+        common::example("furuta").display(),
+        data.display()
+    )
+}
+
 /// The Furuta example's job up to 10 s, calibrating either the model's own frictions or, with
 /// those set to zero, two injected viscous dampings.
 fn furuta_job(dir: &std::path::Path, injected: bool) -> JobSpec {
@@ -154,33 +184,11 @@ upper = 0.012
         )
     };
     let set = if injected { "set = { armFriction = 0.0, pendulumFriction = 0.0 }" } else { "" };
-    let toml = format!(
-        r#"
-[model]
-path = "{}"
-[data]
-path = "{}"
-[[outputs]]
-variable = "armJoint.phi"
-column = "phi"
-[[outputs]]
-variable = "pendulumJoint.phi"
-column = "theta"
-[[inputs]]
-column = "u"
-variable = "u"
-{parameters}
-{effects}
-[simulation]
-stop_time = 10.0
-tolerance = 1e-8
-{set}
-[optimizer]
-x_tol = 1e-4
-f_tol = 1e-6
-"#,
-        common::example("furuta").display(),
-        data.display()
+    let toml = furuta_toml(
+        &data,
+        &format!("{parameters}\n{effects}"),
+        &format!("stop_time = 10.0\ntolerance = 1e-8\n{set}"),
+        "x_tol = 1e-4\nf_tol = 1e-6",
     );
     let spec = JobSpec::from_toml(&toml, dir).unwrap();
     spec.validate().unwrap();
@@ -327,36 +335,12 @@ fn a_coulomb_friction_hidden_in_the_models_c_code_is_recovered_as_an_effect() {
     let dir = tempfile::tempdir().unwrap();
     let data = hidden_coulomb_data(dir.path());
     let job = |effect: &str| {
-        let toml = format!(
-            r#"
-[model]
-path = "{}"
-[data]
-path = "{}"
-[[outputs]]
-variable = "armJoint.phi"
-column = "phi"
-[[outputs]]
-variable = "pendulumJoint.phi"
-column = "theta"
-[[inputs]]
-column = "u"
-variable = "u"
-[[parameters]]
-name = "pendulumFriction"
-start = 0.003
-lower = 0.0
-upper = 0.012
-{effect}
-[simulation]
-stop_time = 10.0
-tolerance = 1e-9
-[optimizer]
-x_tol = 1e-6
-f_tol = 1e-14
-"#,
-            common::example("furuta").display(),
-            data.display()
+        let parameters = "[[parameters]]\nname = \"pendulumFriction\"\nstart = 0.003\nlower = 0.0\nupper = 0.012";
+        let toml = furuta_toml(
+            &data,
+            &format!("{parameters}\n{effect}"),
+            "stop_time = 10.0\ntolerance = 1e-9",
+            "x_tol = 1e-6\nf_tol = 1e-14",
         );
         JobSpec::from_toml(&toml, dir.path()).unwrap()
     };
