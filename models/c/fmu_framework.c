@@ -171,7 +171,7 @@ FMI2_EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[
     }
     for (size_t k = 0; k < nvr; k++) {
         if (!check_vr(m, "fmi2GetReal", vr[k], N_REAL)) return fmi2Error;
-        value[k] = m->r[vr[k]];
+        value[k] = REPORTED_REAL(m, vr[k]);
     }
     return fmi2OK;
 }

@@ -16,6 +16,9 @@
  *                                   tolerance (it has no integrator to use it)
  *   COMPLETED_STEPS_VR              Integer value reference counting fmi2CompletedIntegratorStep
  *                                   calls (FMUs with dynamic state selection act on every one)
+ *   REPORTED_REAL(m, vr)            the value fmi2GetReal reports for Real value reference vr
+ *                                   (default m->r[vr]); the equations and fmi2GetContinuousStates
+ *                                   still use m->r, so a sensor error can be built in
  * then implements the model_* hooks declared below and includes fmu_framework.c. */
 #ifndef FMUCAL_FMU_FRAMEWORK_H
 #define FMUCAL_FMU_FRAMEWORK_H
@@ -29,6 +32,10 @@
 
 #ifndef IS_DISCRETE_REAL
 #define IS_DISCRETE_REAL(vr) 0
+#endif
+
+#ifndef REPORTED_REAL
+#define REPORTED_REAL(m, vr) ((m)->r[(vr)])
 #endif
 
 #define NX_ALLOC (NX > 0 ? NX : 1)
