@@ -2,8 +2,18 @@
 //! and packages each into a real `.fmu` (zip with modelDescription.xml, binaries/linux64,
 //! sources/ and resources/). Also builds the fixture FMUs the tests need: broken ones
 //! (MissingSymbol.fmu, ResetFails.fmu), ones that behave as tool-exported FMUs do
-//! (StickSlip.fmu, InputKinds.fmu, Threshold.fmu, DerivativeAttributes.fmu), and a Furuta
-//! with an effect its description does not mention (FurutaHiddenCoulomb.fmu).
+//! (StickSlip.fmu, InputKinds.fmu, Threshold.fmu, DerivativeAttributes.fmu), a spring–mass–damper
+//! with an injection port (SpringMass.fmu), and hidden-effect fixtures: a model's C source built
+//! with a define that adds physics its (unchanged) description does not mention, each exactly
+//! one of fmucal's effect formulas (shared/src/diagnose/effects.rs):
+//!
+//! | fixture | base | define | effect |
+//! |---|---|---|---|
+//! | FurutaHiddenCoulomb.fmu | Furuta | `HIDDEN_PENDULUM_COULOMB=0.004` | pendulum joint −0.004·tanh(w/1e-3) N·m |
+//! | FurutaHiddenSensorOffset.fmu | Furuta | `HIDDEN_ARM_SENSOR_OFFSET=0.02` | reported `armJoint.phi` + 0.02 rad |
+//! | FurutaHiddenArmDrag.fmu | Furuta | `HIDDEN_ARM_QUADRATIC_DRAG=2e-4` | arm joint −2e-4·w·\|w\| N·m |
+//! | SpringMassHiddenCubic.fmu | SpringMass | `HIDDEN_CUBIC_SPRING=0.2` | force −0.2·x³ N |
+//! | ExhaustPipeHiddenRadiation.fmu | ExhaustPipe | `HIDDEN_RADIATION_AREA=0.1` | right wall 0.1·σ·(293.15⁴ − T_wall⁴) W |
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -32,6 +42,32 @@ const FIXTURES: &[Model] = &[
     Model { identifier: "StickSlip", source: "stick_slip.c", resources: &[], extra_platforms: false },
     Model { identifier: "InputKinds", source: "input_kinds.c", resources: &[], extra_platforms: false },
     Model { identifier: "Threshold", source: "threshold.c", resources: &[], extra_platforms: false },
+    Model { identifier: "SpringMass", source: "spring_mass.c", resources: &[], extra_platforms: false },
+];
+
+/// Hidden-effect fixtures: (file name, identifier of the base model, define). Each is the base
+/// model's source compiled with the define and packaged with the base model's description.
+const HIDDEN: &[(&str, &str, &str)] = &[
+    // Coulomb friction of 0.004 N·m in the pendulum joint, smoothed as fmucal's
+    // coulomb_friction: data with an effect the base model lacks.
+    ("FurutaHiddenCoulomb", "Furuta", "-DHIDDEN_PENDULUM_COULOMB=0.004"),
+    // The arm angle sensor reads 0.02 rad too much: fmi2GetReal reports armJoint.phi + 0.02,
+    // the equations use the true angle (fmucal's sensor_offset).
+    ("FurutaHiddenSensorOffset", "Furuta", "-DHIDDEN_ARM_SENSOR_OFFSET=0.02"),
+    // Quadratic drag −c·w1·|w1| on the arm (fmucal's quadratic_drag), c = 2e-4 N·m·s²/rad²:
+    // on the example's first 10 s of motor torque (|w1| up to 4.3 rad/s) it turns the arm
+    // 0.55 rad less, 3.3 % of the arm angle's 16.7 rad range (the data's noise is 0.005 rad).
+    ("FurutaHiddenArmDrag", "Furuta", "-DHIDDEN_ARM_QUADRATIC_DRAG=2e-4"),
+    // A hardening spring −k3·x³ on the mass (fmucal's cubic_spring), k3 = 0.2 N/m³: 5 % of the
+    // linear spring force (k = 4 N/m) at |x| = 1 m; with F = 3·sin(t) N, which drives x to
+    // about ±1 m over 20 s, it changes x by up to 0.11 m, 5 % of its range.
+    ("SpringMassHiddenCubic", "SpringMass", "-DHIDDEN_CUBIC_SPRING=0.2"),
+    // Radiation of the outlet (right) wall to surroundings at 293.15 K, εA·σ·(T_amb⁴ − T_wall⁴)
+    // (fmucal's radiation), εA = 0.1 m² (e.g. emissivity 0.8 on 0.125 m²): about 0.7 kW at a
+    // 600 K wall, nearly half its loss through the wall-to-ambient conductance. On the exhaust
+    // example's inputs (30 min) it cools the wall by up to 10 K and the output outlet.T by up
+    // to 2 K, 1.5 % of its 132 K range and ten times the data's 0.2 K noise.
+    ("ExhaustPipeHiddenRadiation", "ExhaustPipe", "-DHIDDEN_RADIATION_AREA=0.1"),
 ];
 
 const FRAMEWORK: &[&str] = &["fmi2.h", "fmu_framework.h", "fmu_framework.c"];
@@ -63,13 +99,14 @@ fn main() {
     compile(&root.join("c").join(decay.source), &so, &["-DFMUCAL_RESET_FAILS"]);
     package(&root, decay, &xml, &so, &out.join("ResetFails.fmu"));
 
-    // Fixture: the Furuta pendulum with a Coulomb friction of 0.004 N·m in the pendulum joint
-    // that its description does not mention: data with an effect the base model lacks.
-    let furuta = &MODELS[0];
-    let so = out.join("FurutaHiddenCoulomb.so");
-    compile(&root.join("c").join(furuta.source), &so, &["-DHIDDEN_PENDULUM_COULOMB=0.004"]);
-    let xml = fs::read(root.join("xml").join("Furuta.xml")).unwrap();
-    package(&root, furuta, &xml, &so, &out.join("FurutaHiddenCoulomb.fmu"));
+    // Hidden-effect fixtures: the base model's source with a define, its description unchanged.
+    for (name, base, define) in HIDDEN {
+        let model = MODELS.iter().chain(FIXTURES).find(|m| m.identifier == *base).unwrap();
+        let so = out.join(format!("{name}.so"));
+        compile(&root.join("c").join(model.source), &so, &[define]);
+        let xml = fs::read(root.join("xml").join(format!("{base}.xml"))).unwrap();
+        package(&root, model, &xml, &so, &out.join(format!("{name}.fmu")));
+    }
 
     // Fixture: the bouncing ball described as tools export it, with `derivative` attributes on
     // aliases and on variables that are not continuous states (FMI 2.0 allows them; only

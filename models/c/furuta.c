@@ -3,7 +3,11 @@
  * torques on each joint so that missing effects can be added from outside the model.
  * The pendulum angle is zero hanging down. Equations from Lagrange's method with
  *   T = 1/2 (J0 + J2 sin^2 th) w1^2 + c cos th w1 w2 + 1/2 J2 w2^2,  V = -m g l cos th,
- * J0 = J1 + m L^2, J2 = m l_p^2/3 (uniform rod about its end), c = m L l, l = l_p/2. */
+ * J0 = J1 + m L^2, J2 = m l_p^2/3 (uniform rod about its end), c = m L l, l = l_p/2.
+ * Test variants (models/build.rs) add, with a define, physics the description does not mention:
+ *   HIDDEN_PENDULUM_COULOMB=F     Coulomb friction -F tanh(w2 / 1e-3) in the pendulum joint
+ *   HIDDEN_ARM_QUADRATIC_DRAG=c   quadratic drag -c w1 |w1| in the arm joint
+ *   HIDDEN_ARM_SENSOR_OFFSET=b    the reported armJoint.phi is the true arm angle + b */
 #define MODEL_IDENTIFIER "Furuta"
 #define MODEL_GUID "{6a1f3c2e-3b44-4d1c-9a43-f0a1c0de0001}"
 #define N_REAL 18
@@ -13,6 +17,12 @@
 #define NZ 0
 #define CS_STEP 1e-3
 #define CS_IMPLICIT 0
+#ifdef HIDDEN_ARM_SENSOR_OFFSET
+/* A test variant: the arm angle sensor reads HIDDEN_ARM_SENSOR_OFFSET too much. Only what
+ * fmi2GetReal reports changes (as fmucal's sensor_offset effect changes the output series);
+ * the equations and fmi2GetContinuousStates use the true angle. */
+#define REPORTED_REAL(m, vr) ((m)->r[(vr)] + ((vr) == ARM_PHI ? (HIDDEN_ARM_SENSOR_OFFSET) : 0.0))
+#endif
 #include "fmu_framework.h"
 
 enum {
@@ -56,7 +66,14 @@ static fmi2Status model_derivatives(Model *m) {
     double c = mass * L * l;
     double th = r[PEND_PHI], w1 = r[ARM_W], w2 = r[PEND_W];
     double s = sin(th), co = cos(th);
-    double tau1 = r[MOTOR_TORQUE] + r[ARM_TAU_EXT] - r[ARM_FRICTION] * w1;
+    double tauExt1 = r[ARM_TAU_EXT];
+#ifdef HIDDEN_ARM_QUADRATIC_DRAG
+    /* A test variant: quadratic (aerodynamic) drag on the arm that the description does not
+     * mention, -c w1 |w1| as fmucal's quadratic_drag effect, added where the external torque
+     * enters (so injecting that effect through armJoint.tauExt is the same arithmetic). */
+    tauExt1 += -(HIDDEN_ARM_QUADRATIC_DRAG) * w1 * fabs(w1);
+#endif
+    double tau1 = r[MOTOR_TORQUE] + tauExt1 - r[ARM_FRICTION] * w1;
     double tau2 = r[PEND_TAU_EXT] - r[PEND_FRICTION] * w2;
 #ifdef HIDDEN_PENDULUM_COULOMB
     /* A test variant: Coulomb friction in the pendulum joint that the model's description

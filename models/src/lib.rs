@@ -3,6 +3,12 @@
 //! kinetics (stiff), and Decay (resources, declared types, aliases, time events, failures).
 //! Each offers Model Exchange and Co-Simulation with a linux64 binary.
 //!
+//! It also builds the test [`Fixture`]s: broken FMUs, FMUs that behave as tool-exported ones
+//! do, a spring–mass–damper, and hidden-effect variants of Furuta, SpringMass and ExhaustPipe
+//! whose C code has physics their description does not mention, each exactly one of fmucal's
+//! effect formulas, so that simulating the base model with that effect injected reproduces
+//! them (the truth for discrepancy diagnosis).
+//!
 //! The examples' bytes are embedded in every binary that links this crate, so `example:NAME`
 //! works from `cargo install` or a container image: [`install_example`] writes one into a
 //! folder the first time it is asked for. [`example`] and [`Fixture::path`] point into the
@@ -70,8 +76,10 @@ pub fn example(name: &str) -> Option<PathBuf> {
     examples().into_iter().find(|(n, _)| *n == name).map(|(_, p)| p)
 }
 
-/// The test fixtures: FMUs built like the examples but not listed as examples, either broken or
-/// behaving as tool-exported FMUs do.
+/// The test fixtures: FMUs built like the examples but not listed as examples: broken ones,
+/// ones behaving as tool-exported FMUs do, and hidden-effect variants (a base model's C code
+/// built with a define that adds an effect, packaged with the base model's unchanged
+/// description).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Fixture {
     /// The Decay FMU with `fmi2GetReal` missing from its binary.
@@ -94,6 +102,29 @@ pub enum Fixture {
     /// fmucal's `coulomb_friction`) in the pendulum joint, in its C code but not in its
     /// description.
     FurutaHiddenCoulomb,
+    /// Discrepancy: the Furuta pendulum whose arm angle sensor reads 0.02 rad too much
+    /// (fmucal's `sensor_offset`): `fmi2GetReal` reports `armJoint.phi` + 0.02 while the
+    /// equations and the continuous states use the true angle.
+    FurutaHiddenSensorOffset,
+    /// Discrepancy: the Furuta pendulum with quadratic drag −c·w·|w| on the arm joint torque
+    /// (fmucal's `quadratic_drag` with `w` = `armJoint.w`, port `armJoint.tauExt`),
+    /// c = 2e-4 N·m·s²/rad²: on the example's first 10 s of motor torque it turns the arm
+    /// 0.55 rad less, 3.3 % of the arm angle's range.
+    FurutaHiddenArmDrag,
+    /// A mass on a linear spring with viscous damping (m = 1 kg, k = 4 N/m, d = 0.3 N·s/m;
+    /// states and outputs `mass.x`, `mass.v`), driven by the input force `F`, with the
+    /// injection port `mass.Fext` (extra external force, start 0).
+    SpringMass,
+    /// Discrepancy: [`Fixture::SpringMass`] with a hardening spring force −k₃·x³ (fmucal's
+    /// `cubic_spring` with `x` = `mass.x`, port `mass.Fext`), k₃ = 0.2 N/m³: 5 % of the linear
+    /// spring force at |x| = 1 m; driven to about ±1 m by F = 3·sin(t) N, x changes by 5 % of
+    /// its range.
+    SpringMassHiddenCubic,
+    /// Discrepancy: the exhaust pipe whose right (outlet) wall radiates to surroundings at
+    /// 293.15 K, εA·σ·(293.15⁴ − T⁴) with T = `rightVolume.wallT`, εA = 0.1 m², σ the
+    /// Stefan–Boltzmann constant (fmucal's `radiation`, port `rightVolume.wallQext`): on the
+    /// exhaust example's inputs it lowers `outlet.T` by up to 2 K, 1.5 % of its range.
+    ExhaustPipeHiddenRadiation,
 }
 
 impl Fixture {
@@ -107,6 +138,11 @@ impl Fixture {
             Fixture::Threshold => "Threshold.fmu",
             Fixture::DerivativeAttributes => "DerivativeAttributes.fmu",
             Fixture::FurutaHiddenCoulomb => "FurutaHiddenCoulomb.fmu",
+            Fixture::FurutaHiddenSensorOffset => "FurutaHiddenSensorOffset.fmu",
+            Fixture::FurutaHiddenArmDrag => "FurutaHiddenArmDrag.fmu",
+            Fixture::SpringMass => "SpringMass.fmu",
+            Fixture::SpringMassHiddenCubic => "SpringMassHiddenCubic.fmu",
+            Fixture::ExhaustPipeHiddenRadiation => "ExhaustPipeHiddenRadiation.fmu",
         };
         fmu_dir().join(file)
     }

@@ -1,0 +1,188 @@
+//! The hidden-effect fixtures (`fmucal_models::Fixture::*Hidden*`): models whose C code has
+//! physics their description does not mention, the truth a discrepancy diagnosis must find.
+//! Each is checked against an independent reference, not only for differing from its base:
+//!
+//! - the sensor offset against the base model's output plus the offset;
+//! - the port effects (arm drag, cubic spring, radiation) against the base FMU simulated with
+//!   fmucal's injected effect of the same formula, in Model Exchange at a tight tolerance, which
+//!   must reproduce them to round-off (each hidden term is added where its port's value enters
+//!   the equations, so in practice they agree exactly) while the base model without it is off
+//!   by more than 1 % of the output's range;
+//! - the SpringMass base model against the closed-form damped oscillation.
+
+mod common;
+
+use std::path::Path;
+
+use fmucal_models::Fixture;
+use fmucal_shared::fmu::{Fmu, Interface};
+use fmucal_shared::job::MeasurementTable;
+use fmucal_shared::sim::{InputTable, OutputTimes, PortTerm, SimResult, SimSpec, simulate};
+
+fn fixture(f: Fixture, dir: &Path) -> Fmu {
+    common::load(&f.path(), &dir.join("cache"))
+}
+
+fn example_data(relative: &str) -> MeasurementTable {
+    MeasurementTable::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join(relative), "time").unwrap()
+}
+
+/// The Furuta example's motor torque `u` (examples/furuta/FurutaData.mat).
+fn furuta_torque() -> InputTable {
+    let data = example_data("examples/furuta/FurutaData.mat");
+    common::table(data.time.clone(), vec![("u", data.column("u").unwrap().to_vec())])
+}
+
+/// The exhaust example's five inputs (examples/exhaust/exhaust_data.csv).
+fn exhaust_inputs() -> InputTable {
+    let data = example_data("examples/exhaust/exhaust_data.csv");
+    let names = ["inlet.T", "inlet.p", "turbine1.w", "turbine2.w", "outlet.p"];
+    common::table(data.time.clone(), names.iter().map(|n| (*n, data.column(n).unwrap().to_vec())).collect())
+}
+
+/// F = 3 sin(t) N every 10 ms over 20 s: below the SpringMass resonance (2 rad/s), it drives
+/// the mass to about ±1 m.
+fn spring_force() -> InputTable {
+    let time: Vec<f64> = (0..=2000).map(|k| k as f64 * 0.01).collect();
+    let force = time.iter().map(|t| 3.0 * t.sin()).collect();
+    common::table(time, vec![("F", force)])
+}
+
+/// Model Exchange at a tight tolerance from 0 to `stop`, reporting `outputs` every `dt`.
+fn spec(stop: f64, dt: f64, inputs: InputTable, outputs: &[&str], port_terms: Vec<PortTerm>) -> SimSpec {
+    SimSpec {
+        interface: Some(Interface::ModelExchange),
+        start_time: Some(0.0),
+        stop_time: Some(stop),
+        output_times: Some(OutputTimes::Interval(dt)),
+        inputs: Some(inputs),
+        outputs: outputs.iter().map(|s| s.to_string()).collect(),
+        tolerance: Some(1e-10),
+        port_terms,
+        ..Default::default()
+    }
+}
+
+fn term(kind: &str, port: &str, signal: &str, parameters: Vec<f64>) -> PortTerm {
+    PortTerm { kind: kind.into(), port: port.into(), signal: signal.into(), parameters }
+}
+
+fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+}
+
+fn range(a: &[f64]) -> f64 {
+    a.iter().fold(f64::NEG_INFINITY, |m, v| m.max(*v)) - a.iter().fold(f64::INFINITY, |m, v| m.min(*v))
+}
+
+/// Checks the hidden variant's `outputs` against the base model with the effect injected (must
+/// agree to `bound`) and the output `matters.0` against the base model without it (must differ
+/// by more than the fraction `matters.1` of its range).
+fn check_port_effect(
+    hidden: &SimResult,
+    injected: &SimResult,
+    without: &SimResult,
+    outputs: &[&str],
+    bound: f64,
+    matters: (&str, f64),
+) {
+    assert_eq!(hidden.time, injected.time);
+    for name in outputs {
+        let (h, i) = (hidden.column(name).unwrap(), injected.column(name).unwrap());
+        let d = max_abs_diff(h, i);
+        println!("{name}: injected effect vs hidden variant: max |diff| {d:e}");
+        assert!(d < bound, "{name}: the injected effect differs from the hidden variant by {d:e}");
+    }
+    let (name, least) = matters;
+    let h = hidden.column(name).unwrap();
+    let effect = max_abs_diff(h, without.column(name).unwrap()) / range(h);
+    println!("{name}: the hidden effect changes it by {:.2} % of its range {:.4}", 100.0 * effect, range(h));
+    assert!(effect > least, "{name}: the hidden effect changes it by only {effect:e} of its range");
+}
+
+#[test]
+fn the_sensor_offset_variant_reports_the_arm_angle_plus_the_offset_and_nothing_else() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = common::load_example("furuta", &dir.path().join("cache"));
+    let hidden = fixture(Fixture::FurutaHiddenSensorOffset, dir.path());
+    let outputs = ["armJoint.phi", "pendulumJoint.phi"];
+    for interface in [Interface::ModelExchange, Interface::CoSimulation] {
+        let s = SimSpec { interface: Some(interface), ..spec(10.0, 0.01, furuta_torque(), &outputs, vec![]) };
+        let (b, h) = (simulate(&base, &s).unwrap(), simulate(&hidden, &s).unwrap());
+        assert_eq!(b.time, h.time);
+        let (bp, hp) = (b.column("armJoint.phi").unwrap(), h.column("armJoint.phi").unwrap());
+        let shifted: Vec<f64> = bp.iter().map(|p| p + 0.02).collect();
+        let d = max_abs_diff(hp, &shifted);
+        assert!(d < 1e-12, "{interface}: armJoint.phi differs from the base's + 0.02 by {d:e}");
+        let d = max_abs_diff(h.column("pendulumJoint.phi").unwrap(), b.column("pendulumJoint.phi").unwrap());
+        assert!(d < 1e-12, "{interface}: pendulumJoint.phi differs from the base's by {d:e}");
+    }
+}
+
+#[test]
+fn injected_quadratic_drag_reproduces_the_hidden_arm_drag() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = common::load_example("furuta", &dir.path().join("cache"));
+    let hidden = fixture(Fixture::FurutaHiddenArmDrag, dir.path());
+    let outputs = ["armJoint.phi", "pendulumJoint.phi"];
+    let drag = term("quadratic_drag", "armJoint.tauExt", "armJoint.w", vec![2e-4]);
+    let run = |fmu: &Fmu, terms: Vec<PortTerm>| simulate(fmu, &spec(10.0, 0.01, furuta_torque(), &outputs, terms));
+    let (h, i, w) = (run(&hidden, vec![]).unwrap(), run(&base, vec![drag]).unwrap(), run(&base, vec![]).unwrap());
+    check_port_effect(&h, &i, &w, &outputs, 1e-9, ("armJoint.phi", 0.01));
+}
+
+#[test]
+fn injected_cubic_spring_reproduces_the_hidden_hardening_spring() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = fixture(Fixture::SpringMass, dir.path());
+    let hidden = fixture(Fixture::SpringMassHiddenCubic, dir.path());
+    let outputs = ["mass.x", "mass.v"];
+    let spring = term("cubic_spring", "mass.Fext", "mass.x", vec![0.2]);
+    let run = |fmu: &Fmu, terms: Vec<PortTerm>| simulate(fmu, &spec(20.0, 0.01, spring_force(), &outputs, terms));
+    let (h, i, w) = (run(&hidden, vec![]).unwrap(), run(&base, vec![spring]).unwrap(), run(&base, vec![]).unwrap());
+    // The input drives the base model to about ±1 m, where the cubic force is 5 % of the
+    // linear one.
+    let amplitude = w.column("mass.x").unwrap().iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    assert!((0.9..1.3).contains(&amplitude), "amplitude {amplitude}");
+    check_port_effect(&h, &i, &w, &outputs, 1e-9, ("mass.x", 0.01));
+}
+
+#[test]
+fn injected_radiation_reproduces_the_hidden_radiation_of_the_outlet_wall() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = common::load_example("exhaust-pipe", &dir.path().join("cache"));
+    let hidden = fixture(Fixture::ExhaustPipeHiddenRadiation, dir.path());
+    let outputs = ["outlet.T", "rightVolume.wallT"];
+    let radiation = term("radiation", "rightVolume.wallQext", "rightVolume.wallT", vec![0.1, 293.15]);
+    let run = |fmu: &Fmu, terms: Vec<PortTerm>| simulate(fmu, &spec(1800.0, 1.0, exhaust_inputs(), &outputs, terms));
+    let (h, i, w) = (run(&hidden, vec![]).unwrap(), run(&base, vec![radiation]).unwrap(), run(&base, vec![]).unwrap());
+    check_port_effect(&h, &i, &w, &outputs, 1e-9, ("outlet.T", 0.01));
+}
+
+#[test]
+fn the_spring_mass_free_response_is_the_damped_oscillation() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = fixture(Fixture::SpringMass, dir.path());
+    let (m, k, d, x0) = (1.0f64, 4.0f64, 0.3f64, 1.0f64);
+    let s = SimSpec {
+        parameters: vec![("mass.x".into(), x0.to_string())],
+        tolerance: Some(1e-12),
+        inputs: None,
+        ..spec(20.0, 0.01, spring_force(), &["mass.x", "mass.v"], vec![])
+    };
+    let r = simulate(&fmu, &s).unwrap();
+    // m x'' + d x' + k x = 0, x(0) = x0, x'(0) = 0 (underdamped).
+    let w0 = (k / m).sqrt();
+    let zeta = d / (2.0 * (k * m).sqrt());
+    let wd = w0 * (1.0 - zeta * zeta).sqrt();
+    let a = zeta * w0;
+    for (i, t) in r.time.iter().enumerate() {
+        let e = (-a * t).exp();
+        let x = x0 * e * ((wd * t).cos() + a / wd * (wd * t).sin());
+        let v = -x0 * e * (w0 * w0 / wd) * (wd * t).sin();
+        let (xs, vs) = (r.columns[0][i], r.columns[1][i]);
+        assert!((xs - x).abs() < 1e-8 * x0, "x at {t}: {xs} vs {x}");
+        assert!((vs - v).abs() < 1e-8 * x0 * w0, "v at {t}: {vs} vs {v}");
+    }
+}
