@@ -49,14 +49,14 @@ fn series(fit: &FitTable) -> Vec<Series> {
     out
 }
 
-fn register_font() {
+pub(crate) fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
     });
 }
 
-fn range(points: impl Iterator<Item = f64>) -> (f64, f64) {
+pub(crate) fn range(points: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) =
         points.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
     if !lo.is_finite() {
@@ -66,10 +66,10 @@ fn range(points: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
-type DrawResult = Result<(), Box<dyn std::error::Error>>;
+pub(crate) type DrawResult = Result<(), Box<dyn std::error::Error>>;
 
 /// Draws `points` as a line in `style`, labelled in the legend with a short line of that style.
-fn draw_line<'a, DB, CT>(
+pub(crate) fn draw_line<'a, DB, CT>(
     chart: &mut ChartContext<'a, DB, CT>,
     points: impl IntoIterator<Item = (f64, f64)>,
     style: ShapeStyle,
@@ -88,7 +88,7 @@ where
 }
 
 /// The legend of the labelled series (at the middle right of the chart).
-fn draw_legend<'a, DB, CT>(chart: &mut ChartContext<'a, DB, CT>) -> DrawResult
+pub(crate) fn draw_legend<'a, DB, CT>(chart: &mut ChartContext<'a, DB, CT>) -> DrawResult
 where
     DB: DrawingBackend + 'a,
     DB::ErrorType: 'static,

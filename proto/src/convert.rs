@@ -129,6 +129,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 })
                 .collect(),
             workers: WorkersSpec::default(),
+            diagnose: None,
             kind,
         };
         let data = MeasurementTable {

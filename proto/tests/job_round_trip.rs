@@ -163,6 +163,7 @@ fn job() -> impl Strategy<Value = JobSpec> {
                 simulation: simulation.clone(),
                 optimizer,
                 workers: WorkersSpec::default(),
+                diagnose: None,
                 kind: JobKind::Calibration,
             })
         })

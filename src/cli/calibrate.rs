@@ -32,7 +32,7 @@ pub struct Args {
 }
 
 /// Resolves `example:NAME` and checks the file exists.
-fn model_path(spec: &JobSpec) -> Result<PathBuf> {
+pub(super) fn model_path(spec: &JobSpec) -> Result<PathBuf> {
     let p = spec.model.path.as_ref().context("the job's [model] needs a path for the CLI")?;
     let text = p.to_string_lossy();
     if let Some(name) = text.strip_prefix("example:") {

@@ -12,11 +12,13 @@ use fmucal_proto::convert::{job_to_proto, result_from_proto};
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::calibration_client::CalibrationClient;
 use fmucal_shared::job::identifiability::{self, Identifiability};
-use fmucal_shared::job::{CalibrationResult, HistoryPoint, JobSpec, MeasurementTable, PreparedJob};
+use fmucal_shared::job::{CalibrationResult, EvaluatedPoint, HistoryPoint, JobSpec, MeasurementTable, PreparedJob};
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
 
-/// A connection to a coordinator, with the token attached to every call.
+/// A connection to a coordinator, with the token attached to every call. Clones share the
+/// connection, so one client can follow several jobs at once.
+#[derive(Clone)]
 pub struct Client {
     inner: CalibrationClient<InterceptedService<Channel, AttachToken>>,
 }
@@ -69,19 +71,36 @@ impl Client {
         data: &MeasurementTable,
         model: &Path,
     ) -> Result<CalibrationResult> {
-        let job_id = self.submit(spec, data, model).await?;
         let bar = indicatif::ProgressBar::new_spinner();
         bar.set_style(
             indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} {msg}").expect("valid template"),
         );
         bar.enable_steady_tick(Duration::from_millis(200));
-        let mut history = vec![];
-        let job = self
-            .wait_for_end(&job_id, |ev| {
+        let result = self
+            .calibrate_with(spec, data, model, |ev| {
                 bar.set_message(format!(
                     "iteration {}  evaluations {}  best f {:.6e}",
                     ev.iteration, ev.evaluations, ev.best_f
-                ));
+                ))
+            })
+            .await;
+        bar.finish_and_clear();
+        result
+    }
+
+    /// Submits a calibration, hands each progress event to `on_event`, and returns its result.
+    pub async fn calibrate_with(
+        &mut self,
+        spec: &JobSpec,
+        data: &MeasurementTable,
+        model: &Path,
+        mut on_event: impl FnMut(&pb::WatchJobResponse),
+    ) -> Result<CalibrationResult> {
+        let job_id = self.submit(spec, data, model).await?;
+        let mut history = vec![];
+        let job = self
+            .wait_for_end(&job_id, |ev| {
+                on_event(ev);
                 if ev.batch_wall_s > 0.0 {
                     history.push(HistoryPoint {
                         round: ev.rounds,
@@ -92,12 +111,28 @@ impl Client {
                 }
             })
             .await?;
-        bar.finish_and_clear();
         if job.status == pb::JobStatus::Failed as i32 {
             bail!("the job failed: {}", job.error);
         }
         let r = job.result.context("the coordinator returned no result")?;
         Ok(result_from_proto(r, history))
+    }
+
+    /// Evaluates `points` of `spec` on the workers (one job that evaluates them), with their
+    /// residual vectors, in the order given.
+    pub async fn evaluate(
+        &mut self,
+        spec: &JobSpec,
+        points: Vec<Vec<f64>>,
+        data: &MeasurementTable,
+        model: &Path,
+    ) -> Result<Vec<EvaluatedPoint>> {
+        let job_id = self.submit(&spec.evaluating_points(points), data, model).await?;
+        let r = self.wait_for_end(&job_id, |_| {}).await?;
+        if r.status == pb::JobStatus::Failed as i32 {
+            bail!("the job failed: {}", r.error);
+        }
+        Ok(r.result.map(|r| result_from_proto(r, vec![]).evaluated).unwrap_or_default())
     }
 
     /// Standard errors and correlations at the optimum: the finite-difference points run as one
@@ -110,9 +145,7 @@ impl Client {
         model: &Path,
     ) -> Result<Identifiability> {
         let plan = identifiability::difference_points(job, &result.x_opt_in(&job.parameter_names));
-        let job_id = self.submit(&job.spec.evaluating_points(plan.points.clone()), data, model).await?;
-        let r = self.wait_for_end(&job_id, |_| {}).await?;
-        let evaluated = r.result.map(|r| result_from_proto(r, vec![]).evaluated).unwrap_or_default();
+        let evaluated = self.evaluate(&job.spec, plan.points.clone(), data, model).await?;
         let residuals = identifiability::residuals_of(&evaluated)?;
         Ok(identifiability::from_residuals(&job.parameter_names, &plan, &residuals)?)
     }

@@ -3,6 +3,7 @@
 
 mod calibrate;
 mod client;
+mod diagnose;
 mod inspect;
 mod local_cluster;
 mod model_arg;
@@ -33,6 +34,9 @@ enum Command {
     Examples,
     /// Calibrate a job's parameters (locally with worker processes, or on a coordinator).
     Calibrate(calibrate::Args),
+    /// Find what the model lacks: calibrate, screen candidate effects, fit the best on the
+    /// workers, and name the one that wins on held-out data (or none).
+    Diagnose(diagnose::Args),
     /// Run a coordinator server.
     Coordinator(servers::CoordinatorArgs),
     /// Run a worker that evaluates points for a coordinator.
@@ -56,6 +60,7 @@ pub fn main() -> ExitCode {
         Command::Inspect(args) => inspect::run(args),
         Command::Simulate(args) => simulate::run(args),
         Command::Calibrate(args) => calibrate::run(args),
+        Command::Diagnose(args) => diagnose::run(args),
         Command::Coordinator(args) => servers::coordinator(args),
         Command::Worker(args) => servers::worker(args),
         Command::Plot { dir } => outputs::read(&dir).and_then(|(result, fit)| {

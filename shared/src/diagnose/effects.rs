@@ -6,8 +6,8 @@
 //! - [`SeriesEffect`]: a change to a whole measured output (sensor effects) or measured input
 //!   (actuator effects), applied to its time series.
 //!
-//! Adding a kind is one type implementing the trait, listed in [`port_kinds`] or
-//! [`series_kinds`], with its test. Parameters are in the order [`Kind::parameters`] lists them.
+//! Adding a kind is one type implementing the trait and [`Guesses`] (how a diagnosis sizes it),
+//! listed in [`port_kinds`] or [`series_kinds`], with its test. Parameters are in the order [`Kind::parameters`] lists them.
 //!
 //! | kind | domain | term | parameters |
 //! |---|---|---|---|
@@ -29,6 +29,8 @@
 //! | `actuator_saturation` | actuator | min(max(u, lower), upper) | lower, upper |
 
 use std::fmt;
+
+use super::guess::Guesses;
 
 /// Where an effect acts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -64,13 +66,13 @@ pub trait Kind: Sync {
 }
 
 /// A term added to an injection port, from one signal's value.
-pub trait PortEffect: Kind {
+pub trait PortEffect: Kind + Guesses {
     /// The term at signal value `s` with parameter values `p`.
     fn term(&self, p: &[f64], s: f64) -> f64;
 }
 
 /// A change to a measured series (`time` increasing, `values` aligned with it).
-pub trait SeriesEffect: Kind {
+pub trait SeriesEffect: Kind + Guesses {
     fn apply(&self, p: &[f64], time: &[f64], values: &[f64]) -> Vec<f64>;
 }
 

@@ -1,8 +1,23 @@
 //! Discrepancy discovery (issue 10): finding where a calibrated model and its measurements
-//! disagree. So far this holds the residual analysis of the localise step ([`residuals`]:
-//! RMS per time window, Ljung–Box whiteness, correlation with candidate signals) and the
-//! library of candidate effects with their formulas ([`effects`]); injecting effects into a
-//! simulation, candidate screening and the `diagnose` command build on them.
+//! disagree, which effect the model lacks, and whether adding it pays.
+//!
+//! - [`effects`]: the library of effect kinds with their formulas;
+//!   [`guess`]: how a diagnosis sizes a kind it was not told about.
+//! - [`spec`]: the job file's `[diagnose]` section.
+//! - [`residuals`] and [`localise`]: the residual analysis (RMS per window, whiteness,
+//!   correlation with candidate signals).
+//! - [`candidates`]: candidate generation and screening by the score statistic.
+//! - [`decision`]: the three tests an effect must pass to be named.
+//! - [`report`]: what a diagnosis found (`diagnosis/report.json`) and its summary.
+//!
+//! The steps that need simulations (calibrations, screening points) are driven by
+//! `fmucal diagnose` over the coordinator's protocol, so they run on the workers.
 
+pub mod candidates;
+pub mod decision;
 pub mod effects;
+pub mod guess;
+pub mod localise;
+pub mod report;
 pub mod residuals;
+pub mod spec;

@@ -45,6 +45,8 @@
 //!
 //! [workers]
 //! count = 2                  # local runs; default: number of cores
+//!
+//! [diagnose]                 # what `fmucal diagnose` may try: see crate::diagnose::spec
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -54,6 +56,7 @@ use serde::{Deserialize, Serialize};
 use super::JobError;
 use super::choices::{Algorithm, JobKind, optional_interface, optional_text, text};
 use crate::diagnose::effects::{self, Domain};
+use crate::diagnose::spec::DiagnoseSpec;
 use crate::fmu::Interface;
 use crate::sim::Solver;
 
@@ -76,6 +79,10 @@ pub struct JobSpec {
     pub optimizer: OptimizerSpec,
     #[serde(default)]
     pub workers: WorkersSpec,
+    /// What `fmucal diagnose` may try ([`crate::diagnose::spec`]); ignored by `calibrate` and
+    /// not sent to a coordinator.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub diagnose: Option<DiagnoseSpec>,
     /// Calibrate (every job file) or evaluate given points (internal, over the protocol).
     #[serde(skip)]
     pub kind: JobKind,
@@ -406,6 +413,9 @@ impl JobSpec {
         }
         for (k, e) in self.effects.iter().enumerate() {
             self.validate_effect(k, e)?;
+        }
+        if let Some(d) = &self.diagnose {
+            d.validate()?;
         }
         Ok(())
     }

@@ -89,6 +89,29 @@ fn invalid(msg: impl Into<String>) -> SimError {
 
 /// Resolves a port term: a known port effect, a continuous Real input as port, a readable
 /// Real signal that does not depend directly on the port (an algebraic loop).
+/// The physical domain of a port from its unit (its own or its declared type's), when the unit
+/// says: a force (N) or torque (N.m) is mechanical, a heat flow (W) thermal. By the unit's SI
+/// base exponents when `UnitDefinitions` gives them, else by the usual names.
+fn port_domain(md: &ModelDescription, port: &ScalarVariable) -> Option<(String, effects::Domain)> {
+    let declared = port.declared_type.as_ref().and_then(|t| md.type_definitions.iter().find(|d| &d.name == t));
+    let unit = port.unit.clone().or_else(|| declared.and_then(|d| d.unit.clone()))?;
+    let by_base =
+        md.unit_definitions.iter().find(|u| u.name == unit).and_then(|u| u.base_unit.as_ref()).and_then(|b| {
+            let other = b.a != 0 || b.k != 0 || b.mol != 0 || b.cd != 0 || b.rad != 0 || b.kg != 1;
+            match (other, b.m, b.s) {
+                (false, 1 | 2, -2) => Some(effects::Domain::Mechanical),
+                (false, 2, -3) => Some(effects::Domain::Thermal),
+                _ => None,
+            }
+        });
+    let by_name = match unit.replace(['·', '*', ' '], ".").as_str() {
+        "N" | "N.m" | "Nm" | "m.N" => Some(effects::Domain::Mechanical),
+        "W" | "kW" | "J/s" => Some(effects::Domain::Thermal),
+        _ => None,
+    };
+    by_base.or(by_name).map(|d| (unit, d))
+}
+
 fn plan_term(
     md: &ModelDescription,
     t: &PortTerm,
@@ -118,6 +141,16 @@ fn plan_term(
         || port.variability != Variability::Continuous
     {
         return Err(invalid(format!("port {:?} is not a continuous Real input of the model", t.port)));
+    }
+    if let Some((unit, domain)) = port_domain(md, port)
+        && domain != effect.domain()
+    {
+        return Err(invalid(format!(
+            "port {:?} is in {unit} ({domain}); {} is a {} effect",
+            t.port,
+            t.kind,
+            effect.domain()
+        )));
     }
     let signal = md
         .variable(&t.signal)

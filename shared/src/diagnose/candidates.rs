@@ -1,0 +1,491 @@
+//! Candidate generation and screening (steps 3 of a diagnosis).
+//!
+//! [`generate`] lists every effect kind × every compatible (port, signal) pair of the job's
+//! `[diagnose]` section, plus sensor effects on every output and actuator effects on every
+//! input, each with its parameters guessed from the sizes of this job ([`super::guess`]).
+//!
+//! [`Screening`] ranks them without fitting any: all candidates are added to one job at their
+//! neutral values (where each does nothing), and one batch of points measures the residual's
+//! sensitivity to every base parameter and every candidate's strength parameters by forward
+//! differences. For each candidate the Gauss–Newton model of the residual r ≈ r₀ + J_b·δ_b +
+//! J_e·δ_e predicts the drop D in the sum of squares that adding it allows (beyond what the
+//! base parameters already do), which is the score (Lagrange multiplier) statistic
+//! LM = n_eff·D/SSR; candidates are ranked by the predicted change of the information
+//! criterion, n_eff·ln((SSR − D)/SSR) + q·ln(n_eff), so a candidate with more parameters must
+//! explain more.
+
+use std::collections::BTreeMap;
+
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use super::effects::{self, Domain, Found};
+use super::guess::{Guess, Guesses, Scales, SignalRole, SignalStats};
+use super::residuals::chi_squared_survival;
+use super::spec::{DiagnoseSpec, PortDomain};
+use crate::job::spec::{Bounds, EffectSpec, JobSpec};
+
+/// One candidate effect.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Candidate {
+    /// The `[[effects]]` entry it would add, its starts at the neutral values.
+    pub effect: EffectSpec,
+    /// One guess per parameter, in the kind's order.
+    pub guesses: Vec<Guess>,
+    /// The job field it comes from (`diagnose.ports[0].velocities[1]`, `outputs[1]`, ...).
+    pub source: String,
+}
+
+impl Candidate {
+    /// The candidate in words: "coulomb_friction on pendulumJoint.w through pendulumJoint.tauExt".
+    pub fn describe(&self) -> String {
+        let e = &self.effect;
+        match (&e.port, &e.signal, &e.output, &e.input) {
+            (Some(p), Some(s), _, _) => format!("{} on {s} through {p}", e.kind),
+            (_, _, Some(o), _) => format!("{} on output {o}", e.kind),
+            (_, _, _, Some(i)) => format!("{} on input {i}", e.kind),
+            _ => e.kind.clone(),
+        }
+    }
+
+    /// The kind's parameter names, in order.
+    pub fn parameter_names(&self) -> &'static [&'static str] {
+        effects::find(&self.effect.kind).map(|f| f.kind().parameters()).unwrap_or_default()
+    }
+
+    /// The candidate with each strength parameter's bounds narrowed around `estimate`: within
+    /// max(4·|estimate − neutral|, 20·|step|) of the neutral value (and the guessed bounds), so
+    /// the optimizer's steps, a fraction of the range, suit the effect's size.
+    pub fn narrowed(&self, estimate: &[f64]) -> Candidate {
+        let mut c = self.clone();
+        for (g, e) in c.guesses.iter_mut().zip(estimate) {
+            if let Some(h) = g.step {
+                let d = if e.is_finite() { (e - g.neutral).abs() } else { 0.0 };
+                let half = (4.0 * d).max(20.0 * h.abs());
+                (g.lower, g.upper) = (g.lower.max(g.neutral - half), g.upper.min(g.neutral + half));
+            }
+        }
+        let starts: Vec<f64> = c.guesses.iter().map(|g| g.neutral).collect();
+        c.effect = c.with_starts(&starts);
+        c
+    }
+
+    /// The effect entry with the given starts (clipped into the bounds).
+    pub fn with_starts(&self, starts: &[f64]) -> EffectSpec {
+        let mut e = self.effect.clone();
+        for ((name, g), s) in self.parameter_names().iter().zip(&self.guesses).zip(starts) {
+            let start = if s.is_finite() { s.clamp(g.lower, g.upper) } else { g.neutral };
+            e.parameters.insert((*name).to_owned(), Bounds { start, lower: g.lower, upper: g.upper });
+        }
+        e
+    }
+}
+
+/// What the guesses are made from.
+#[derive(Debug, Clone, Default)]
+pub struct Sizes {
+    /// Load scale of each port.
+    pub port_scales: BTreeMap<String, f64>,
+    /// Simulated signals of the ports on the calibration window.
+    pub signals: BTreeMap<String, SignalStats>,
+    /// Measured outputs and inputs (by FMU variable) on the calibration window.
+    pub series: BTreeMap<String, SignalStats>,
+    pub duration: f64,
+    pub sample: f64,
+}
+
+fn effect(
+    kind: &str,
+    port: Option<&str>,
+    signal: Option<&str>,
+    output: Option<&str>,
+    input: Option<&str>,
+) -> EffectSpec {
+    EffectSpec {
+        kind: kind.to_owned(),
+        port: port.map(str::to_owned),
+        signal: signal.map(str::to_owned),
+        output: output.map(str::to_owned),
+        input: input.map(str::to_owned),
+        parameters: BTreeMap::new(),
+    }
+}
+
+fn candidate(mut e: EffectSpec, kind: &dyn Guesses, scales: &Scales, source: String) -> Candidate {
+    let guesses = kind.guesses(scales);
+    let names = effects::find(&e.kind).map(|f| f.kind().parameters()).unwrap_or_default();
+    for (name, g) in names.iter().zip(&guesses) {
+        e.parameters.insert((*name).to_owned(), Bounds { start: g.neutral, lower: g.lower, upper: g.upper });
+    }
+    Candidate { effect: e, guesses, source }
+}
+
+/// Every candidate the job allows, ports first (in the section's order), then sensor effects
+/// on each output, then actuator effects on each input. A signal or series without statistics
+/// in `sizes` is left out.
+pub fn generate(job: &JobSpec, diagnose: &DiagnoseSpec, sizes: &Sizes) -> Vec<Candidate> {
+    let mut out = vec![];
+    for (k, port) in diagnose.ports.iter().enumerate() {
+        let domain = match port.domain {
+            PortDomain::Mechanical => Domain::Mechanical,
+            PortDomain::Thermal => Domain::Thermal,
+        };
+        let load = sizes.port_scales.get(&port.port).copied().unwrap_or(1.0);
+        let ambient = port.ambient.unwrap_or(293.15);
+        for kind in effects::port_kinds().iter().filter(|e| e.domain() == domain) {
+            let signals: Vec<(String, &str)> = match kind.signal_role() {
+                SignalRole::Velocity => {
+                    port.velocities.iter().enumerate().map(|(i, s)| (format!("velocities[{i}]"), s.as_str())).collect()
+                }
+                SignalRole::Position => {
+                    port.positions.iter().enumerate().map(|(i, s)| (format!("positions[{i}]"), s.as_str())).collect()
+                }
+                SignalRole::Temperature => port
+                    .temperatures
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| (format!("temperatures[{i}]"), s.as_str()))
+                    .collect(),
+                SignalRole::Any => port.signals().take(1).collect(),
+                SignalRole::Series => vec![],
+            };
+            for (field, signal) in signals {
+                let Some(stats) = sizes.signals.get(signal) else { continue };
+                let scales = Scales { load, signal: *stats, duration: sizes.duration, sample: sizes.sample, ambient };
+                let e = effect(kind.name(), Some(&port.port), Some(signal), None, None);
+                out.push(candidate(e, *kind, &scales, format!("diagnose.ports[{k}].{field}")));
+            }
+        }
+    }
+    if diagnose.series {
+        let series: Vec<(Domain, String, &str)> = job
+            .outputs
+            .iter()
+            .enumerate()
+            .map(|(k, o)| (Domain::Sensor, format!("outputs[{k}]"), o.variable.as_str()))
+            .chain(
+                job.inputs
+                    .iter()
+                    .enumerate()
+                    .map(|(k, i)| (Domain::Actuator, format!("inputs[{k}]"), i.variable.as_str())),
+            )
+            .collect();
+        for (domain, source, variable) in series {
+            let Some(stats) = sizes.series.get(variable) else { continue };
+            let scales = Scales {
+                load: stats.range(),
+                signal: *stats,
+                duration: sizes.duration,
+                sample: sizes.sample,
+                ambient: 0.0,
+            };
+            for kind in effects::series_kinds().iter().filter(|e| e.domain() == domain) {
+                let e = match domain {
+                    Domain::Sensor => effect(kind.name(), None, None, Some(variable), None),
+                    _ => effect(kind.name(), None, None, None, Some(variable)),
+                };
+                out.push(candidate(e, *kind, &scales, source.clone()));
+            }
+        }
+    }
+    out
+}
+
+/// The screening of a set of candidates against a calibrated base job.
+#[derive(Debug, Clone)]
+pub struct Screening {
+    /// The base job with every candidate added at its neutral values.
+    pub job: JobSpec,
+    /// The points to evaluate (residuals wanted): the base optimum with all candidates neutral,
+    /// then one forward step per base parameter, then one per candidate strength parameter.
+    pub points: Vec<Vec<f64>>,
+    /// Base parameters' steps (empty when the base is held fixed).
+    base_steps: Vec<(usize, f64)>,
+    /// Per candidate, its parameters' offset in a point and its strength steps (index, step).
+    strengths: Vec<(usize, Vec<(usize, f64)>)>,
+    /// Bounds of every parameter of `job`.
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+}
+
+/// One candidate's screening statistics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Screened {
+    /// Predicted drop of the sum of squares.
+    #[serde(with = "crate::optim::serde_float")]
+    pub predicted_drop: f64,
+    /// Score statistic n_eff·D/SSR and its p-value (χ² with q degrees of freedom).
+    #[serde(with = "crate::optim::serde_float")]
+    pub score: f64,
+    #[serde(with = "crate::optim::serde_float")]
+    pub p_value: f64,
+    /// Predicted change of the information criterion (negative: better).
+    #[serde(with = "crate::optim::serde_float")]
+    pub predicted_delta_ic: f64,
+    /// The Gauss–Newton estimate of each parameter (shape parameters at their guess).
+    #[serde(with = "crate::optim::serde_float::vec")]
+    pub estimate: Vec<f64>,
+    /// The same Gauss–Newton step's change of each base parameter (0 for one held fixed).
+    #[serde(with = "crate::optim::serde_float::vec")]
+    pub base_step: Vec<f64>,
+}
+
+impl Screening {
+    /// Sets up the screening of `candidates` around the base optimum `x_base` of `base` (in
+    /// its parameter order). `fix_base`: the base parameters are not varied.
+    pub fn new(base: &JobSpec, x_base: &[f64], candidates: &[Candidate], fix_base: bool) -> Screening {
+        let mut job = base.clone();
+        job.diagnose = None;
+        let (_, _, lower, upper) = base.parameter_vectors();
+        let mut x0 = x_base.to_vec();
+        let mut strengths = vec![];
+        for c in candidates {
+            job.effects.push(c.effect.clone());
+            let offset = x0.len();
+            let steps =
+                c.guesses.iter().enumerate().filter_map(|(j, g)| g.step.map(|h| (offset + j, h))).collect::<Vec<_>>();
+            x0.extend(c.guesses.iter().map(|g| g.neutral));
+            strengths.push((offset, steps));
+        }
+        let base_steps: Vec<(usize, f64)> = if fix_base {
+            vec![]
+        } else {
+            (0..x_base.len())
+                .map(|i| {
+                    let h = 1e-3 * x_base[i].abs().max(1e-3 * (upper[i] - lower[i]).abs().min(1.0)).max(1e-12);
+                    (i, if x_base[i] + h <= upper[i] { h } else { -h })
+                })
+                .collect()
+        };
+        let mut points = vec![x0.clone()];
+        for &(i, h) in base_steps.iter().chain(strengths.iter().flat_map(|(_, s)| s)) {
+            let mut p = x0.clone();
+            p[i] += h;
+            points.push(p);
+        }
+        let (_, _, lower, upper) = job.parameter_vectors();
+        Screening { job, points, base_steps, strengths, lower, upper }
+    }
+
+    /// The statistics of every candidate (in the order given to [`Screening::new`]) from the
+    /// residual vectors of [`Screening::points`] (`None`: the point's simulation failed, which
+    /// makes its candidate's statistics NaN) and the effective sample size `n_eff`.
+    pub fn statistics(&self, residuals: &[Option<Vec<f64>>], n_eff: f64) -> Vec<Screened> {
+        let failed = || Screened {
+            predicted_drop: f64::NAN,
+            score: f64::NAN,
+            p_value: f64::NAN,
+            predicted_delta_ic: f64::NAN,
+            estimate: vec![],
+            base_step: vec![],
+        };
+        let Some(Some(r0)) = residuals.first() else {
+            return self.strengths.iter().map(|_| failed()).collect();
+        };
+        let m = r0.len();
+        let ssr: f64 = r0.iter().map(|v| v * v).sum();
+        let column = |k: usize, h: f64| -> Option<DVector<f64>> {
+            let r = residuals.get(k)?.as_ref()?;
+            (r.len() == m).then(|| DVector::from_iterator(m, r.iter().zip(r0).map(|(a, b)| (a - b) / h)))
+        };
+        let r0v = DVector::from_column_slice(r0);
+        // The base Jacobian; a failed base point leaves its column out.
+        let (base_index, base): (Vec<usize>, Vec<DVector<f64>>) =
+            self.base_steps.iter().enumerate().filter_map(|(k, &(i, h))| column(1 + k, h).map(|c| (i, c))).unzip();
+        let drop_base = projected_norm2(&base, &r0v).map(|(d, _)| d).unwrap_or(0.0);
+        let mut next = 1 + self.base_steps.len();
+        let mut out = vec![];
+        let point = &self.points[0];
+        for (offset, steps) in &self.strengths {
+            let cols: Option<Vec<DVector<f64>>> =
+                steps.iter().enumerate().map(|(j, &(_, h))| column(next + j, h)).collect();
+            next += steps.len();
+            let Some(cols) = cols else {
+                out.push(failed());
+                continue;
+            };
+            // A strength whose neutral value is a bound (a friction cannot be negative) may only
+            // move away from it: a direction the step would take the wrong way is dropped and
+            // the rest solved again, so the prediction is that of the effect as it can be fitted.
+            let sign = |i: usize| {
+                if self.lower[i] >= point[i] {
+                    1.0
+                } else if self.upper[i] <= point[i] {
+                    -1.0
+                } else {
+                    0.0
+                }
+            };
+            let mut active: Vec<usize> = (0..steps.len()).collect();
+            let (drop_all, delta) = loop {
+                let all: Vec<DVector<f64>> =
+                    base.iter().cloned().chain(active.iter().map(|&j| cols[j].clone())).collect();
+                let Some((drop_all, delta)) = projected_norm2(&all, &r0v) else { break (f64::NAN, DVector::zeros(0)) };
+                let wrong: Vec<usize> = active
+                    .iter()
+                    .enumerate()
+                    .filter(|(a, j)| sign(steps[**j].0) * delta[base.len() + a] < 0.0)
+                    .map(|(_, j)| *j)
+                    .collect();
+                if wrong.is_empty() {
+                    break (drop_all, delta);
+                }
+                active.retain(|j| !wrong.contains(j));
+            };
+            if drop_all.is_nan() {
+                out.push(failed());
+                continue;
+            }
+            let d = (drop_all - drop_base).clamp(0.0, ssr);
+            let q = steps.len() as f64;
+            let score = if ssr > 0.0 { n_eff * d / ssr } else { 0.0 };
+            let ic = if ssr > 0.0 && d < ssr {
+                n_eff * ((ssr - d) / ssr).ln() + q * n_eff.max(1.0).ln()
+            } else {
+                f64::NEG_INFINITY
+            };
+            let count = self.count_of(*offset);
+            let mut estimate: Vec<f64> = point[*offset..*offset + count].to_vec();
+            for (a, &j) in active.iter().enumerate() {
+                let i = steps[j].0;
+                estimate[i - offset] = point[i] + delta[base.len() + a];
+            }
+            let mut base_step = vec![0.0; self.candidates_start()];
+            for (j, &i) in base_index.iter().enumerate() {
+                base_step[i] = delta[j];
+            }
+            out.push(Screened {
+                predicted_drop: d,
+                base_step,
+                score,
+                p_value: chi_squared_survival(score, q),
+                predicted_delta_ic: ic,
+                estimate,
+            });
+        }
+        out
+    }
+
+    /// Points of candidate `c`'s model (the other candidates neutral) a `fraction` of the way
+    /// along its Gauss–Newton step `s`, every value clipped into its bounds: where its fit may
+    /// start. The base parameters come first, in the base's order.
+    pub fn along_step(&self, c: usize, s: &Screened, fraction: f64) -> Vec<f64> {
+        let mut p = self.points[0].clone();
+        let (offset, _) = &self.strengths[c];
+        for (i, d) in s.base_step.iter().enumerate() {
+            p[i] += fraction * d;
+        }
+        for (j, e) in s.estimate.iter().enumerate() {
+            let i = offset + j;
+            if e.is_finite() {
+                p[i] += fraction * (e - p[i]);
+            }
+        }
+        for (i, v) in p.iter_mut().enumerate() {
+            *v = v.clamp(self.lower[i], self.upper[i]);
+        }
+        p
+    }
+
+    /// The base part and candidate `c`'s part of a point of the screening job.
+    pub fn split(&self, c: usize, point: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let offset = self.strengths[c].0;
+        let count = self.count_of(offset);
+        (point[..self.candidates_start()].to_vec(), point[offset..offset + count].to_vec())
+    }
+
+    /// Where the candidates' parameters start in a point: after the base's.
+    fn candidates_start(&self) -> usize {
+        self.strengths.first().map_or(self.points[0].len(), |(o, _)| *o)
+    }
+
+    /// The number of parameters of the candidate whose parameters start at `offset`.
+    fn count_of(&self, offset: usize) -> usize {
+        let k = self.strengths.iter().position(|(o, _)| *o == offset).expect("a candidate's offset");
+        let end = self.strengths.get(k + 1).map(|(o, _)| *o).unwrap_or(self.points[0].len());
+        end - offset
+    }
+}
+
+/// ‖P r‖² for the projection P onto the span of `columns`, and the least-squares step δ with
+/// J·δ ≈ −r (columns scaled to unit length first; directions below 1e-10 of the largest singular
+/// value are left out). `None` if a column is not finite.
+fn projected_norm2(columns: &[DVector<f64>], r: &DVector<f64>) -> Option<(f64, DVector<f64>)> {
+    if columns.is_empty() {
+        return Some((0.0, DVector::zeros(0)));
+    }
+    if columns.iter().any(|c| c.iter().any(|v| !v.is_finite())) {
+        return None;
+    }
+    let norms: Vec<f64> = columns.iter().map(|c| c.norm()).collect();
+    let scaled: Vec<DVector<f64>> =
+        columns.iter().zip(&norms).map(|(c, n)| if *n > 0.0 { c / *n } else { c.clone() }).collect();
+    let j = DMatrix::from_columns(&scaled);
+    let svd = j.clone().svd(true, true);
+    let eps = 1e-10 * svd.singular_values.max();
+    let step = svd.solve(&(-r), eps).ok()?;
+    let fitted = &j * &step;
+    let delta =
+        DVector::from_iterator(step.len(), step.iter().zip(&norms).map(|(s, n)| if *n > 0.0 { s / n } else { 0.0 }));
+    Some((fitted.norm_squared(), delta))
+}
+
+/// Indices of `screened` in ranking order: the most negative predicted information change
+/// first; NaN (a failed screening) last, in generation order.
+pub fn ranking(screened: &[Screened]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..screened.len()).collect();
+    order.sort_by(|&a, &b| {
+        let (x, y) = (screened[a].predicted_delta_ic, screened[b].predicted_delta_ic);
+        match (x.is_nan(), y.is_nan()) {
+            (false, false) => x.total_cmp(&y).then(a.cmp(&b)),
+            (nx, ny) => nx.cmp(&ny).then(a.cmp(&b)),
+        }
+    });
+    order
+}
+
+/// A series effect's kind, if `kind` names one (used to tell sensors from ports).
+pub fn is_series(kind: &str) -> bool {
+    matches!(effects::find(kind), Ok(Found::Series(_)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A linear "model": the residual of the base is r0 = y_b − data, with a known extra
+    /// column; the screening's drop must equal the exact least-squares drop.
+    #[test]
+    fn the_predicted_drop_is_the_exact_least_squares_drop_for_a_linear_residual() {
+        let m = 50;
+        let t: Vec<f64> = (0..m).map(|k| k as f64 / m as f64).collect();
+        // Residual = 0.3·sin(6t) (the missing effect) + a part along the base direction that
+        // the base optimum already removed (orthogonal by construction: none).
+        let r0 = DVector::from_iterator(m, t.iter().map(|t| 0.3 * (6.0 * t).sin()));
+        let base = vec![DVector::from_iterator(m, t.iter().map(|t| *t))];
+        let effect = DVector::from_iterator(m, t.iter().map(|t| (6.0 * t).sin()));
+        let (with_base, _) = projected_norm2(&base, &r0).unwrap();
+        let (all, delta) = projected_norm2(&[base[0].clone(), effect.clone()], &r0).unwrap();
+        // Exact: regress r0 on [t, sin 6t].
+        let j = DMatrix::from_columns(&[base[0].clone(), effect]);
+        let beta = (j.transpose() * &j).try_inverse().unwrap() * j.transpose() * &r0;
+        let exact = (&j * &beta).norm_squared();
+        assert!((all - exact).abs() < 1e-10 * exact, "{all} vs {exact}");
+        assert!(with_base < all);
+        assert!((delta[1] + beta[1]).abs() < 1e-9, "{delta} vs {beta}");
+    }
+
+    #[test]
+    fn ranking_puts_failed_screenings_last() {
+        let s = |ic: f64| Screened {
+            predicted_drop: 0.0,
+            score: 0.0,
+            p_value: 1.0,
+            predicted_delta_ic: ic,
+            estimate: vec![],
+            base_step: vec![],
+        };
+        let order = ranking(&[s(f64::NAN), s(-3.0), s(2.0), s(-10.0), s(f64::NAN)]);
+        assert_eq!(order, [3, 1, 2, 0, 4]);
+    }
+}

@@ -1,0 +1,280 @@
+//! The decision (step 5 of a diagnosis): which fitted candidate, if any, is named.
+//!
+//! A candidate is accepted only if all three hold:
+//! 1. **It wins on data the fit did not see**: the RMS error on the validation window (or the
+//!    held-out end of the calibration window) falls by at least `min_validation_gain`.
+//! 2. **Its information criterion improves** with the sample size corrected for the residual's
+//!    autocorrelation: ΔIC = n_eff·ln(SSR₁/SSR₀) + q·ln(n_eff) < 0, with n_eff from the base
+//!    fit's residual (a smooth, model-error residual has far fewer independent samples than
+//!    rows, which is what keeps an extra parameter from "explaining" it for free).
+//! 3. **Its parameters' confidence intervals exclude "no effect"**: for every strength
+//!    parameter, |θ − neutral| > z·SE, where SE is the standard error at the candidate's optimum
+//!    inflated by √(m/n_eff) of the candidate's own residual.
+//!
+//! Among accepted candidates the lowest ΔIC is named. If none passes, none is named: naming the
+//! wrong effect is worse than naming none.
+
+use serde::{Deserialize, Serialize};
+
+/// The evidence about one fitted candidate.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Evidence {
+    /// Sum of squares on the calibration window, and the number of residuals.
+    #[serde(with = "crate::optim::serde_float")]
+    pub ssr: f64,
+    pub residuals: usize,
+    /// Effective samples of this fit's residual.
+    #[serde(with = "crate::optim::serde_float")]
+    pub n_eff: f64,
+    /// RMS on the validation window (NaN: the simulation failed).
+    #[serde(with = "crate::optim::serde_float")]
+    pub validation_rms: f64,
+    /// The effect's parameters: value, neutral value, standard error (uncorrected; NaN when
+    /// not available), and whether it is a strength parameter.
+    pub parameters: Vec<ParameterEvidence>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ParameterEvidence {
+    pub name: String,
+    #[serde(with = "crate::optim::serde_float")]
+    pub value: f64,
+    #[serde(with = "crate::optim::serde_float")]
+    pub neutral: f64,
+    #[serde(with = "crate::optim::serde_float")]
+    pub standard_error: f64,
+    pub strength: bool,
+}
+
+/// The base fit the candidates are compared with.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Baseline {
+    #[serde(with = "crate::optim::serde_float")]
+    pub ssr: f64,
+    #[serde(with = "crate::optim::serde_float")]
+    pub n_eff: f64,
+    #[serde(with = "crate::optim::serde_float")]
+    pub validation_rms: f64,
+}
+
+/// The settings of the rule.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rule {
+    pub min_validation_gain: f64,
+    pub confidence: f64,
+}
+
+/// How one candidate fared.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Verdict {
+    /// Relative fall of the validation RMS (negative: it rose).
+    #[serde(with = "crate::optim::serde_float")]
+    pub validation_gain: f64,
+    #[serde(with = "crate::optim::serde_float")]
+    pub delta_ic: f64,
+    /// Per parameter: the half-width z·SE·√(m/n_eff) of its confidence interval.
+    #[serde(with = "crate::optim::serde_float::vec")]
+    pub half_widths: Vec<f64>,
+    pub wins_on_validation: bool,
+    pub improves_ic: bool,
+    pub intervals_exclude_neutral: bool,
+}
+
+impl Verdict {
+    pub fn accepted(&self) -> bool {
+        self.wins_on_validation && self.improves_ic && self.intervals_exclude_neutral
+    }
+
+    /// Why a candidate was turned down, in words (empty when accepted).
+    pub fn reasons(&self) -> Vec<&'static str> {
+        let mut out = vec![];
+        if !self.wins_on_validation {
+            out.push("does not win on held-out data");
+        }
+        if !self.improves_ic {
+            out.push("information criterion does not improve");
+        }
+        if !self.intervals_exclude_neutral {
+            out.push("confidence interval includes no effect");
+        }
+        out
+    }
+}
+
+/// Judges one candidate against the baseline.
+pub fn judge(base: &Baseline, fit: &Evidence, rule: &Rule) -> Verdict {
+    let q = fit.parameters.len() as f64;
+    let n_eff = base.n_eff.max(1.0);
+    let delta_ic = if fit.ssr.is_finite() && base.ssr > 0.0 && fit.ssr > 0.0 {
+        n_eff * (fit.ssr / base.ssr).ln() + q * n_eff.ln()
+    } else {
+        f64::NAN
+    };
+    let validation_gain = (base.validation_rms - fit.validation_rms) / base.validation_rms;
+    let z = normal_quantile(0.5 + rule.confidence / 2.0);
+    let inflation = (fit.residuals as f64 / fit.n_eff.max(1.0)).max(1.0).sqrt();
+    let half_widths: Vec<f64> = fit.parameters.iter().map(|p| z * p.standard_error * inflation).collect();
+    let intervals_exclude_neutral = fit
+        .parameters
+        .iter()
+        .zip(&half_widths)
+        .filter(|(p, _)| p.strength)
+        .all(|(p, w)| w.is_finite() && (p.value - p.neutral).abs() > *w)
+        && fit.parameters.iter().any(|p| p.strength);
+    Verdict {
+        validation_gain,
+        delta_ic,
+        half_widths,
+        wins_on_validation: validation_gain >= rule.min_validation_gain,
+        improves_ic: delta_ic < 0.0,
+        intervals_exclude_neutral,
+    }
+}
+
+/// The index of the accepted candidate with the lowest ΔIC, if any.
+pub fn choose(verdicts: &[Option<Verdict>]) -> Option<usize> {
+    verdicts
+        .iter()
+        .enumerate()
+        .filter_map(|(k, v)| v.as_ref().filter(|v| v.accepted()).map(|v| (k, v.delta_ic)))
+        .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+        .map(|(k, _)| k)
+}
+
+/// Effective number of independent samples of a residual made of `series` (one per output, on
+/// its time grid; NaN = missing): Σ n·(1 − ρ₁)/(1 + ρ₁) with ρ₁ the lag-1 autocorrelation
+/// (the AR(1) variance-inflation correction), each term between 1 and n.
+pub fn effective_samples(series: &[Vec<f64>]) -> f64 {
+    series
+        .iter()
+        .map(|r| {
+            let valid: Vec<f64> = r.iter().copied().filter(|v| !v.is_nan()).collect();
+            let n = valid.len() as f64;
+            if n < 3.0 {
+                return n;
+            }
+            let mean = valid.iter().sum::<f64>() / n;
+            let c0: f64 = valid.iter().map(|v| (v - mean).powi(2)).sum();
+            let c1: f64 = valid.windows(2).map(|w| (w[0] - mean) * (w[1] - mean)).sum();
+            let rho = if c0 > 0.0 { (c1 / c0).clamp(-0.99, 0.999_999) } else { 0.0 };
+            (n * (1.0 - rho) / (1.0 + rho)).clamp(1.0, n)
+        })
+        .sum()
+}
+
+/// The standard normal quantile Φ⁻¹(p) for p in (0, 1) (Acklam's rational approximation,
+/// relative error below 1.2e-9).
+pub fn normal_quantile(p: f64) -> f64 {
+    const A: [f64; 6] = [
+        -3.969683028665376e1,
+        2.209460984245205e2,
+        -2.759285104469687e2,
+        1.383577518672690e2,
+        -3.066479806614716e1,
+        2.506628277459239,
+    ];
+    const B: [f64; 5] =
+        [-5.447609879822406e1, 1.615858368580409e2, -1.556989798598866e2, 6.680131188771972e1, -1.328068155288572e1];
+    const C: [f64; 6] = [
+        -7.784894002430293e-3,
+        -3.223964580411365e-1,
+        -2.400758277161838,
+        -2.549732539343734,
+        4.374664141464968,
+        2.938163982698783,
+    ];
+    const D: [f64; 4] = [7.784695709041462e-3, 3.224671290700398e-1, 2.445134137142996, 3.754408661907416];
+    if !(p > 0.0 && p < 1.0) {
+        return f64::NAN;
+    }
+    let tail = |q: f64| {
+        let q = (-2.0 * q.ln()).sqrt();
+        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
+            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
+    };
+    if p < 0.02425 {
+        tail(p)
+    } else if p > 1.0 - 0.02425 {
+        -tail(1.0 - p)
+    } else {
+        let q = p - 0.5;
+        let r = q * q;
+        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
+            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normal_quantiles_match_the_tables() {
+        for (p, z) in
+            [(0.975, 1.959_963_984_540_054), (0.5, 0.0), (0.995, 2.575_829_303_548_901), (0.01, -2.326_347_874_040_841)]
+        {
+            assert!((normal_quantile(p) - z).abs() < 1e-8, "{p}: {}", normal_quantile(p));
+        }
+    }
+
+    #[test]
+    fn white_noise_keeps_its_samples_and_a_smooth_residual_loses_most() {
+        // A deterministic white-ish sequence (a linear congruential generator) and a sine.
+        let mut s = 12345u64;
+        let noise: Vec<f64> = (0..2000)
+            .map(|_| {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .collect();
+        let smooth: Vec<f64> = (0..2000).map(|k| (k as f64 * 0.01).sin()).collect();
+        let white = effective_samples(std::slice::from_ref(&noise));
+        assert!(white > 1700.0 && white <= 2000.0, "{white}");
+        assert!(effective_samples(&[smooth]) < 20.0);
+    }
+
+    fn evidence(ssr: f64, validation_rms: f64, value: f64, se: f64) -> Evidence {
+        Evidence {
+            ssr,
+            residuals: 1000,
+            n_eff: 1000.0,
+            validation_rms,
+            parameters: vec![ParameterEvidence {
+                name: "force".into(),
+                value,
+                neutral: 0.0,
+                standard_error: se,
+                strength: true,
+            }],
+        }
+    }
+
+    #[test]
+    fn each_of_the_three_tests_can_turn_a_candidate_down() {
+        let base = Baseline { ssr: 10.0, n_eff: 100.0, validation_rms: 1.0 };
+        let rule = Rule { min_validation_gain: 0.05, confidence: 0.95 };
+        let good = judge(&base, &evidence(2.0, 0.5, 0.01, 0.001), &rule);
+        assert!(good.accepted(), "{good:?}");
+        let no_validation = judge(&base, &evidence(2.0, 0.97, 0.01, 0.001), &rule);
+        assert_eq!(no_validation.reasons(), ["does not win on held-out data"]);
+        // A 1 % drop of SSR over 100 effective samples does not pay for one parameter (ln 100).
+        let no_ic = judge(&base, &evidence(9.9, 0.5, 0.01, 0.001), &rule);
+        assert_eq!(no_ic.reasons(), ["information criterion does not improve"]);
+        let wide = judge(&base, &evidence(2.0, 0.5, 0.01, 0.006), &rule);
+        assert_eq!(wide.reasons(), ["confidence interval includes no effect"]);
+        assert_eq!(choose(&[Some(no_ic), None, Some(good.clone()), Some(wide)]), Some(2));
+        assert_eq!(choose(&[None]), None);
+    }
+
+    #[test]
+    fn a_correlated_residual_widens_the_interval() {
+        let base = Baseline { ssr: 10.0, n_eff: 100.0, validation_rms: 1.0 };
+        let rule = Rule { min_validation_gain: 0.05, confidence: 0.95 };
+        let mut e = evidence(2.0, 0.5, 0.01, 0.001);
+        assert!(judge(&base, &e, &rule).accepted());
+        e.n_eff = 10.0; // 1000 residuals worth 10: the standard error grows tenfold.
+        let v = judge(&base, &e, &rule);
+        assert!((v.half_widths[0] - 1.959_963_984_540_054 * 0.01).abs() < 1e-9, "{v:?}");
+        assert!(!v.intervals_exclude_neutral);
+    }
+}

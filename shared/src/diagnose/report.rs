@@ -1,0 +1,180 @@
+//! What a diagnosis found, as `diagnosis/report.json` holds it, and its readable summary.
+
+use std::collections::BTreeMap;
+use std::fmt::Write;
+
+use serde::{Deserialize, Serialize};
+
+use super::candidates::{Candidate, Screened};
+use super::decision::{Baseline, Evidence, Verdict};
+use super::localise::Localisation;
+use crate::job::spec::EffectSpec;
+
+/// The whole diagnosis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Diagnosis {
+    /// The windows every fit and comparison used.
+    pub windows: Windows,
+    pub rounds: Vec<Round>,
+    /// The effects named, in the order found (empty: "no effect found").
+    pub named: Vec<NamedEffect>,
+    /// RMS errors of the base model and of the model with the named effects.
+    pub before: RmsPair,
+    pub after: RmsPair,
+    /// Wall time of the first base calibration and of the whole diagnosis [s].
+    pub base_calibration_s: f64,
+    pub elapsed_s: f64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Windows {
+    pub start_time: f64,
+    /// Fits use [start_time, calibration_stop]; decisions and the after/before comparison use
+    /// (calibration_stop, validation_stop].
+    pub calibration_stop: f64,
+    pub validation_stop: f64,
+    /// True when the validation window was held out of the job's own calibration window.
+    pub holdout: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RmsPair {
+    #[serde(with = "crate::optim::serde_float")]
+    pub calibration: f64,
+    #[serde(with = "crate::optim::serde_float")]
+    pub validation: f64,
+}
+
+/// One search for an effect.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Round {
+    /// The base calibration of this round (the job plus the effects named before it).
+    pub base_x_opt: BTreeMap<String, f64>,
+    pub baseline: Baseline,
+    pub localisation: Localisation,
+    /// Load scale of each port: given, or probed (the constant load that moves the outputs as
+    /// much as the residual does).
+    pub port_scales: BTreeMap<String, f64>,
+    /// Every candidate in ranking order.
+    pub candidates: Vec<RankedCandidate>,
+    /// Index into `candidates` of the one named, if any.
+    pub chosen: Option<usize>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RankedCandidate {
+    pub description: String,
+    pub candidate: Candidate,
+    pub screening: Screened,
+    /// Present for the top K, which were fitted.
+    pub fit: Option<CandidateFit>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CandidateFit {
+    /// The fitted values of every calibrated parameter, effect parameters last.
+    pub x_opt: BTreeMap<String, f64>,
+    #[serde(with = "crate::optim::serde_float")]
+    pub calibration_rms: f64,
+    pub evidence: Option<Evidence>,
+    pub verdict: Option<Verdict>,
+    /// Why the fit or its analysis failed (the candidate then ranks last).
+    pub error: Option<String>,
+    /// Simulations of the fit, and its wall time.
+    pub evaluations: u64,
+    pub elapsed_s: f64,
+}
+
+/// An accepted effect.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NamedEffect {
+    /// In words, e.g. "coulomb_friction on pendulumJoint.w through pendulumJoint.tauExt,
+    /// force 0.0123 ± 0.0004 N.m".
+    pub words: String,
+    /// The `[[effects]]` entry, its starts at the fitted values.
+    pub effect: EffectSpec,
+}
+
+/// "0.0123 ± 0.0004" with as many digits as the half-width warrants.
+pub fn value_with_interval(value: f64, half_width: f64) -> String {
+    if !(half_width.is_finite() && half_width > 0.0) {
+        return format!("{value:.4e}");
+    }
+    let digits = (-half_width.log10().floor() + 1.0).clamp(0.0, 12.0) as usize;
+    if value.abs() >= 1e-3 && value.abs() < 1e5 {
+        format!("{value:.digits$} ± {half_width:.digits$}")
+    } else {
+        format!("{value:.3e} ± {half_width:.1e}")
+    }
+}
+
+impl Diagnosis {
+    /// The readable summary printed on stdout.
+    pub fn summary(&self) -> String {
+        let mut s = String::new();
+        let w = &self.windows;
+        let _ = writeln!(
+            s,
+            "fitted on [{}, {}] s, judged on ({}, {}] s{}",
+            w.start_time,
+            w.calibration_stop,
+            w.calibration_stop,
+            w.validation_stop,
+            if w.holdout { " (held out of the job's window)" } else { "" }
+        );
+        for (k, round) in self.rounds.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "round {}: candidates ranked by screening, top {} fitted",
+                k + 1,
+                round.candidates.iter().filter(|c| c.fit.is_some()).count()
+            );
+            for (rank, c) in round.candidates.iter().enumerate().filter(|(_, c)| c.fit.is_some()) {
+                let fit = c.fit.as_ref().expect("filtered");
+                let verdict = match (&fit.verdict, &fit.error) {
+                    (Some(v), _) if v.accepted() => "accepted".to_owned(),
+                    (Some(v), _) => v.reasons().join("; "),
+                    (None, Some(e)) => format!("failed: {e}"),
+                    (None, None) => "not judged".to_owned(),
+                };
+                let stats = fit
+                    .verdict
+                    .as_ref()
+                    .map(|v| format!("validation {:+.1} %, ΔIC {:.1}", -100.0 * v.validation_gain, v.delta_ic))
+                    .unwrap_or_default();
+                let mark = if round.chosen == Some(rank) { "*" } else { " " };
+                let _ = writeln!(s, " {mark}{:>2}. {:<62} {stats:<32} {verdict}", rank + 1, c.description);
+            }
+        }
+        if self.named.is_empty() {
+            let _ = writeln!(s, "no effect found: no candidate passed all three tests");
+        }
+        for e in &self.named {
+            let _ = writeln!(s, "found: {}", e.words);
+        }
+        let _ = writeln!(
+            s,
+            "RMS error before → after: calibration {:.4e} → {:.4e}, validation {:.4e} → {:.4e} ({:+.1} %)",
+            self.before.calibration,
+            self.after.calibration,
+            self.before.validation,
+            self.after.validation,
+            100.0 * (self.after.validation / self.before.validation - 1.0)
+        );
+        let _ =
+            writeln!(s, "diagnosis took {:.1} s (base calibration {:.1} s)", self.elapsed_s, self.base_calibration_s);
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn values_are_printed_to_the_digits_their_interval_warrants() {
+        assert_eq!(value_with_interval(0.012347, 0.00041), "0.01235 ± 0.00041");
+        assert_eq!(value_with_interval(1.5, f64::NAN), "1.5000e0");
+        assert_eq!(value_with_interval(2.5e-6, 1e-7), "2.500e-6 ± 1.0e-7");
+    }
+}

@@ -1,0 +1,237 @@
+//! The job file's `[diagnose]` section: which injection ports a diagnosis may add effects to,
+//! with their physical domain and the signals the user allows, and the settings of the
+//! screening and the decision. `fmucal calibrate` ignores it.
+//!
+//! ```toml
+//! [diagnose]
+//! top = 8                      # candidates fitted after screening (K)
+//! fix_base = false             # true: candidates fit only their own parameters
+//! holdout = 0.25               # without [simulation] validation_stop_time: the last quarter
+//!                              # of the window is held out of every fit and used to decide
+//! min_validation_gain = 0.05   # an effect must cut the held-out RMS by at least 5 %
+//! confidence = 0.95            # its parameters' intervals must exclude "no effect"
+//! windows = 10                 # time windows of the residual report
+//! rounds = 1                   # 2: after naming one effect, look for a second
+//! series = true                # also try sensor effects on every output and actuator
+//!                              # effects on every input
+//! signals = ["armJoint.w"]     # more signals to correlate the residual with
+//!
+//! [[diagnose.ports]]
+//! port = "pendulumJoint.tauExt"
+//! domain = "mechanical"        # mechanical: velocities and positions; thermal: temperatures
+//! velocities = ["pendulumJoint.w"]
+//! positions = ["pendulumJoint.phi"]
+//! scale = 0.01                 # optional: typical size of what the port adds (else probed)
+//! # ambient = 293.15           # thermal: ambient temperature guess (default 293.15)
+//! ```
+
+use serde::{Deserialize, Serialize};
+
+use crate::job::JobError;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiagnoseSpec {
+    #[serde(default)]
+    pub ports: Vec<PortSpec>,
+    /// Signals to correlate the residual with besides the ports' signals and the job's inputs
+    /// and outputs.
+    #[serde(default)]
+    pub signals: Vec<String>,
+    #[serde(default = "default_top")]
+    pub top: usize,
+    #[serde(default)]
+    pub fix_base: bool,
+    pub holdout: Option<f64>,
+    #[serde(default = "default_min_gain")]
+    pub min_validation_gain: f64,
+    #[serde(default = "default_confidence")]
+    pub confidence: f64,
+    #[serde(default = "default_windows")]
+    pub windows: usize,
+    #[serde(default = "default_rounds")]
+    pub rounds: usize,
+    #[serde(default = "default_true")]
+    pub series: bool,
+}
+
+impl Default for DiagnoseSpec {
+    fn default() -> Self {
+        toml::from_str("").expect("an empty [diagnose] table is valid")
+    }
+}
+
+fn default_top() -> usize {
+    8
+}
+fn default_min_gain() -> f64 {
+    0.05
+}
+fn default_confidence() -> f64 {
+    0.95
+}
+fn default_windows() -> usize {
+    10
+}
+fn default_rounds() -> usize {
+    1
+}
+fn default_true() -> bool {
+    true
+}
+
+/// Holdout fraction when the job has no validation window and `holdout` is not given.
+pub const DEFAULT_HOLDOUT: f64 = 0.25;
+
+/// The physical domain of an injection port.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PortDomain {
+    Mechanical,
+    Thermal,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PortSpec {
+    pub port: String,
+    pub domain: PortDomain,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub velocities: Vec<String>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub positions: Vec<String>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub temperatures: Vec<String>,
+    /// Typical size of the load the port adds; probed from the model when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f64>,
+    /// Ambient temperature guess of thermal effects. Default 293.15.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ambient: Option<f64>,
+}
+
+impl PortSpec {
+    /// Every signal of the port, with the field that names it.
+    pub fn signals(&self) -> impl Iterator<Item = (String, &str)> {
+        [("velocities", &self.velocities), ("positions", &self.positions), ("temperatures", &self.temperatures)]
+            .into_iter()
+            .flat_map(|(field, list)| list.iter().enumerate().map(move |(k, s)| (format!("{field}[{k}]"), s.as_str())))
+    }
+}
+
+impl DiagnoseSpec {
+    /// Checks what can be checked without the model: settings in range, each port with signals
+    /// of its domain. The model checks (a real input, readable signals, no algebraic loop) come
+    /// when the candidates are prepared.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] naming the field (`diagnose.ports[1].temperatures`, ...).
+    pub fn validate(&self) -> Result<(), JobError> {
+        let bad = |field: &str, message: String| Err(JobError::invalid(format!("diagnose.{field}"), message));
+        if self.top == 0 {
+            return bad("top", "must be at least 1".into());
+        }
+        if let Some(h) = self.holdout
+            && !(h > 0.0 && h <= 0.75)
+        {
+            return bad("holdout", format!("{h} is not a fraction in (0, 0.75]"));
+        }
+        if !(0.0..1.0).contains(&self.min_validation_gain) {
+            return bad("min_validation_gain", format!("{} is not in [0, 1)", self.min_validation_gain));
+        }
+        if !(self.confidence > 0.5 && self.confidence < 1.0) {
+            return bad("confidence", format!("{} is not in (0.5, 1)", self.confidence));
+        }
+        if !(1..=1000).contains(&self.windows) {
+            return bad("windows", format!("{} is not in 1..=1000", self.windows));
+        }
+        if !(1..=2).contains(&self.rounds) {
+            return bad("rounds", format!("{} is not 1 or 2", self.rounds));
+        }
+        if self.ports.is_empty() && !self.series {
+            return bad("ports", "no port is listed and series = false: there is no candidate to try".into());
+        }
+        for (k, p) in self.ports.iter().enumerate() {
+            let field = |f: &str| format!("ports[{k}].{f}");
+            if p.port.trim().is_empty() {
+                return bad(&field("port"), "is empty".into());
+            }
+            if self.ports[..k].iter().any(|q| q.port == p.port) {
+                return bad(&field("port"), format!("{:?} is listed twice", p.port));
+            }
+            let (wrong, needed): (&[(&str, &Vec<String>)], &str) = match p.domain {
+                PortDomain::Mechanical => (&[("temperatures", &p.temperatures)], "velocities or positions"),
+                PortDomain::Thermal => (&[("velocities", &p.velocities), ("positions", &p.positions)], "temperatures"),
+            };
+            if let Some((name, _)) = wrong.iter().find(|(_, list)| !list.is_empty()) {
+                return bad(&field(name), format!("a {:?} port takes no {name}", p.domain).to_lowercase());
+            }
+            if p.signals().next().is_none() {
+                return bad(&field("domain"), format!("port {:?} lists no {needed}", p.port));
+            }
+            if let Some((f, _)) = p.signals().find(|(_, s)| s.trim().is_empty()) {
+                return bad(&field(&f), "is empty".into());
+            }
+            if let Some(s) = p.scale
+                && !(s > 0.0 && s.is_finite())
+            {
+                return bad(&field("scale"), format!("{s} is not a positive number"));
+            }
+            if let Some(a) = p.ambient
+                && !a.is_finite()
+            {
+                return bad(&field("ambient"), format!("{a} is not a number"));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(text: &str) -> Result<DiagnoseSpec, String> {
+        let s: DiagnoseSpec = toml::from_str(text).map_err(|e| e.to_string())?;
+        s.validate().map_err(|e| e.to_string())?;
+        Ok(s)
+    }
+
+    #[test]
+    fn an_empty_section_gets_the_documented_defaults() {
+        let s = spec("").unwrap();
+        assert_eq!((s.top, s.fix_base, s.holdout, s.windows, s.rounds, s.series), (8, false, None, 10, 1, true));
+        assert_eq!((s.min_validation_gain, s.confidence), (0.05, 0.95));
+    }
+
+    #[test]
+    fn bad_settings_name_the_field() {
+        let port = "[[ports]]\nport = \"p\"\ndomain = \"mechanical\"\n";
+        for (text, want) in [
+            ("top = 0", "diagnose.top: must be at least 1"),
+            ("holdout = 0.9", "diagnose.holdout: 0.9 is not a fraction"),
+            ("rounds = 3", "diagnose.rounds: 3 is not 1 or 2"),
+            ("confidence = 1.0", "diagnose.confidence"),
+            ("series = false", "diagnose.ports: no port is listed"),
+            (
+                &format!("{port}velocities = [\"v\"]\ntemperatures = [\"T\"]"),
+                "diagnose.ports[0].temperatures: a mechanical port takes no temperatures",
+            ),
+            (port, "diagnose.ports[0].domain: port \"p\" lists no velocities or positions"),
+            (&format!("{port}velocities = [\"v\", \"\"]"), "diagnose.ports[0].velocities[1]: is empty"),
+            (
+                &format!("{port}velocities = [\"v\"]\nscale = -1.0"),
+                "diagnose.ports[0].scale: -1 is not a positive number",
+            ),
+            (
+                &format!("{port}velocities = [\"v\"]\n{port}positions = [\"x\"]"),
+                "diagnose.ports[1].port: \"p\" is listed twice",
+            ),
+        ] {
+            let e = spec(text).unwrap_err();
+            assert!(e.starts_with(want), "{want:?} is not the start of {e:?}");
+        }
+        let e = spec("[[ports]]\nport = \"p\"\ndomain = \"electrical\"\nvelocities = [\"v\"]").unwrap_err();
+        assert!(e.contains("unknown variant `electrical`"), "{e}");
+    }
+}

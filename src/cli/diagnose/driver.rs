@@ -1,0 +1,416 @@
+//! The rounds of a diagnosis, over the coordinator's protocol so every simulation-heavy step
+//! runs on the workers: calibrate the base job; localise its residual; size and screen the
+//! candidates (one job that evaluates points); fit the top K as K calibration jobs submitted
+//! concurrently, each followed by its identifiability points; judge them; and, if one is named
+//! and `rounds = 2`, search again with it added.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context as _, Result};
+use fmucal_shared::diagnose::candidates::{Candidate, Screening, Sizes, generate, ranking};
+use fmucal_shared::diagnose::decision::{Baseline, Evidence, ParameterEvidence, Rule, choose, judge};
+use fmucal_shared::diagnose::guess::SignalStats;
+use fmucal_shared::diagnose::localise::localise;
+use fmucal_shared::diagnose::report::{
+    CandidateFit, Diagnosis, NamedEffect, RankedCandidate, Round, value_with_interval,
+};
+use fmucal_shared::job::identifiability::Identifiability;
+use fmucal_shared::job::spec::SetValue;
+use fmucal_shared::job::{CalibrationResult, JobSpec, PreparedJob};
+
+use super::Context;
+use super::look::{Look, look, signals};
+use super::probe::port_scales;
+use crate::cli::client::Client;
+
+/// What the plots need besides the report: the residuals before and after.
+pub struct Outcome {
+    pub diagnosis: Diagnosis,
+    pub before: Look,
+    pub after: Look,
+    /// The signals of the first round, on its calibration window.
+    pub signals: Vec<(String, Vec<f64>)>,
+}
+
+/// A fitted candidate as it comes back from the workers.
+struct Fitted {
+    job: JobSpec,
+    result: Result<(CalibrationResult, Result<Identifiability>)>,
+    elapsed: Duration,
+}
+
+pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> Result<Outcome> {
+    let started = Instant::now();
+    let rule = Rule { min_validation_gain: ctx.settings.min_validation_gain, confidence: ctx.settings.confidence };
+    let mut rounds = vec![];
+    let mut named = vec![];
+    let mut base_calibration_s = 0.0;
+    let mut first_look: Option<Look> = None;
+    let mut last_look: Option<Look> = None;
+    let mut first_signals = vec![];
+    for round in 0..ctx.settings.rounds {
+        eprintln!("round {}: calibrating the base model", round + 1);
+        let t = Instant::now();
+        let result = client.calibrate(&base, &ctx.data, &ctx.model).await.context("the base calibration")?;
+        if round == 0 {
+            base_calibration_s = t.elapsed().as_secs_f64();
+        }
+        let prepared = Arc::new(prepare(ctx, &base)?);
+        let x_base = result.x_opt_in(&prepared.parameter_names);
+        let before = look(ctx, &prepared, &x_base)?;
+        let baseline = Baseline { ssr: result.f_opt, n_eff: before.n_eff, validation_rms: before.rms.validation };
+
+        // Localise: the residual against every signal the diagnosis may read.
+        let mut names: Vec<String> =
+            ctx.settings.ports.iter().flat_map(|p| p.signals().map(|(_, s)| s.to_owned())).collect();
+        names.extend(ctx.settings.signals.iter().cloned());
+        names.extend(base.inputs.iter().map(|i| i.variable.clone()));
+        names.extend(base.outputs.iter().map(|o| o.variable.clone()));
+        let mut seen = std::collections::HashSet::new();
+        names.retain(|n| seen.insert(n.clone()));
+        let signal_values = signals(ctx, &prepared, &x_base, &names)?;
+        let localisation = localise(&before.time, &before.residuals, &signal_values, ctx.settings.windows);
+
+        // Size and screen every candidate.
+        eprintln!("round {}: screening the candidates", round + 1);
+        let scales = port_scales(&mut client, ctx, &base, &x_base).await?;
+        let sizes = sizes(ctx, &base, &before, &signal_values, &scales);
+        let mut candidates: Vec<Candidate> = generate(&base, &ctx.settings, &sizes)
+            .into_iter()
+            .filter(|c| !base.effects.iter().any(|e| same_place(e, &c.effect)))
+            .collect();
+        let screening = Screening::new(&base, &x_base, &candidates, ctx.settings.fix_base);
+        let evaluated = client.evaluate(&screening.job, screening.points.clone(), &ctx.data, &ctx.model).await?;
+        let residuals: Vec<Option<Vec<f64>>> = evaluated.iter().map(|e| e.value.map(|_| e.residuals.clone())).collect();
+        let screened = screening.statistics(&residuals, before.n_eff);
+        let order = ranking(&screened);
+        // Only candidates the screening predicts to improve the information criterion are
+        // worth a fit; a failed screening ranks last and is not fitted.
+        let top: Vec<usize> =
+            order.iter().copied().filter(|&c| screened[c].predicted_delta_ic < 0.0).take(ctx.settings.top).collect();
+
+        // Where each fit starts: the best of the base optimum and the full and half Gauss–Newton
+        // steps (the linear prediction can overshoot when the effect trades off against a base
+        // parameter), evaluated as one batch.
+        let steps: Vec<Vec<f64>> =
+            top.iter().flat_map(|&c| [1.0, 0.5].map(|f| screening.along_step(c, &screened[c], f))).collect();
+        let tried = if steps.is_empty() {
+            vec![]
+        } else {
+            client.evaluate(&screening.job, steps.clone(), &ctx.data, &ctx.model).await?
+        };
+        let starts: Vec<(Vec<f64>, Vec<f64>)> = top
+            .iter()
+            .enumerate()
+            .map(|(slot, &c)| {
+                let neutral: Vec<f64> = candidates[c].guesses.iter().map(|g| g.neutral).collect();
+                let mut best = (result.f_opt, x_base.clone(), neutral);
+                for k in [2 * slot, 2 * slot + 1] {
+                    if let Some(v) = tried.get(k).and_then(|e| e.value)
+                        && v < best.0
+                    {
+                        let (b, e) = screening.split(c, &steps[k]);
+                        best = (v, b, e);
+                    }
+                }
+                (best.1, best.2)
+            })
+            .collect();
+
+        // Fit the top K concurrently on the workers.
+        eprintln!("round {}: fitting the {} most promising of {} candidates", round + 1, top.len(), candidates.len());
+        let bar = indicatif::ProgressBar::new(top.len() as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{elapsed_precise} candidates fitted {pos}/{len} {msg}")
+                .expect("valid template"),
+        );
+        let mut tasks = tokio::task::JoinSet::new();
+        for (slot, &c) in top.iter().enumerate() {
+            let narrowed = candidates[c].narrowed(&screened[c].estimate);
+            let (from, effect_start) = &starts[slot];
+            let mut job =
+                candidate_job(&base, from, &prepared.parameter_names, &narrowed, effect_start, ctx.settings.fix_base);
+            // A candidate that does not help can leave the optimizer wandering on a flat
+            // objective: bound its work by the base fit's.
+            job.optimizer.max_fevals = job.optimizer.max_fevals.or(Some((20 * result.evaluations).max(2000)));
+            let (mut client, data, model, fmu) = (client.clone(), ctx.data.clone(), ctx.model.clone(), ctx.fmu.clone());
+            tasks.spawn(async move {
+                let t = Instant::now();
+                let result = async {
+                    let r = client.calibrate_with(&job, &data, &model, |_| {}).await?;
+                    let prepared = PreparedJob::new(&job, &fmu.description, &fmu.interfaces(), &data)?;
+                    let id = client.identify(&prepared, &r, &data, &model).await;
+                    Ok((r, id))
+                }
+                .await;
+                (slot, Fitted { job, result, elapsed: t.elapsed() })
+            });
+        }
+        let mut fitted: Vec<Option<Fitted>> = top.iter().map(|_| None).collect();
+        while let Some(done) = tasks.join_next().await {
+            let (slot, f) = done.context("a candidate fit panicked")?;
+            bar.inc(1);
+            fitted[slot] = Some(f);
+        }
+        bar.finish_and_clear();
+
+        // Judge them.
+        let mut fits: BTreeMap<usize, (CandidateFit, JobSpec, Option<Look>)> = BTreeMap::new();
+        for (slot, f) in fitted.into_iter().enumerate() {
+            let f = f.expect("every task reported");
+            let c = top[slot];
+            candidates[c] = candidates[c].narrowed(&screened[c].estimate);
+            fits.insert(c, judge_fit(ctx, &baseline, &rule, &candidates[c], f));
+        }
+        let verdicts: Vec<Option<_>> = order.iter().map(|c| fits.get(c).and_then(|f| f.0.verdict.clone())).collect();
+        let chosen = choose(&verdicts);
+        let ranked: Vec<RankedCandidate> = order
+            .iter()
+            .map(|&c| RankedCandidate {
+                description: candidates[c].describe(),
+                candidate: candidates[c].clone(),
+                screening: screened[c].clone(),
+                fit: fits.get(&c).map(|f| f.0.clone()),
+            })
+            .collect();
+        rounds.push(Round {
+            base_x_opt: result.x_opt.clone(),
+            baseline,
+            localisation,
+            port_scales: scales,
+            candidates: ranked,
+            chosen,
+        });
+        if first_look.is_none() {
+            first_look = Some(before);
+            first_signals = signal_values;
+        } else {
+            last_look = Some(before);
+        }
+        let Some(rank) = chosen else { break };
+        let c = order[rank];
+        let (fit, job, after) = fits.remove(&c).expect("the chosen candidate was fitted");
+        named.push(name(ctx, &candidates[c], &fit, &job));
+        last_look = after;
+        base = with_fitted_starts(job, &fit);
+    }
+    let before = first_look.context("no round ran")?;
+    let after = last_look.unwrap_or_else(|| clone_look(&before));
+    let diagnosis = Diagnosis {
+        windows: ctx.windows,
+        rounds,
+        named,
+        before: before.rms,
+        after: after.rms,
+        base_calibration_s,
+        elapsed_s: started.elapsed().as_secs_f64(),
+    };
+    Ok(Outcome { diagnosis, before, after, signals: first_signals })
+}
+
+fn clone_look(l: &Look) -> Look {
+    Look {
+        fit: l.fit.clone(),
+        errors: l.errors.clone(),
+        time: l.time.clone(),
+        residuals: l.residuals.clone(),
+        n_eff: l.n_eff,
+        rms: l.rms,
+    }
+}
+
+fn prepare(ctx: &Context, job: &JobSpec) -> Result<PreparedJob> {
+    Ok(PreparedJob::new(job, &ctx.fmu.description, &ctx.fmu.interfaces(), &ctx.data)?)
+}
+
+/// Two effects acting at the same place with the same kind.
+fn same_place(a: &fmucal_shared::job::spec::EffectSpec, b: &fmucal_shared::job::spec::EffectSpec) -> bool {
+    a.kind == b.kind && a.port == b.port && a.signal == b.signal && a.output == b.output && a.input == b.input
+}
+
+/// The sizes the candidates are guessed from: the ports' scales, the simulated signals, and the
+/// measured outputs and inputs on the calibration window.
+fn sizes(
+    ctx: &Context,
+    base: &JobSpec,
+    before: &Look,
+    signal_values: &[(String, Vec<f64>)],
+    scales: &BTreeMap<String, f64>,
+) -> Sizes {
+    let signals = signal_values.iter().map(|(n, v)| (n.clone(), SignalStats::of(v))).collect();
+    let rows = before.time.len();
+    let mut series: BTreeMap<String, SignalStats> =
+        before.fit.outputs.iter().map(|o| (o.variable.clone(), SignalStats::of(&o.measured[..rows]))).collect();
+    let (t0, t1) = (ctx.windows.start_time, ctx.windows.calibration_stop);
+    for i in &base.inputs {
+        if let Some(column) = ctx.data.column(&i.column) {
+            let v: Vec<f64> =
+                ctx.data.time.iter().zip(column).filter(|(t, _)| **t >= t0 && **t <= t1).map(|(_, v)| *v).collect();
+            series.insert(i.variable.clone(), SignalStats::of(&v));
+        }
+    }
+    let duration = t1 - t0;
+    let sample = if rows > 1 { duration / (rows - 1) as f64 } else { duration };
+    Sizes { port_scales: scales.clone(), signals, series, duration, sample }
+}
+
+/// The base job with `candidate` added, starting from the screening's estimate; with
+/// `fix_base`, the base's `[[parameters]]` fixed at their calibrated values.
+fn candidate_job(
+    base: &JobSpec,
+    x_base: &[f64],
+    names: &[String],
+    candidate: &Candidate,
+    estimate: &[f64],
+    fix_base: bool,
+) -> JobSpec {
+    let mut job = base.clone();
+    job.diagnose = None;
+    for p in &mut job.parameters {
+        if let Some(k) = names.iter().position(|n| *n == p.name) {
+            p.start = x_base[k].clamp(p.lower, p.upper);
+        }
+    }
+    if fix_base {
+        for p in std::mem::take(&mut job.parameters) {
+            job.simulation.set.insert(p.name.clone(), SetValue::Number(p.start));
+        }
+    }
+    for (k, e) in job.effects.iter_mut().enumerate() {
+        for (name, b) in e.parameters.iter_mut() {
+            if let Some(i) = names.iter().position(|n| *n == format!("effects[{k}].{name}")) {
+                b.start = x_base[i].clamp(b.lower, b.upper);
+            }
+        }
+    }
+    job.effects.push(candidate.with_starts(estimate));
+    job
+}
+
+/// The evidence about one fitted candidate and its verdict.
+fn judge_fit(
+    ctx: &Context,
+    baseline: &Baseline,
+    rule: &Rule,
+    candidate: &Candidate,
+    f: Fitted,
+) -> (CandidateFit, JobSpec, Option<Look>) {
+    let elapsed_s = f.elapsed.as_secs_f64();
+    let failed = |x_opt: BTreeMap<String, f64>, e: String| CandidateFit {
+        evaluations: 0,
+        x_opt,
+        calibration_rms: f64::NAN,
+        evidence: None,
+        verdict: None,
+        error: Some(e),
+        elapsed_s,
+    };
+    let (result, identified) = match f.result {
+        Ok(r) => r,
+        Err(e) => return (failed(BTreeMap::new(), format!("{e:#}")), f.job, None),
+    };
+    let evidence = (|| -> Result<(Evidence, Look)> {
+        let prepared = Arc::new(prepare(ctx, &f.job)?);
+        let x = result.x_opt_in(&prepared.parameter_names);
+        let seen = look(ctx, &prepared, &x)?;
+        let k = f.job.effects.len() - 1;
+        let id = identified.as_ref().ok();
+        let parameters = candidate
+            .parameter_names()
+            .iter()
+            .zip(&candidate.guesses)
+            .map(|(name, g)| {
+                let full = format!("effects[{k}].{name}");
+                let se = id
+                    .and_then(|id| id.names.iter().position(|n| *n == full).map(|i| id.standard_errors[i]))
+                    .unwrap_or(f64::NAN);
+                ParameterEvidence {
+                    name: (*name).to_owned(),
+                    value: result.x_opt.get(&full).copied().unwrap_or(f64::NAN),
+                    neutral: g.neutral,
+                    standard_error: se,
+                    strength: g.step.is_some(),
+                }
+            })
+            .collect();
+        let residuals = seen.residuals.iter().map(|(_, r)| r.iter().filter(|v| !v.is_nan()).count()).sum();
+        let e = Evidence {
+            ssr: result.f_opt,
+            residuals,
+            n_eff: seen.n_eff,
+            validation_rms: seen.rms.validation,
+            parameters,
+        };
+        Ok((e, seen))
+    })();
+    match evidence {
+        Ok((e, seen)) => {
+            let verdict = judge(baseline, &e, rule);
+            let error = identified.err().map(|e| format!("no standard errors: {e:#}"));
+            let fit = CandidateFit {
+                evaluations: result.evaluations,
+                x_opt: result.x_opt,
+                calibration_rms: seen.rms.calibration,
+                evidence: Some(e),
+                verdict: Some(verdict),
+                error,
+                elapsed_s,
+            };
+            (fit, f.job, Some(seen))
+        }
+        Err(e) => (failed(result.x_opt, format!("{e:#}")), f.job, None),
+    }
+}
+
+/// The accepted effect in words, and its `[[effects]]` entry with the fitted starts.
+fn name(ctx: &Context, candidate: &Candidate, fit: &CandidateFit, job: &JobSpec) -> NamedEffect {
+    let k = job.effects.len() - 1;
+    let unit = candidate
+        .effect
+        .port
+        .as_ref()
+        .and_then(|p| ctx.fmu.description.variable(p))
+        .and_then(|v| v.unit.clone())
+        .map(|u| format!(" {u}"))
+        .unwrap_or_default();
+    let load_like = ["force", "coulomb", "static", "load", "q"];
+    let values: Vec<String> = candidate
+        .parameter_names()
+        .iter()
+        .enumerate()
+        .map(|(j, n)| {
+            let v = fit.x_opt.get(&format!("effects[{k}].{n}")).copied().unwrap_or(f64::NAN);
+            let w = fit.verdict.as_ref().and_then(|v| v.half_widths.get(j).copied()).unwrap_or(f64::NAN);
+            let u = if load_like.contains(n) { unit.as_str() } else { "" };
+            format!("{n} {}{u}", value_with_interval(v, w))
+        })
+        .collect();
+    let fitted: Vec<f64> = candidate
+        .parameter_names()
+        .iter()
+        .map(|n| fit.x_opt.get(&format!("effects[{k}].{n}")).copied().unwrap_or(f64::NAN))
+        .collect();
+    NamedEffect {
+        words: format!("{}, {}", candidate.describe(), values.join(", ")),
+        effect: candidate.with_starts(&fitted),
+    }
+}
+
+/// `job` with every start at the fitted value: the base of the next round.
+fn with_fitted_starts(mut job: JobSpec, fit: &CandidateFit) -> JobSpec {
+    for p in &mut job.parameters {
+        if let Some(v) = fit.x_opt.get(&p.name) {
+            p.start = v.clamp(p.lower, p.upper);
+        }
+    }
+    for (k, e) in job.effects.iter_mut().enumerate() {
+        for (name, b) in e.parameters.iter_mut() {
+            if let Some(v) = fit.x_opt.get(&format!("effects[{k}].{name}")) {
+                b.start = v.clamp(b.lower, b.upper);
+            }
+        }
+    }
+    job
+}

@@ -1,0 +1,111 @@
+//! `fmucal diagnose JOB.toml`: calibrates the job, finds where the model and the measurements
+//! disagree, screens the candidate effects the job's `[diagnose]` section allows, fits the most
+//! promising ones concurrently on the workers, names the one that passes all three tests of
+//! [`fmucal_shared::diagnose::decision`] (or none), and writes to `--out` (default
+//! `diagnosis/`): `report.json`, `job.toml` (the job with the named effects added, ready for
+//! `fmucal calibrate`) and the residual plots. Locally (an in-process coordinator and worker
+//! processes, as `calibrate` runs) or on `--coordinator URL`.
+//!
+//! - [`checks`]: everything checked before any model code runs;
+//! - [`driver`]: the rounds of calibrate → localise → screen → fit → decide, over the protocol;
+//! - [`look`]: the local simulations of the driver (residuals, signals, evidence);
+//! - [`probe`]: the load scale of a port that does not give one;
+//! - [`plots`]: residual plots before and after, and against the most correlated signal.
+
+mod checks;
+mod driver;
+mod look;
+mod plots;
+mod probe;
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use anyhow::{Context as _, Result};
+use fmucal_shared::fmu::Fmu;
+use fmucal_shared::job::{JobSpec, MeasurementTable};
+
+use super::client::Client;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The job file (TOML), with an optional [diagnose] section.
+    job: PathBuf,
+    /// Worker processes for a local run. Default: the job's [workers] count, else the number of cores.
+    #[arg(long)]
+    workers: Option<usize>,
+    /// Output folder for report.json, job.toml and the plots.
+    #[arg(long, default_value = "diagnosis")]
+    out: PathBuf,
+    /// Candidates fitted after screening (overrides [diagnose] top).
+    #[arg(long)]
+    top: Option<usize>,
+    /// Run on a running coordinator instead of starting one.
+    #[arg(long)]
+    coordinator: Option<String>,
+    /// Token file for --coordinator (else FMUCAL_TOKEN).
+    #[arg(long)]
+    token_file: Option<PathBuf>,
+}
+
+/// What every step of the driver shares.
+pub(crate) struct Context {
+    pub fmu: Arc<Fmu>,
+    pub data: Arc<MeasurementTable>,
+    pub model: PathBuf,
+    pub settings: fmucal_shared::diagnose::spec::DiagnoseSpec,
+    pub windows: fmucal_shared::diagnose::report::Windows,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let mut spec = JobSpec::from_toml_file(&args.job)?;
+    spec.validate()?;
+    let original = spec.clone();
+    let mut settings = spec.diagnose.take().unwrap_or_default();
+    if let Some(top) = args.top {
+        settings.top = top;
+        settings.validate()?;
+    }
+    let model = super::calibrate::model_path(&spec)?;
+    spec.model.path = Some(model.clone());
+    let data_path = spec.data.path.clone().context("the job's [data] needs a path for the CLI")?;
+    let data = MeasurementTable::read(&data_path, &spec.data.time_column)?;
+    let windows = checks::windows(&mut spec, &data, &settings)?;
+    let fmu = Arc::new(Fmu::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
+    checks::job_and_candidates(&spec, &settings, &fmu, &data)?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+
+    let threads = args
+        .workers
+        .or(spec.workers.count)
+        .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1))
+        .max(1);
+    let ctx = Context { fmu, data: Arc::new(data), model, settings, windows };
+    let rt = tokio::runtime::Runtime::new()?;
+    let outcome = rt.block_on(async {
+        match &args.coordinator {
+            Some(url) => {
+                let token = super::token::load(args.token_file.as_deref())?;
+                let client = Client::connect(url, token.as_deref()).await?;
+                driver::diagnose(client, &ctx, spec).await
+            }
+            None => {
+                super::local_cluster::run(threads, async |client: Client| driver::diagnose(client, &ctx, spec).await)
+                    .await
+            }
+        }
+    })?;
+
+    let report = &outcome.diagnosis;
+    let json = serde_json::to_string_pretty(report)?;
+    std::fs::write(args.out.join("report.json"), json + "\n")?;
+    let mut kept = original;
+    kept.effects.extend(report.named.iter().map(|n| n.effect.clone()));
+    let toml = toml::to_string(&kept).context("cannot write the job with the effect")?;
+    let header = "# Written by `fmucal diagnose`: the job with the effects it named added.\n";
+    std::fs::write(args.out.join("job.toml"), format!("{header}{toml}"))?;
+    plots::draw(&args.out, &outcome)?;
+    print!("{}", report.summary());
+    eprintln!("wrote {} and {}", args.out.join("report.json").display(), args.out.join("job.toml").display());
+    Ok(())
+}
