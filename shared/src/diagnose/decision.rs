@@ -1,8 +1,11 @@
 //! The decision (step 5 of a diagnosis): which fitted candidate, if any, is named.
 //!
 //! A candidate is accepted only if all three hold:
-//! 1. **It wins on data the fit did not see**: the RMS error on the validation window (or the
-//!    held-out end of the calibration window) falls by at least `min_validation_gain`.
+//! 1. **It wins on data the fit did not see**: on the validation window (or the held-out end
+//!    of the calibration window) the likelihood ratio n_v·ln(SSR_v₀/SSR_v₁), with n_v the
+//!    effective samples of the base model's residual there, exceeds the χ²_q quantile at the
+//!    rule's confidence (the drop is more than chance would give an effect with q strength
+//!    parameters), and the RMS error falls by at least `min_validation_gain`.
 //! 2. **Its information criterion improves** with the sample size corrected for the residual's
 //!    autocorrelation: ΔIC = n_eff·ln(SSR₁/SSR₀) + q·ln(n_eff) < 0, with n_eff from the base
 //!    fit's residual (a smooth, model-error residual has far fewer independent samples than
@@ -55,6 +58,9 @@ pub struct Baseline {
     pub n_eff: f64,
     #[serde(with = "crate::optim::serde_float")]
     pub validation_rms: f64,
+    /// Effective samples of the base residual on the validation window.
+    #[serde(with = "crate::optim::serde_float")]
+    pub validation_n_eff: f64,
 }
 
 /// The settings of the rule.
@@ -70,6 +76,11 @@ pub struct Verdict {
     /// Relative fall of the validation RMS (negative: it rose).
     #[serde(with = "crate::optim::serde_float")]
     pub validation_gain: f64,
+    /// n_v·ln(SSR_v₀/SSR_v₁) and the χ²_q quantile it must exceed.
+    #[serde(with = "crate::optim::serde_float")]
+    pub validation_statistic: f64,
+    #[serde(with = "crate::optim::serde_float")]
+    pub validation_threshold: f64,
     #[serde(with = "crate::optim::serde_float")]
     pub delta_ic: f64,
     /// Per parameter: the half-width z·SE·√(m/n_eff) of its confidence interval.
@@ -111,6 +122,9 @@ pub fn judge(base: &Baseline, fit: &Evidence, rule: &Rule) -> Verdict {
         f64::NAN
     };
     let validation_gain = (base.validation_rms - fit.validation_rms) / base.validation_rms;
+    let strengths = fit.parameters.iter().filter(|p| p.strength).count().max(1) as f64;
+    let validation_statistic = base.validation_n_eff.max(1.0) * 2.0 * (base.validation_rms / fit.validation_rms).ln();
+    let validation_threshold = chi_squared_quantile(rule.confidence, strengths);
     let z = normal_quantile(0.5 + rule.confidence / 2.0);
     let inflation = (fit.residuals as f64 / fit.n_eff.max(1.0)).max(1.0).sqrt();
     let half_widths: Vec<f64> = fit.parameters.iter().map(|p| z * p.standard_error * inflation).collect();
@@ -123,9 +137,11 @@ pub fn judge(base: &Baseline, fit: &Evidence, rule: &Rule) -> Verdict {
         && fit.parameters.iter().any(|p| p.strength);
     Verdict {
         validation_gain,
+        validation_statistic,
+        validation_threshold,
         delta_ic,
         half_widths,
-        wins_on_validation: validation_gain >= rule.min_validation_gain,
+        wins_on_validation: validation_statistic > validation_threshold && validation_gain >= rule.min_validation_gain,
         improves_ic: delta_ic < 0.0,
         intervals_exclude_neutral,
     }
@@ -139,6 +155,22 @@ pub fn choose(verdicts: &[Option<Verdict>]) -> Option<usize> {
         .filter_map(|(k, v)| v.as_ref().filter(|v| v.accepted()).map(|v| (k, v.delta_ic)))
         .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
         .map(|(k, _)| k)
+}
+
+/// Information-criterion difference within which two accepted candidates are equally
+/// supported by the data (Burnham and Anderson's rule of thumb).
+pub const EQUAL_SUPPORT: f64 = 2.0;
+
+/// The other accepted candidates whose ΔIC is within [`EQUAL_SUPPORT`] of the chosen one's: the
+/// data cannot tell them from it (radiation and convection over a narrow temperature range).
+pub fn equally_supported(verdicts: &[Option<Verdict>], chosen: usize) -> Vec<usize> {
+    let Some(best) = verdicts.get(chosen).and_then(|v| v.as_ref()).map(|v| v.delta_ic) else { return vec![] };
+    verdicts
+        .iter()
+        .enumerate()
+        .filter(|(k, v)| *k != chosen && v.as_ref().is_some_and(|v| v.accepted() && v.delta_ic - best <= EQUAL_SUPPORT))
+        .map(|(k, _)| k)
+        .collect()
 }
 
 /// Effective number of independent samples of a residual made of `series` (one per output, on
@@ -160,6 +192,14 @@ pub fn effective_samples(series: &[Vec<f64>]) -> f64 {
             (n * (1.0 - rho) / (1.0 + rho)).clamp(1.0, n)
         })
         .sum()
+}
+
+/// The χ² quantile with `k` degrees of freedom at probability `p` (Wilson–Hilferty: within
+/// about 1 % of the exact value for k ≥ 1 at p in [0.9, 0.999]).
+pub fn chi_squared_quantile(p: f64, k: f64) -> f64 {
+    let z = normal_quantile(p);
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + z * a.sqrt()).powi(3)
 }
 
 /// The standard normal quantile Φ⁻¹(p) for p in (0, 1) (Acklam's rational approximation,
@@ -218,6 +258,17 @@ mod tests {
     }
 
     #[test]
+    fn chi_squared_quantiles_are_close_to_the_tables() {
+        for (p, k, x) in [(0.95, 1.0, 3.841), (0.95, 2.0, 5.991), (0.95, 3.0, 7.815), (0.99, 1.0, 6.635)] {
+            let q = chi_squared_quantile(p, k);
+            assert!((q - x).abs() < 0.02 * x, "χ²({k}) at {p}: {q} vs {x}");
+            // And the survival function of the residual module inverts it.
+            let back = super::super::residuals::chi_squared_survival(q, k);
+            assert!((back - (1.0 - p)).abs() < 0.003, "{back}");
+        }
+    }
+
+    #[test]
     fn white_noise_keeps_its_samples_and_a_smooth_residual_loses_most() {
         // A deterministic white-ish sequence (a linear congruential generator) and a sine.
         let mut s = 12345u64;
@@ -251,12 +302,18 @@ mod tests {
 
     #[test]
     fn each_of_the_three_tests_can_turn_a_candidate_down() {
-        let base = Baseline { ssr: 10.0, n_eff: 100.0, validation_rms: 1.0 };
+        let base = Baseline { ssr: 10.0, n_eff: 100.0, validation_rms: 1.0, validation_n_eff: 500.0 };
         let rule = Rule { min_validation_gain: 0.05, confidence: 0.95 };
         let good = judge(&base, &evidence(2.0, 0.5, 0.01, 0.001), &rule);
         assert!(good.accepted(), "{good:?}");
-        let no_validation = judge(&base, &evidence(2.0, 0.97, 0.01, 0.001), &rule);
+        // A 0.3 % drop over 500 effective held-out samples is within chance (statistic 3.0).
+        let no_validation = judge(&base, &evidence(2.0, 0.997, 0.01, 0.001), &rule);
         assert_eq!(no_validation.reasons(), ["does not win on held-out data"]);
+        // A 3 % drop is not (statistic 30), but falls short of a 5 % minimum gain.
+        assert!(
+            judge(&base, &evidence(2.0, 0.97, 0.01, 0.001), &Rule { min_validation_gain: 0.01, ..rule }).accepted()
+        );
+        assert!(!judge(&base, &evidence(2.0, 0.97, 0.01, 0.001), &rule).wins_on_validation);
         // A 1 % drop of SSR over 100 effective samples does not pay for one parameter (ln 100).
         let no_ic = judge(&base, &evidence(9.9, 0.5, 0.01, 0.001), &rule);
         assert_eq!(no_ic.reasons(), ["information criterion does not improve"]);
@@ -264,11 +321,16 @@ mod tests {
         assert_eq!(wide.reasons(), ["confidence interval includes no effect"]);
         assert_eq!(choose(&[Some(no_ic), None, Some(good.clone()), Some(wide)]), Some(2));
         assert_eq!(choose(&[None]), None);
+        let mut close = good.clone();
+        close.delta_ic += 1.5;
+        let mut far = good.clone();
+        far.delta_ic += 2.5;
+        assert_eq!(equally_supported(&[Some(far), Some(good), None, Some(close)], 1), [3]);
     }
 
     #[test]
     fn a_correlated_residual_widens_the_interval() {
-        let base = Baseline { ssr: 10.0, n_eff: 100.0, validation_rms: 1.0 };
+        let base = Baseline { ssr: 10.0, n_eff: 100.0, validation_rms: 1.0, validation_n_eff: 500.0 };
         let rule = Rule { min_validation_gain: 0.05, confidence: 0.95 };
         let mut e = evidence(2.0, 0.5, 0.01, 0.001);
         assert!(judge(&base, &e, &rule).accepted());

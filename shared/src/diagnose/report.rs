@@ -59,6 +59,9 @@ pub struct Round {
     pub candidates: Vec<RankedCandidate>,
     /// Index into `candidates` of the one named, if any.
     pub chosen: Option<usize>,
+    /// Other accepted candidates the data supports as well as the chosen one (ΔIC within 2).
+    #[serde(default)]
+    pub equally_supported: Vec<usize>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -123,11 +126,12 @@ impl Diagnosis {
             if w.holdout { " (held out of the job's window)" } else { "" }
         );
         for (k, round) in self.rounds.iter().enumerate() {
+            let fitted = round.candidates.iter().filter(|c| c.fit.is_some()).count();
             let _ = writeln!(
                 s,
-                "round {}: candidates ranked by screening, top {} fitted",
+                "round {}: {} candidates screened; the {fitted} the screening predicts to help were fitted:",
                 k + 1,
-                round.candidates.iter().filter(|c| c.fit.is_some()).count()
+                round.candidates.len()
             );
             for (rank, c) in round.candidates.iter().enumerate().filter(|(_, c)| c.fit.is_some()) {
                 let fit = c.fit.as_ref().expect("filtered");
@@ -144,6 +148,13 @@ impl Diagnosis {
                     .unwrap_or_default();
                 let mark = if round.chosen == Some(rank) { "*" } else { " " };
                 let _ = writeln!(s, " {mark}{:>2}. {:<62} {stats:<32} {verdict}", rank + 1, c.description);
+            }
+        }
+        for round in &self.rounds {
+            if !round.equally_supported.is_empty() {
+                let names: Vec<&str> =
+                    round.equally_supported.iter().map(|k| round.candidates[*k].description.as_str()).collect();
+                let _ = writeln!(s, "the data supports these as well (ΔIC within 2): {}", names.join("; "));
             }
         }
         if self.named.is_empty() {

@@ -10,7 +10,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, Result};
 use fmucal_shared::diagnose::candidates::{Candidate, Screening, Sizes, generate, ranking};
-use fmucal_shared::diagnose::decision::{Baseline, Evidence, ParameterEvidence, Rule, choose, judge};
+use fmucal_shared::diagnose::decision::{
+    Baseline, Evidence, ParameterEvidence, Rule, choose, equally_supported, judge,
+};
 use fmucal_shared::diagnose::guess::SignalStats;
 use fmucal_shared::diagnose::localise::localise;
 use fmucal_shared::diagnose::report::{
@@ -60,7 +62,12 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         let prepared = Arc::new(prepare(ctx, &base)?);
         let x_base = result.x_opt_in(&prepared.parameter_names);
         let before = look(ctx, &prepared, &x_base)?;
-        let baseline = Baseline { ssr: result.f_opt, n_eff: before.n_eff, validation_rms: before.rms.validation };
+        let baseline = Baseline {
+            ssr: result.f_opt,
+            n_eff: before.n_eff,
+            validation_rms: before.rms.validation,
+            validation_n_eff: before.validation_n_eff,
+        };
 
         // Localise: the residual against every signal the diagnosis may read.
         let mut names: Vec<String> =
@@ -134,7 +141,13 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
                 candidate_job(&base, from, &prepared.parameter_names, &narrowed, effect_start, ctx.settings.fix_base);
             // A candidate that does not help can leave the optimizer wandering on a flat
             // objective: bound its work by the base fit's.
-            job.optimizer.max_fevals = job.optimizer.max_fevals.or(Some((20 * result.evaluations).max(2000)));
+            job.optimizer.max_fevals = job.optimizer.max_fevals.or(Some((5 * result.evaluations).max(500)));
+            // The K fits running side by side keep the workers busy: each Nelder–Mead fit asks
+            // for the one point it needs next rather than its four trial points at once,
+            // which takes as many iterations and fewer simulations.
+            if top.len() > 1 {
+                job.optimizer.parallel = false;
+            }
             let (mut client, data, model, fmu) = (client.clone(), ctx.data.clone(), ctx.model.clone(), ctx.fmu.clone());
             tasks.spawn(async move {
                 let t = Instant::now();
@@ -166,6 +179,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         }
         let verdicts: Vec<Option<_>> = order.iter().map(|c| fits.get(c).and_then(|f| f.0.verdict.clone())).collect();
         let chosen = choose(&verdicts);
+        let equally = chosen.map(|c| equally_supported(&verdicts, c)).unwrap_or_default();
         let ranked: Vec<RankedCandidate> = order
             .iter()
             .map(|&c| RankedCandidate {
@@ -182,6 +196,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             port_scales: scales,
             candidates: ranked,
             chosen,
+            equally_supported: equally,
         });
         if first_look.is_none() {
             first_look = Some(before);
@@ -217,6 +232,7 @@ fn clone_look(l: &Look) -> Look {
         time: l.time.clone(),
         residuals: l.residuals.clone(),
         n_eff: l.n_eff,
+        validation_n_eff: l.validation_n_eff,
         rms: l.rms,
     }
 }

@@ -22,8 +22,9 @@ pub struct Look {
     /// the measurement is missing or the simulation failed).
     pub time: Vec<f64>,
     pub residuals: Vec<(String, Vec<f64>)>,
-    /// Effective samples of those residuals.
+    /// Effective samples of those residuals, and of the residuals on the validation window.
     pub n_eff: f64,
+    pub validation_n_eff: f64,
     /// Weighted RMS of the optimized model on both windows.
     pub rms: RmsPair,
 }
@@ -43,11 +44,24 @@ pub fn look(ctx: &Context, job: &Arc<PreparedJob>, x: &[f64]) -> Result<Look> {
         })
         .collect();
     let series: Vec<Vec<f64>> = residuals.iter().map(|(_, r)| r.clone()).collect();
+    let validation: Vec<Vec<f64>> = fit
+        .outputs
+        .iter()
+        .map(|o| (rows..fit.time.len()).map(|i| o.optimized[i].map_or(f64::NAN, |s| s - o.measured[i])).collect())
+        .collect();
     let rms = RmsPair {
         calibration: errors.calibration.rms_optimized,
         validation: errors.validation.as_ref().map_or(f64::NAN, |v| v.rms_optimized),
     };
-    Ok(Look { n_eff: effective_samples(&series), fit, errors, time, residuals, rms })
+    Ok(Look {
+        n_eff: effective_samples(&series),
+        validation_n_eff: effective_samples(&validation),
+        fit,
+        errors,
+        time,
+        residuals,
+        rms,
+    })
 }
 
 /// The values of the variables `names` on the calibration window's measurement times, for the

@@ -1,12 +1,13 @@
 //! The load scale of each port that does not give one: the constant load on the port that
 //! moves the outputs about as much as the residual is large. One job that evaluates points
-//! adds a `constant_load` effect on every such port and tries a load on each alone; the
+//! adds a `constant_load` (mechanical) or `heat_loss` (thermal) effect on every such port and tries a load on each alone; the
 //! response is linear in a small load, so a load that was too small or too large is rescaled
 //! and tried again, at most a few times.
 
 use std::collections::BTreeMap;
 
 use anyhow::{Result, bail};
+use fmucal_shared::diagnose::spec::PortDomain;
 use fmucal_shared::job::JobSpec;
 use fmucal_shared::job::spec::{Bounds, EffectSpec};
 
@@ -33,28 +34,32 @@ pub async fn port_scales(
 ) -> Result<BTreeMap<String, f64>> {
     let mut scales: BTreeMap<String, f64> =
         ctx.settings.ports.iter().filter_map(|p| p.scale.map(|s| (p.port.clone(), s))).collect();
-    let probed: Vec<(usize, &str, &str)> = ctx
+    let probed: Vec<(usize, &str, &str, PortDomain)> = ctx
         .settings
         .ports
         .iter()
         .enumerate()
         .filter(|(_, p)| p.scale.is_none())
-        .filter_map(|(k, p)| p.signals().next().map(|(_, s)| (k, p.port.as_str(), s)))
+        .filter_map(|(k, p)| p.signals().next().map(|(_, s)| (k, p.port.as_str(), s, p.domain)))
         .collect();
     if probed.is_empty() {
         return Ok(scales);
     }
     let mut job = base.clone();
     job.diagnose = None;
-    for (_, port, signal) in &probed {
+    for (_, port, signal, domain) in &probed {
         let load = Bounds { start: 0.0, lower: -1e30, upper: 1e30 };
+        let (kind, parameter) = match domain {
+            PortDomain::Mechanical => ("constant_load", "load"),
+            PortDomain::Thermal => ("heat_loss", "q"),
+        };
         job.effects.push(EffectSpec {
-            kind: "constant_load".into(),
+            kind: kind.into(),
             port: Some((*port).to_owned()),
             signal: Some((*signal).to_owned()),
             output: None,
             input: None,
-            parameters: [("load".to_owned(), load)].into(),
+            parameters: [(parameter.to_owned(), load)].into(),
         });
     }
     let n = x_base.len();
@@ -100,7 +105,7 @@ pub async fn port_scales(
             return Ok(scales);
         }
     }
-    let (k, port, _) = probed[done.iter().position(|d| !d).expect("one is not done")];
+    let (k, port, _, _) = probed[done.iter().position(|d| !d).expect("one is not done")];
     bail!(
         "diagnose.ports[{k}].scale: a constant load on {port:?} could not be sized to the residual; give the typical size of what the port adds"
     )

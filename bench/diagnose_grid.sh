@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# The full discrepancy-discovery grid of issue 10 (tests/diagnosis_grid.rs, `full_grid`): every
+# hidden effect and the null set × noise 0.5, 1 and 2 % of each output's range × input profiles,
+# plus each effect at 10 % noise. Each case writes seeded noisy data from a fixture FMU whose C
+# code holds the effect, runs `fmucal diagnose --workers 2` with the base FMU, and reads its
+# report. Prints one table row per case and the targets. Set DIAGNOSIS_GRID_DIR to keep the
+# cases' folders (data, job, diagnosis/).
+#   bash bench/diagnose_grid.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+if ! cargo test --release --locked --test diagnosis_grid -- --ignored --nocapture --test-threads 1 full_grid >"$log" 2>&1; then
+  tail -n 40 "$log"
+  exit 1
+fi
+grep -E '^(\||true effect|no effect found on|validation RMS above|at 10 %)' "$log"

@@ -1,0 +1,140 @@
+//! `fmucal diagnose` through the real binary, on the example in `examples/diagnose/` (Furuta
+//! bench data with a Coulomb friction the model lacks): the same effect, with the same values,
+//! locally and on a separately started coordinator with another number of workers; the outputs
+//! it writes; and bad `[diagnose]` sections refused in one line naming the field before any
+//! model code runs.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+use fmucal_shared::diagnose::report::Diagnosis;
+
+fn example_job() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/job.toml")
+}
+
+fn fmucal(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(args)
+        .current_dir(dir)
+        .env("FMUCAL_CACHE_DIR", dir.join("cache"))
+        .env("FMUCAL_TOKEN", "cli-test-token")
+        .output()
+        .unwrap()
+}
+
+fn report(dir: &Path) -> Diagnosis {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn a_coordinator_and_a_local_run_name_the_same_effect_with_the_same_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = example_job();
+    let local = fmucal(&["diagnose", job.to_str().unwrap(), "--workers", "1", "--out", "local"], dir.path());
+    assert!(local.status.success(), "{}", String::from_utf8_lossy(&local.stderr));
+    let stdout = String::from_utf8_lossy(&local.stdout);
+    assert!(
+        stdout.contains("found: coulomb_friction on pendulumJoint.w through pendulumJoint.tauExt, force 0.00"),
+        "{stdout}"
+    );
+
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let url = format!("http://127.0.0.1:{port}");
+    let spawn = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_fmucal"))
+            .args(args)
+            .env("FMUCAL_TOKEN", "cli-test-token")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    let data_dir = dir.path().join("coord");
+    let mut coord =
+        spawn(&["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir", data_dir.to_str().unwrap()]);
+    let w = dir.path().join("w");
+    let mut worker = spawn(&["worker", "--coordinator", &url, "--slots", "3", "--cache-dir", w.to_str().unwrap()]);
+    let remote = fmucal(&["diagnose", job.to_str().unwrap(), "--coordinator", &url, "--out", "remote"], dir.path());
+    for child in [&mut worker, &mut coord] {
+        let _ = Command::new("kill").args(["-TERM", &child.id().to_string()]).status();
+        child.wait().unwrap();
+    }
+    assert!(remote.status.success(), "{}", String::from_utf8_lossy(&remote.stderr));
+
+    let (a, b) = (report(&dir.path().join("local")), report(&dir.path().join("remote")));
+    assert_eq!(a.named, b.named);
+    assert_eq!(a.named.len(), 1);
+    let (ra, rb) = (&a.rounds[0], &b.rounds[0]);
+    assert_eq!(ra.chosen, rb.chosen);
+    let fitted = |r: &fmucal_shared::diagnose::report::Round| {
+        r.candidates
+            .iter()
+            .filter_map(|c| c.fit.as_ref().map(|f| (c.description.clone(), f.x_opt.clone())))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(fitted(ra), fitted(rb), "every candidate's fit is the same for 1 and 3 workers");
+    // The true friction is 0.004 N·m; the named value is within its interval.
+    let force = a.named[0].effect.parameters["force"].start;
+    assert!((force - 0.004).abs() < 1e-4, "{force}");
+    // The job it writes calibrates with the effect.
+    let kept = std::fs::read_to_string(dir.path().join("local/job.toml")).unwrap();
+    assert!(kept.contains("[[effects]]") && kept.contains("coulomb_friction"), "{kept}");
+    let spec = fmucal_shared::job::JobSpec::from_toml(&kept, dir.path()).unwrap();
+    spec.validate().unwrap();
+    for name in ["residuals", "correlation"] {
+        let png = std::fs::read(dir.path().join(format!("local/{name}.png"))).unwrap();
+        assert!(png.starts_with(b"\x89PNG\r\n\x1a\n") && png.len() > 1000, "{name}.png is not a PNG");
+        let svg = std::fs::read_to_string(dir.path().join(format!("local/{name}.svg"))).unwrap();
+        assert!(svg.contains("<svg") && svg.contains("</svg>"), "{name}.svg");
+    }
+}
+
+#[test]
+fn bad_diagnose_sections_are_one_line_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(example_job()).unwrap();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/data.csv");
+    let text = text.replace("path = \"data.csv\"", &format!("path = \"{}\"", data.display()));
+    // The Furuta description edited to say pendulumJoint.phi depends directly on the pendulum's
+    // torque input (variable 13): an effect on that port reading that angle is a loop.
+    let looped = common::with_xml("furuta", dir.path(), "looped.fmu", |x| {
+        x.replace(
+            "<Unknown index=\"3\"/>\n    </Outputs>",
+            "<Unknown index=\"3\" dependencies=\"13\"/>\n    </Outputs>",
+        )
+    });
+    let cases = [
+        (
+            "port = \"armJoint.tauExt\"",
+            "port = \"armFriction\"",
+            "diagnose.ports[0].velocities[0]: port \"armFriction\" is not a continuous Real input",
+        ),
+        (
+            "velocities = [\"armJoint.w\"]",
+            "velocities = [\"armJoint.v\"]",
+            "diagnose.ports[0].velocities[0]: signal \"armJoint.v\" is not a variable",
+        ),
+        (
+            "domain = \"mechanical\"\nvelocities = [\"armJoint.w\"]\npositions = [\"armJoint.phi\"]",
+            "domain = \"thermal\"\ntemperatures = [\"armJoint.w\"]",
+            "is in N.m (mechanical); convection is a thermal effect",
+        ),
+        ("top = 8", "top = 0", "diagnose.top: must be at least 1"),
+        ("top = 8", "topp = 8", "unknown field `topp`"),
+        ("top = 8", "top = 8\nsignals = [\"nope\"]", "diagnose.signals[0]: \"nope\" is not a variable of the model"),
+        ("path = \"example:furuta\"", &format!("path = \"{}\"", looped.display()), "would make an algebraic loop"),
+    ];
+    for (from, to, want) in cases {
+        assert!(text.contains(from), "{from:?}");
+        std::fs::write(dir.path().join("bad.toml"), text.replacen(from, to, 1)).unwrap();
+        let out = fmucal(&["diagnose", "bad.toml", "--workers", "1"], dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{want}: {err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains(want), "{want:?} not in {err:?}");
+        assert!(!dir.path().join("diagnosis").exists(), "nothing is written for a bad job");
+    }
+}
