@@ -5,7 +5,7 @@
 mod common;
 
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Command;
 
 fn write_job(dir: &Path, extra: &str) -> std::path::PathBuf {
     let cache = dir.join("cache");
@@ -96,33 +96,15 @@ fn coordinator_url_gives_the_same_result() {
     let job = write_job(dir.path(), "");
     let local = fmucal(&["calibrate", job.to_str().unwrap(), "--workers", "1", "--out", "local"], dir.path());
     assert!(local.status.success());
-    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
-    let url = format!("http://127.0.0.1:{port}");
-    let spawn = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_fmucal"))
-            .args(args)
-            .env("FMUCAL_TOKEN", "cli-test-token")
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap()
-    };
-    let data_dir = dir.path().join("coord");
-    let mut coord =
-        spawn(&["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir", data_dir.to_str().unwrap()]);
-    let mut worker = spawn(&["worker", "--coordinator", &url, "--cache-dir", dir.path().join("w").to_str().unwrap()]);
+    let servers = common::Servers::start(dir.path(), 1);
     let out = Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(["calibrate", job.to_str().unwrap(), "--coordinator", &url, "--out", "remote"])
+        .args(["calibrate", job.to_str().unwrap(), "--coordinator", &servers.url, "--out", "remote"])
         .current_dir(dir.path())
         .env("FMUCAL_TOKEN", "cli-test-token")
         .output()
         .unwrap();
     // SIGTERM both servers: they shut down cleanly.
-    for child in [&mut worker, &mut coord] {
-        let _ = Command::new("kill").args(["-TERM", &child.id().to_string()]).status();
-        let status = child.wait().unwrap();
-        assert!(status.success(), "a server did not exit cleanly on SIGTERM: {status}");
-    }
+    assert!(servers.stop(), "a server did not exit cleanly on SIGTERM");
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert_eq!(result(&dir.path().join("local"))["x_opt"], result(&dir.path().join("remote"))["x_opt"]);
 }

@@ -7,7 +7,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Output};
 
 use fmucal_shared::diagnose::report::Diagnosis;
 
@@ -41,27 +41,10 @@ fn a_coordinator_and_a_local_run_name_the_same_effect_with_the_same_values() {
         "{stdout}"
     );
 
-    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
-    let url = format!("http://127.0.0.1:{port}");
-    let spawn = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_fmucal"))
-            .args(args)
-            .env("FMUCAL_TOKEN", "cli-test-token")
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap()
-    };
-    let data_dir = dir.path().join("coord");
-    let mut coord =
-        spawn(&["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir", data_dir.to_str().unwrap()]);
-    let w = dir.path().join("w");
-    let mut worker = spawn(&["worker", "--coordinator", &url, "--slots", "3", "--cache-dir", w.to_str().unwrap()]);
-    let remote = fmucal(&["diagnose", job.to_str().unwrap(), "--coordinator", &url, "--out", "remote"], dir.path());
-    for child in [&mut worker, &mut coord] {
-        let _ = Command::new("kill").args(["-TERM", &child.id().to_string()]).status();
-        child.wait().unwrap();
-    }
+    let servers = common::Servers::start(dir.path(), 3);
+    let remote =
+        fmucal(&["diagnose", job.to_str().unwrap(), "--coordinator", &servers.url, "--out", "remote"], dir.path());
+    servers.stop();
     assert!(remote.status.success(), "{}", String::from_utf8_lossy(&remote.stderr));
 
     let (a, b) = (report(&dir.path().join("local")), report(&dir.path().join("remote")));

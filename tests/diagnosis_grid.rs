@@ -515,6 +515,8 @@ fn full_grid() {
                 "yes"
             } else if tied {
                 "tied"
+            } else if got.is_none() {
+                "abstained"
             } else {
                 "NO"
             },

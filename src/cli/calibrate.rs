@@ -55,11 +55,7 @@ pub fn run(args: Args) -> Result<()> {
     fmucal_shared::job::optimizer::build(&spec)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
 
-    let threads = args
-        .workers
-        .or(spec.workers.count)
-        .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1))
-        .max(1);
+    let threads = super::local_cluster::worker_count(args.workers, &spec);
     let rt = tokio::runtime::Runtime::new()?;
     let (mut result, identified) = rt.block_on(async {
         match &args.coordinator {

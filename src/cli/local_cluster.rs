@@ -10,6 +10,14 @@ use anyhow::{Context, Result, bail};
 
 use super::client::Client;
 
+/// Worker processes of a local run: `--workers`, else the job's `[workers] count`, else the
+/// number of cores; at least 1.
+pub fn worker_count(flag: Option<usize>, spec: &fmucal_shared::job::JobSpec) -> usize {
+    flag.or(spec.workers.count)
+        .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1))
+        .max(1)
+}
+
 /// Starts the coordinator and `workers` worker processes, runs `work` on a client connected to
 /// them while supervising the workers, then stops them all and returns the work's result.
 pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>) -> Result<T> {

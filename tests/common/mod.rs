@@ -143,3 +143,50 @@ pub fn job_toml(
     }
     text + tables
 }
+
+/// A coordinator (`fmucal coordinator` on a free 127.0.0.1 port, state in `dir/coord`) and one
+/// worker process with `slots` slots, both with the token `cli-test-token`; [`Servers::stop`]
+/// sends them SIGTERM and returns whether both exited cleanly.
+#[allow(dead_code)]
+pub struct Servers {
+    pub url: String,
+    children: Vec<std::process::Child>,
+}
+
+#[allow(dead_code)]
+impl Servers {
+    pub fn start(dir: &Path, slots: usize) -> Servers {
+        let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+        let url = format!("http://127.0.0.1:{port}");
+        let spawn = |args: &[&str]| {
+            std::process::Command::new(env!("CARGO_BIN_EXE_fmucal"))
+                .args(args)
+                .env("FMUCAL_TOKEN", "cli-test-token")
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::null())
+                .spawn()
+                .unwrap()
+        };
+        let data_dir = dir.join("coord");
+        let coord =
+            spawn(&["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir", data_dir.to_str().unwrap()]);
+        let cache = dir.join("worker-cache");
+        let worker = spawn(&[
+            "worker",
+            "--coordinator",
+            &url,
+            "--slots",
+            &slots.to_string(),
+            "--cache-dir",
+            cache.to_str().unwrap(),
+        ]);
+        Servers { url, children: vec![worker, coord] }
+    }
+
+    pub fn stop(mut self) -> bool {
+        self.children.iter_mut().all(|child| {
+            let _ = std::process::Command::new("kill").args(["-TERM", &child.id().to_string()]).status();
+            child.wait().unwrap().success()
+        })
+    }
+}

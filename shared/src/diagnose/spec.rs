@@ -8,7 +8,7 @@
 //! fix_base = false             # true: candidates fit only their own parameters
 //! holdout = 0.25               # without [simulation] validation_stop_time: the last quarter
 //!                              # of the window is held out of every fit and used to decide
-//! min_validation_gain = 0.01   # an effect must cut the held-out RMS by at least 1 %, and by
+//! min_validation_gain = 0.02   # an effect must cut the held-out RMS by at least 2 %, and by
 //!                              # more than chance (see crate::diagnose::decision)
 //! confidence = 0.95            # of that test and of the parameters' intervals, which must
 //!                              # exclude "no effect"
@@ -67,7 +67,7 @@ fn default_top() -> usize {
     8
 }
 fn default_min_gain() -> f64 {
-    0.01
+    0.02
 }
 fn default_confidence() -> f64 {
     0.95
@@ -203,7 +203,7 @@ mod tests {
     fn an_empty_section_gets_the_documented_defaults() {
         let s = spec("").unwrap();
         assert_eq!((s.top, s.fix_base, s.holdout, s.windows, s.rounds, s.series), (8, false, None, 10, 1, true));
-        assert_eq!((s.min_validation_gain, s.confidence), (0.01, 0.95));
+        assert_eq!((s.min_validation_gain, s.confidence), (0.02, 0.95));
     }
 
     #[test]

@@ -75,11 +75,7 @@ pub fn run(args: Args) -> Result<()> {
     checks::job_and_candidates(&spec, &settings, &fmu, &data)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
 
-    let threads = args
-        .workers
-        .or(spec.workers.count)
-        .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1))
-        .max(1);
+    let threads = super::local_cluster::worker_count(args.workers, &spec);
     let ctx = Context { fmu, data: Arc::new(data), model, settings, windows };
     let rt = tokio::runtime::Runtime::new()?;
     let outcome = rt.block_on(async {
