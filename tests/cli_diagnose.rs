@@ -120,4 +120,34 @@ fn bad_diagnose_sections_are_one_line_naming_the_field() {
         assert!(err.contains(want), "{want:?} not in {err:?}");
         assert!(!dir.path().join("diagnosis").exists(), "nothing is written for a bad job");
     }
+    // The job.toml a diagnosis writes may not replace the job it reads.
+    std::fs::create_dir_all(dir.path().join("d")).unwrap();
+    std::fs::write(dir.path().join("d/job.toml"), &text).unwrap();
+    let before = std::fs::read_to_string(dir.path().join("d/job.toml")).unwrap();
+    let out = fmucal(&["diagnose", "d/job.toml", "--workers", "1", "--out", "d"], dir.path());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("--out d: its job.toml would overwrite the job file"), "{err}");
+    assert_eq!(std::fs::read_to_string(dir.path().join("d/job.toml")).unwrap(), before);
+}
+
+#[test]
+fn a_second_round_adds_nothing_once_the_coulomb_friction_is_in_the_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/data.csv");
+    let text = std::fs::read_to_string(example_job())
+        .unwrap()
+        .replace("path = \"data.csv\"", &format!("path = \"{}\"", data.display()))
+        .replacen("top = 8", "top = 8\nrounds = 2", 1);
+    std::fs::write(dir.path().join("two.toml"), text).unwrap();
+    let out = fmucal(&["diagnose", "two.toml", "--workers", "2", "--out", "two"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let d = report(&dir.path().join("two"));
+    assert_eq!(d.rounds.len(), 2, "{}", d.summary());
+    assert_eq!(d.named.len(), 1, "{}", d.summary());
+    assert_eq!(d.rounds[1].chosen, None, "{}", d.summary());
+    // Round 2 starts from the model with the friction: its base is already at the noise.
+    assert!(d.rounds[1].baseline.validation_rms < 0.5 * d.rounds[0].baseline.validation_rms, "{}", d.summary());
+    let kept = std::fs::read_to_string(dir.path().join("two/job.toml")).unwrap();
+    assert_eq!(kept.matches("[[effects]]").count(), 1, "{kept}");
 }

@@ -10,9 +10,10 @@
 //! differences. For each candidate the Gauss–Newton model of the residual r ≈ r₀ + J_b·δ_b +
 //! J_e·δ_e predicts the drop D in the sum of squares that adding it allows (beyond what the
 //! base parameters already do), which is the score (Lagrange multiplier) statistic
-//! LM = n_eff·D/SSR; candidates are ranked by the predicted change of the information
-//! criterion, n_eff·ln((SSR − D)/SSR) + q·ln(n_eff), so a candidate with more parameters must
-//! explain more.
+//! LM = n_eff·D/SSR (q strength parameters, q degrees of freedom); candidates are ranked by the
+//! predicted change of the information criterion, n_eff·ln((SSR − D)/SSR) + p·ln(n_eff) with p
+//! all the candidate's parameters (as the decision counts them), so a candidate with more
+//! parameters must explain more.
 
 use std::collections::BTreeMap;
 
@@ -23,6 +24,7 @@ use super::effects::{self, Domain, Found};
 use super::guess::{Guess, Guesses, Scales, SignalRole, SignalStats};
 use super::residuals::chi_squared_survival;
 use super::spec::{DiagnoseSpec, PortDomain};
+use crate::job::identifiability::relative_step;
 use crate::job::spec::{Bounds, EffectSpec, JobSpec};
 
 /// One candidate effect.
@@ -252,9 +254,20 @@ impl Screening {
         } else {
             (0..x_base.len())
                 .map(|i| {
-                    let h = 1e-3 * x_base[i].abs().max(1e-3 * (upper[i] - lower[i]).abs().min(1.0)).max(1e-12);
-                    (i, if x_base[i] + h <= upper[i] { h } else { -h })
+                    let h = relative_step(x_base[i], lower[i], upper[i]);
+                    // Forward, else backward, else as far as the bounds allow.
+                    let h = if x_base[i] + h <= upper[i] {
+                        h
+                    } else if x_base[i] - h >= lower[i] {
+                        -h
+                    } else if upper[i] - x_base[i] >= x_base[i] - lower[i] {
+                        upper[i] - x_base[i]
+                    } else {
+                        lower[i] - x_base[i]
+                    };
+                    (i, h)
                 })
+                .filter(|(_, h)| *h != 0.0)
                 .collect()
         };
         let mut points = vec![x0.clone()];
@@ -336,15 +349,23 @@ impl Screening {
                 out.push(failed());
                 continue;
             }
+            if !ssr.is_finite() {
+                out.push(failed());
+                continue;
+            }
             let d = (drop_all - drop_base).clamp(0.0, ssr);
-            let q = steps.len() as f64;
+            // The score test has one degree of freedom per strength; the information criterion
+            // charges for every parameter the fit will have, as the decision does.
+            let (q, count) = (steps.len() as f64, self.count_of(*offset));
             let score = if ssr > 0.0 { n_eff * d / ssr } else { 0.0 };
+            let penalty = count as f64 * n_eff.max(1.0).ln();
             let ic = if ssr > 0.0 && d < ssr {
-                n_eff * ((ssr - d) / ssr).ln() + q * n_eff.max(1.0).ln()
-            } else {
+                n_eff * ((ssr - d) / ssr).ln() + penalty
+            } else if ssr > 0.0 {
                 f64::NEG_INFINITY
+            } else {
+                penalty // nothing left to explain
             };
-            let count = self.count_of(*offset);
             let mut estimate: Vec<f64> = point[*offset..*offset + count].to_vec();
             for (a, &j) in active.iter().enumerate() {
                 let i = steps[j].0;

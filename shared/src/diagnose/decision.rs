@@ -19,6 +19,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::residuals::chi_squared_survival;
+
 /// The evidence about one fitted candidate.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Evidence {
@@ -194,12 +196,21 @@ pub fn effective_samples(series: &[Vec<f64>]) -> f64 {
         .sum()
 }
 
-/// The χ² quantile with `k` degrees of freedom at probability `p` (Wilson–Hilferty: within
-/// about 1 % of the exact value for k ≥ 1 at p in [0.9, 0.999]).
+/// The χ² quantile with `k` degrees of freedom at probability `p`: the root of
+/// P(χ²ₖ ≥ x) = 1 − p, found by bisection on [`chi_squared_survival`] to 1e-10 relative.
 pub fn chi_squared_quantile(p: f64, k: f64) -> f64 {
-    let z = normal_quantile(p);
-    let a = 2.0 / (9.0 * k);
-    k * (1.0 - a + z * a.sqrt()).powi(3)
+    if !(p > 0.0 && p < 1.0 && k > 0.0) {
+        return f64::NAN;
+    }
+    let (mut lo, mut hi) = (0.0, k.max(1.0));
+    while chi_squared_survival(hi, k) > 1.0 - p {
+        hi *= 2.0;
+    }
+    while hi - lo > 1e-10 * hi {
+        let mid = 0.5 * (lo + hi);
+        if chi_squared_survival(mid, k) > 1.0 - p { lo = mid } else { hi = mid }
+    }
+    0.5 * (lo + hi)
 }
 
 /// The standard normal quantile Φ⁻¹(p) for p in (0, 1) (Acklam's rational approximation,
@@ -258,14 +269,15 @@ mod tests {
     }
 
     #[test]
-    fn chi_squared_quantiles_are_close_to_the_tables() {
-        for (p, k, x) in [(0.95, 1.0, 3.841), (0.95, 2.0, 5.991), (0.95, 3.0, 7.815), (0.99, 1.0, 6.635)] {
+    fn chi_squared_quantiles_match_the_tables() {
+        for (p, k, x) in
+            [(0.95, 1.0, 3.841_458_82), (0.95, 2.0, 5.991_464_55), (0.95, 3.0, 7.814_727_90), (0.99, 1.0, 6.634_896_60)]
+        {
             let q = chi_squared_quantile(p, k);
-            assert!((q - x).abs() < 0.02 * x, "χ²({k}) at {p}: {q} vs {x}");
-            // And the survival function of the residual module inverts it.
-            let back = super::super::residuals::chi_squared_survival(q, k);
-            assert!((back - (1.0 - p)).abs() < 0.003, "{back}");
+            assert!((q - x).abs() < 1e-6 * x, "χ²({k}) at {p}: {q} vs {x}");
         }
+        // k = 1 is the square of the two-sided normal quantile.
+        assert!((chi_squared_quantile(0.95, 1.0) - normal_quantile(0.975).powi(2)).abs() < 1e-7);
     }
 
     #[test]

@@ -81,7 +81,7 @@ pub struct CandidateFit {
     pub calibration_rms: f64,
     pub evidence: Option<Evidence>,
     pub verdict: Option<Verdict>,
-    /// Why the fit or its analysis failed (the candidate then ranks last).
+    /// Why the fit or its analysis failed (a failed fit has no verdict and is never named).
     pub error: Option<String>,
     /// Simulations of the fit, and its wall time.
     pub evaluations: u64,

@@ -272,6 +272,14 @@ impl ModelDescription {
         self.variables.iter().find(|v| v.name == name)
     }
 
+    /// A variable's unit: its own, else its declared type's.
+    pub fn unit_of<'a>(&'a self, v: &'a ScalarVariable) -> Option<&'a str> {
+        v.unit.as_deref().or_else(|| {
+            let t = v.declared_type.as_ref()?;
+            self.type_definitions.iter().find(|d| &d.name == t)?.unit.as_deref()
+        })
+    }
+
     /// Continuous states in the order of `ModelStructure/Derivatives` (the order of the state
     /// vector in `fmi2GetContinuousStates`), as (state, derivative) pairs.
     pub fn states(&self) -> Vec<(&ScalarVariable, &ScalarVariable)> {

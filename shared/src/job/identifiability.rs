@@ -50,14 +50,20 @@ pub struct DifferencePlan {
     pub pairs: Vec<(usize, usize, f64)>,
 }
 
+/// The finite-difference step of a parameter at `x` within [lower, upper]: 1e-3 relative (of
+/// |x|, or of the range for x near 0), large enough that the integrator's error does not swamp
+/// the difference.
+pub fn relative_step(x: f64, lower: f64, upper: f64) -> f64 {
+    1e-3 * x.abs().max(1e-3 * (upper - lower).abs().min(1.0)).max(1e-12)
+}
+
 /// The points to evaluate at the optimum `x` of `job`.
 pub fn difference_points(job: &PreparedJob, x: &[f64]) -> DifferencePlan {
     let (_, _, lower, upper) = job.spec.parameter_vectors();
     let mut points = vec![x.to_vec()];
     let mut pairs = vec![];
     for i in 0..x.len() {
-        // A relative step, large enough that the integrator's error does not swamp it.
-        let h = 1e-3 * x[i].abs().max(1e-3 * (upper[i] - lower[i]).abs().min(1.0)).max(1e-12);
+        let h = relative_step(x[i], lower[i], upper[i]);
         let hi = (x[i] + h).min(upper[i]);
         let lo = (x[i] - h).max(lower[i]);
         for v in [hi, lo] {

@@ -87,14 +87,11 @@ fn invalid(msg: impl Into<String>) -> SimError {
     SimError::Invalid(msg.into())
 }
 
-/// Resolves a port term: a known port effect, a continuous Real input as port, a readable
-/// Real signal that does not depend directly on the port (an algebraic loop).
 /// The physical domain of a port from its unit (its own or its declared type's), when the unit
 /// says: a force (N) or torque (N.m) is mechanical, a heat flow (W) thermal. By the unit's SI
 /// base exponents when `UnitDefinitions` gives them, else by the usual names.
 fn port_domain(md: &ModelDescription, port: &ScalarVariable) -> Option<(String, effects::Domain)> {
-    let declared = port.declared_type.as_ref().and_then(|t| md.type_definitions.iter().find(|d| &d.name == t));
-    let unit = port.unit.clone().or_else(|| declared.and_then(|d| d.unit.clone()))?;
+    let unit = md.unit_of(port)?.to_owned();
     let by_base =
         md.unit_definitions.iter().find(|u| u.name == unit).and_then(|u| u.base_unit.as_ref()).and_then(|b| {
             let other = b.a != 0 || b.k != 0 || b.mol != 0 || b.cd != 0 || b.rad != 0 || b.kg != 1;
@@ -112,6 +109,9 @@ fn port_domain(md: &ModelDescription, port: &ScalarVariable) -> Option<(String, 
     by_base.or(by_name).map(|d| (unit, d))
 }
 
+/// Resolves a port term: a known port effect, a continuous Real input as port whose unit (if
+/// it says) is of the effect's domain, a readable Real signal that does not depend directly on
+/// the port (an algebraic loop).
 fn plan_term(
     md: &ModelDescription,
     t: &PortTerm,

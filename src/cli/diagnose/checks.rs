@@ -24,9 +24,10 @@ pub fn windows(spec: &mut JobSpec, data: &MeasurementTable, settings: &DiagnoseS
     let (first, last) = (data.time.first().copied().unwrap_or(0.0), data.time.last().copied().unwrap_or(0.0));
     let start = spec.simulation.start_time.unwrap_or(first);
     let stop = spec.simulation.stop_time.unwrap_or(last);
-    if let Some(v) = spec.simulation.validation_stop_time
-        && v > stop
-    {
+    if let Some(v) = spec.simulation.validation_stop_time {
+        if v <= stop {
+            bail!("simulation.validation_stop_time: {v} is not after the calibration stop time {stop}");
+        }
         return Ok(Windows { start_time: start, calibration_stop: stop, validation_stop: v, holdout: false });
     }
     let fraction = settings.holdout.unwrap_or(DEFAULT_HOLDOUT);

@@ -84,7 +84,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         eprintln!("round {}: screening the candidates", round + 1);
         let scales = port_scales(&mut client, ctx, &base, &x_base).await?;
         let sizes = sizes(ctx, &base, &before, &signal_values, &scales);
-        let mut candidates: Vec<Candidate> = generate(&base, &ctx.settings, &sizes)
+        let candidates: Vec<Candidate> = generate(&base, &ctx.settings, &sizes)
             .into_iter()
             .filter(|c| !base.effects.iter().any(|e| same_place(e, &c.effect)))
             .collect();
@@ -174,8 +174,8 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         for (slot, f) in fitted.into_iter().enumerate() {
             let f = f.expect("every task reported");
             let c = top[slot];
-            candidates[c] = candidates[c].narrowed(&screened[c].estimate);
-            fits.insert(c, judge_fit(ctx, &baseline, &rule, &candidates[c], f));
+            let narrowed = candidates[c].narrowed(&screened[c].estimate);
+            fits.insert(c, judge_fit(ctx, &baseline, &rule, &narrowed, f));
         }
         let verdicts: Vec<Option<_>> = order.iter().map(|c| fits.get(c).and_then(|f| f.0.verdict.clone())).collect();
         let chosen = choose(&verdicts);
@@ -207,12 +207,16 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         let Some(rank) = chosen else { break };
         let c = order[rank];
         let (fit, job, after) = fits.remove(&c).expect("the chosen candidate was fitted");
-        named.push(name(ctx, &candidates[c], &fit, &job));
+        let effect = name(ctx, &candidates[c], &fit, &job);
         last_look = after;
-        base = with_fitted_starts(job, &fit);
+        // The next round's base: this round's job (its own optimizer settings and parameters)
+        // with the named effect, every start at the fitted value.
+        base.effects.push(effect.effect.clone());
+        base = with_fitted_starts(base, &fit);
+        named.push(effect);
     }
     let before = first_look.context("no round ran")?;
-    let after = last_look.unwrap_or_else(|| clone_look(&before));
+    let after = last_look.unwrap_or_else(|| before.clone());
     let diagnosis = Diagnosis {
         windows: ctx.windows,
         rounds,
@@ -223,18 +227,6 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         elapsed_s: started.elapsed().as_secs_f64(),
     };
     Ok(Outcome { diagnosis, before, after, signals: first_signals })
-}
-
-fn clone_look(l: &Look) -> Look {
-    Look {
-        fit: l.fit.clone(),
-        errors: l.errors.clone(),
-        time: l.time.clone(),
-        residuals: l.residuals.clone(),
-        n_eff: l.n_eff,
-        validation_n_eff: l.validation_n_eff,
-        rms: l.rms,
-    }
 }
 
 fn prepare(ctx: &Context, job: &JobSpec) -> Result<PreparedJob> {
@@ -380,15 +372,18 @@ fn judge_fit(
     }
 }
 
-/// The accepted effect in words, and its `[[effects]]` entry with the fitted starts.
+/// The accepted effect in words, and its `[[effects]]` entry with the fitted starts within the
+/// candidate's full guessed bounds (not the narrowed ones its fit used), so a later calibration
+/// is not held near this one's estimate.
 fn name(ctx: &Context, candidate: &Candidate, fit: &CandidateFit, job: &JobSpec) -> NamedEffect {
     let k = job.effects.len() - 1;
+    let md = &ctx.fmu.description;
     let unit = candidate
         .effect
         .port
         .as_ref()
-        .and_then(|p| ctx.fmu.description.variable(p))
-        .and_then(|v| v.unit.clone())
+        .and_then(|p| md.variable(p))
+        .and_then(|v| md.unit_of(v))
         .map(|u| format!(" {u}"))
         .unwrap_or_default();
     let load_like = ["force", "coulomb", "static", "load", "q"];

@@ -8,16 +8,16 @@ use std::sync::Arc;
 use anyhow::{Context as _, Result};
 use fmucal_shared::diagnose::decision::effective_samples;
 use fmucal_shared::diagnose::report::RmsPair;
-use fmucal_shared::job::{ErrorReport, FitTable, PreparedJob, report};
+use fmucal_shared::job::{FitTable, PreparedJob, report};
 use fmucal_shared::sim::simulate;
 
 use super::Context;
 
 /// A calibrated model against the measurements.
+#[derive(Clone)]
 pub struct Look {
     /// Measured, nominal and optimized outputs up to the validation stop.
     pub fit: FitTable,
-    pub errors: ErrorReport,
     /// The calibration window's times and, per output, simulated − measured there (NaN where
     /// the measurement is missing or the simulation failed).
     pub time: Vec<f64>,
@@ -57,7 +57,6 @@ pub fn look(ctx: &Context, job: &Arc<PreparedJob>, x: &[f64]) -> Result<Look> {
         n_eff: effective_samples(&series),
         validation_n_eff: effective_samples(&validation),
         fit,
-        errors,
         time,
         residuals,
         rms,

@@ -21,7 +21,7 @@ mod probe;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use anyhow::{Context as _, Result};
+use anyhow::{Context as _, Result, bail};
 use fmucal_shared::fmu::Fmu;
 use fmucal_shared::job::{JobSpec, MeasurementTable};
 
@@ -74,6 +74,13 @@ pub fn run(args: Args) -> Result<()> {
     let fmu = Arc::new(Fmu::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
     checks::job_and_candidates(&spec, &settings, &fmu, &data)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    // `job.toml` in the output folder must not be the job being read (`diagnose diagnosis/job.toml`).
+    let written = args.out.join("job.toml");
+    if let (Ok(a), Ok(b)) = (written.canonicalize(), args.job.canonicalize())
+        && a == b
+    {
+        bail!("--out {}: its job.toml would overwrite the job file; choose another folder", args.out.display());
+    }
 
     let threads = super::local_cluster::worker_count(args.workers, &spec);
     let ctx = Context { fmu, data: Arc::new(data), model, settings, windows };
