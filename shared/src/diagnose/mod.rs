@@ -7,6 +7,7 @@
 //! - [`residuals`] and [`localise`]: the residual analysis (RMS per window, whiteness,
 //!   correlation with candidate signals).
 //! - [`candidates`]: candidate generation and screening by the score statistic.
+//! - [`jobs`]: the candidate calibrations and next-round bases built from the base job.
 //! - [`decision`]: the three tests an effect must pass to be named.
 //! - [`report`]: what a diagnosis found (`diagnosis/report.json`) and its summary.
 //!
@@ -17,6 +18,7 @@ pub mod candidates;
 pub mod decision;
 pub mod effects;
 pub mod guess;
+pub mod jobs;
 pub mod localise;
 pub mod report;
 pub mod residuals;

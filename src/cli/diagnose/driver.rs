@@ -14,12 +14,12 @@ use fmucal_shared::diagnose::decision::{
     Baseline, Evidence, ParameterEvidence, Rule, choose, equally_supported, judge,
 };
 use fmucal_shared::diagnose::guess::SignalStats;
+use fmucal_shared::diagnose::jobs::{candidate_job, same_place, with_starts};
 use fmucal_shared::diagnose::localise::localise;
 use fmucal_shared::diagnose::report::{
     CandidateFit, Diagnosis, NamedEffect, RankedCandidate, Round, value_with_interval,
 };
 use fmucal_shared::job::identifiability::Identifiability;
-use fmucal_shared::job::spec::SetValue;
 use fmucal_shared::job::{CalibrationResult, JobSpec, PreparedJob};
 
 use super::Context;
@@ -137,8 +137,9 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         for (slot, &c) in top.iter().enumerate() {
             let narrowed = candidates[c].narrowed(&screened[c].estimate);
             let (from, effect_start) = &starts[slot];
-            let mut job =
-                candidate_job(&base, from, &prepared.parameter_names, &narrowed, effect_start, ctx.settings.fix_base);
+            let starts: BTreeMap<String, f64> =
+                prepared.parameter_names.iter().cloned().zip(from.iter().copied()).collect();
+            let mut job = candidate_job(&base, &starts, &narrowed, effect_start, ctx.settings.fix_base);
             // A candidate that does not help can leave the optimizer wandering on a flat
             // objective: bound its work by the base fit's.
             job.optimizer.max_fevals = job.optimizer.max_fevals.or(Some((5 * result.evaluations).max(500)));
@@ -212,7 +213,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         // The next round's base: this round's job (its own optimizer settings and parameters)
         // with the named effect, every start at the fitted value.
         base.effects.push(effect.effect.clone());
-        base = with_fitted_starts(base, &fit);
+        base = with_starts(base, &fit.x_opt);
         named.push(effect);
     }
     let before = first_look.context("no round ran")?;
@@ -231,11 +232,6 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
 
 fn prepare(ctx: &Context, job: &JobSpec) -> Result<PreparedJob> {
     Ok(PreparedJob::new(job, &ctx.fmu.description, &ctx.fmu.interfaces(), &ctx.data)?)
-}
-
-/// Two effects acting at the same place with the same kind.
-fn same_place(a: &fmucal_shared::job::spec::EffectSpec, b: &fmucal_shared::job::spec::EffectSpec) -> bool {
-    a.kind == b.kind && a.port == b.port && a.signal == b.signal && a.output == b.output && a.input == b.input
 }
 
 /// The sizes the candidates are guessed from: the ports' scales, the simulated signals, and the
@@ -262,39 +258,6 @@ fn sizes(
     let duration = t1 - t0;
     let sample = if rows > 1 { duration / (rows - 1) as f64 } else { duration };
     Sizes { port_scales: scales.clone(), signals, series, duration, sample }
-}
-
-/// The base job with `candidate` added, starting from the screening's estimate; with
-/// `fix_base`, the base's `[[parameters]]` fixed at their calibrated values.
-fn candidate_job(
-    base: &JobSpec,
-    x_base: &[f64],
-    names: &[String],
-    candidate: &Candidate,
-    estimate: &[f64],
-    fix_base: bool,
-) -> JobSpec {
-    let mut job = base.clone();
-    job.diagnose = None;
-    for p in &mut job.parameters {
-        if let Some(k) = names.iter().position(|n| *n == p.name) {
-            p.start = x_base[k].clamp(p.lower, p.upper);
-        }
-    }
-    if fix_base {
-        for p in std::mem::take(&mut job.parameters) {
-            job.simulation.set.insert(p.name.clone(), SetValue::Number(p.start));
-        }
-    }
-    for (k, e) in job.effects.iter_mut().enumerate() {
-        for (name, b) in e.parameters.iter_mut() {
-            if let Some(i) = names.iter().position(|n| *n == format!("effects[{k}].{name}")) {
-                b.start = x_base[i].clamp(b.lower, b.upper);
-            }
-        }
-    }
-    job.effects.push(candidate.with_starts(estimate));
-    job
 }
 
 /// The evidence about one fitted candidate and its verdict.
@@ -407,21 +370,4 @@ fn name(ctx: &Context, candidate: &Candidate, fit: &CandidateFit, job: &JobSpec)
         words: format!("{}, {}", candidate.describe(), values.join(", ")),
         effect: candidate.with_starts(&fitted),
     }
-}
-
-/// `job` with every start at the fitted value: the base of the next round.
-fn with_fitted_starts(mut job: JobSpec, fit: &CandidateFit) -> JobSpec {
-    for p in &mut job.parameters {
-        if let Some(v) = fit.x_opt.get(&p.name) {
-            p.start = v.clamp(p.lower, p.upper);
-        }
-    }
-    for (k, e) in job.effects.iter_mut().enumerate() {
-        for (name, b) in e.parameters.iter_mut() {
-            if let Some(v) = fit.x_opt.get(&format!("effects[{k}].{name}")) {
-                b.start = v.clamp(b.lower, b.upper);
-            }
-        }
-    }
-    job
 }
