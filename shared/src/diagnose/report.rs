@@ -158,7 +158,13 @@ impl Diagnosis {
             }
         }
         if self.named.is_empty() {
-            let _ = writeln!(s, "no effect found: no candidate passed all three tests");
+            let fitted = self.rounds.first().is_some_and(|r| r.candidates.iter().any(|c| c.fit.is_some()));
+            let why = if fitted {
+                "no candidate passed all three tests"
+            } else {
+                "the screening predicts no candidate to improve the fit enough to pay for its parameters"
+            };
+            let _ = writeln!(s, "no effect found: {why}");
         }
         for e in &self.named {
             let _ = writeln!(s, "found: {}", e.words);
