@@ -499,6 +499,48 @@ mod tests {
         assert!((delta[1] + beta[1]).abs() < 1e-9, "{delta} vs {beta}");
     }
 
+    /// A base job with one parameter `k` in [0, 2] and two sensor-offset candidates on its
+    /// output, screened against a linear "model": the residual moves by `J·δ` exactly.
+    #[test]
+    fn screening_a_linear_residual_predicts_the_drop_and_a_failed_point_ranks_last() {
+        let text = "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"y\"\ncolumn = \"y\"\n\
+                    [[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n";
+        let base = JobSpec::from_toml(text, std::path::Path::new("/")).unwrap();
+        let stats = SignalStats::of(&[0.0, 1.0]);
+        let sizes =
+            Sizes { series: [("y".to_owned(), stats)].into(), duration: 1.0, sample: 0.1, ..Default::default() };
+        let diagnose = DiagnoseSpec::default();
+        let all = generate(&base, &diagnose, &sizes);
+        let offset = all.iter().find(|c| c.effect.kind == "sensor_offset").unwrap().clone();
+        let candidates = vec![offset.clone(), offset];
+        let s = Screening::new(&base, &[1.0], &candidates, false);
+        // Points: base, k + h, offset₁ + step, offset₂ + step.
+        assert_eq!(s.points.len(), 4);
+        let m = 20;
+        let t: Vec<f64> = (0..m).map(|i| i as f64 / m as f64).collect();
+        // Residual: 0.3 (a constant the offset explains) plus 0.1·t (what k moves).
+        let r0: Vec<f64> = t.iter().map(|t| 0.3 + 0.05 * (t - 0.5)).collect();
+        let h_k = s.points[1][0] - 1.0;
+        let h_o = s.points[2][1] - s.points[0][1];
+        let rk: Vec<f64> = r0.iter().zip(&t).map(|(r, t)| r + h_k * 0.1 * t).collect();
+        let ro: Vec<f64> = r0.iter().map(|r| r + h_o).collect();
+        let ok = s.statistics(&[Some(r0.clone()), Some(rk.clone()), Some(ro.clone()), Some(ro.clone())], 10.0);
+        // r0 = 0.275 + 0.05·t lies in the span of [0.1·t, 1]: the step is δk = −0.5 and
+        // δoffset = −0.275, and the drop is all that the base direction alone leaves,
+        // SSR − (t·r0)²/(t·t).
+        let ssr: f64 = r0.iter().map(|r| r * r).sum();
+        let tr: f64 = t.iter().zip(&r0).map(|(a, b)| a * b).sum();
+        let tt: f64 = t.iter().map(|a| a * a).sum();
+        let drop = ssr - tr * tr / tt;
+        assert!((ok[0].predicted_drop - drop).abs() < 1e-9 * drop, "{} vs {drop}", ok[0].predicted_drop);
+        assert!((ok[0].estimate[0] + 0.275).abs() < 1e-9 && (ok[0].base_step[0] + 0.5).abs() < 1e-9, "{ok:?}");
+        // The second candidate's point failed: NaN statistics, ranked last, not fitted.
+        let failed = s.statistics(&[Some(r0), Some(rk), Some(ro), None], 10.0);
+        assert!(failed[1].predicted_delta_ic.is_nan());
+        assert_eq!(ranking(&failed), [0, 1]);
+        assert!(failed[0].predicted_delta_ic < 0.0);
+    }
+
     #[test]
     fn ranking_puts_failed_screenings_last() {
         let s = |ic: f64| Screened {
