@@ -203,8 +203,8 @@ pub struct Screening {
     pub points: Vec<Vec<f64>>,
     /// Base parameters' steps (empty when the base is held fixed).
     base_steps: Vec<(usize, f64)>,
-    /// Per candidate, its parameters' offset in a point and its strength steps (index, step).
-    strengths: Vec<(usize, Vec<(usize, f64)>)>,
+    /// Per candidate, where its parameters sit in a point and its strength steps (index, step).
+    strengths: Vec<(std::ops::Range<usize>, Vec<(usize, f64)>)>,
     /// Bounds of every parameter of `job`.
     lower: Vec<f64>,
     upper: Vec<f64>,
@@ -247,7 +247,7 @@ impl Screening {
             let steps =
                 c.guesses.iter().enumerate().filter_map(|(j, g)| g.step.map(|h| (offset + j, h))).collect::<Vec<_>>();
             x0.extend(c.guesses.iter().map(|g| g.neutral));
-            strengths.push((offset, steps));
+            strengths.push((offset..x0.len(), steps));
         }
         let base_steps: Vec<(usize, f64)> = if fix_base {
             vec![]
@@ -309,7 +309,7 @@ impl Screening {
         let mut next = 1 + self.base_steps.len();
         let mut out = vec![];
         let point = &self.points[0];
-        for (offset, steps) in &self.strengths {
+        for (range, steps) in &self.strengths {
             let cols: Option<Vec<DVector<f64>>> =
                 steps.iter().enumerate().map(|(j, &(_, h))| column(next + j, h)).collect();
             next += steps.len();
@@ -356,7 +356,7 @@ impl Screening {
             let d = (drop_all - drop_base).clamp(0.0, ssr);
             // The score test has one degree of freedom per strength; the information criterion
             // charges for every parameter the fit will have, as the decision does.
-            let (q, count) = (steps.len() as f64, self.count_of(*offset));
+            let (q, count) = (steps.len() as f64, range.len());
             let score = if ssr > 0.0 { n_eff * d / ssr } else { 0.0 };
             let penalty = count as f64 * n_eff.max(1.0).ln();
             let ic = if ssr > 0.0 && d < ssr {
@@ -366,10 +366,10 @@ impl Screening {
             } else {
                 penalty // nothing left to explain
             };
-            let mut estimate: Vec<f64> = point[*offset..*offset + count].to_vec();
+            let mut estimate: Vec<f64> = point[range.clone()].to_vec();
             for (a, &j) in active.iter().enumerate() {
                 let i = steps[j].0;
-                estimate[i - offset] = point[i] + delta[base.len() + a];
+                estimate[i - range.start] = point[i] + delta[base.len() + a];
             }
             let mut base_step = vec![0.0; self.candidates_start()];
             for (j, &i) in base_index.iter().enumerate() {
@@ -392,7 +392,7 @@ impl Screening {
     /// start. The base parameters come first, in the base's order.
     pub fn along_step(&self, c: usize, s: &Screened, fraction: f64) -> Vec<f64> {
         let mut p = self.points[0].clone();
-        let (offset, _) = &self.strengths[c];
+        let offset = self.strengths[c].0.start;
         for (i, d) in s.base_step.iter().enumerate() {
             p[i] += fraction * d;
         }
@@ -410,21 +410,12 @@ impl Screening {
 
     /// The base part and candidate `c`'s part of a point of the screening job.
     pub fn split(&self, c: usize, point: &[f64]) -> (Vec<f64>, Vec<f64>) {
-        let offset = self.strengths[c].0;
-        let count = self.count_of(offset);
-        (point[..self.candidates_start()].to_vec(), point[offset..offset + count].to_vec())
+        (point[..self.candidates_start()].to_vec(), point[self.strengths[c].0.clone()].to_vec())
     }
 
     /// Where the candidates' parameters start in a point: after the base's.
     fn candidates_start(&self) -> usize {
-        self.strengths.first().map_or(self.points[0].len(), |(o, _)| *o)
-    }
-
-    /// The number of parameters of the candidate whose parameters start at `offset`.
-    fn count_of(&self, offset: usize) -> usize {
-        let k = self.strengths.iter().position(|(o, _)| *o == offset).expect("a candidate's offset");
-        let end = self.strengths.get(k + 1).map(|(o, _)| *o).unwrap_or(self.points[0].len());
-        end - offset
+        self.strengths.first().map_or(self.points[0].len(), |(r, _)| r.start)
     }
 }
 
