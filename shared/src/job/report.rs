@@ -110,6 +110,30 @@ pub fn compare(
     data: &MeasurementTable,
     x_opt: &[f64],
 ) -> Result<(FitTable, ErrorReport), JobError> {
+    compare_with(fmu, job, data, x_opt, true)
+}
+
+/// As [`compare`] without the nominal model (its cells empty, its RMS NaN): one simulation,
+/// for callers that judge only the optimized model.
+///
+/// # Errors
+/// As [`compare`].
+pub fn optimized_fit(
+    fmu: &Fmu,
+    job: &Arc<PreparedJob>,
+    data: &MeasurementTable,
+    x_opt: &[f64],
+) -> Result<(FitTable, ErrorReport), JobError> {
+    compare_with(fmu, job, data, x_opt, false)
+}
+
+fn compare_with(
+    fmu: &Fmu,
+    job: &Arc<PreparedJob>,
+    data: &MeasurementTable,
+    x_opt: &[f64],
+    with_nominal: bool,
+) -> Result<(FitTable, ErrorReport), JobError> {
     let spec = &job.spec;
     let (_, x0, _, _) = spec.parameter_vectors();
     let report_job = match spec.simulation.validation_stop_time {
@@ -122,7 +146,9 @@ pub fn compare(
     };
     let mut ev = Evaluator::new(fmu, report_job.clone())?;
     let optimized = ev.simulate(x_opt).ok();
-    let nominal = if spec.simulation.fixed_from_earlier_stage.is_empty() {
+    let nominal = if !with_nominal {
+        None
+    } else if spec.simulation.fixed_from_earlier_stage.is_empty() {
         ev.simulate(&x0).ok()
     } else {
         let mut s = report_job.spec.clone();

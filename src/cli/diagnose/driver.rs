@@ -349,22 +349,19 @@ fn name(ctx: &Context, candidate: &Candidate, fit: &CandidateFit, job: &JobSpec)
         .and_then(|v| md.unit_of(v))
         .map(|u| format!(" {u}"))
         .unwrap_or_default();
+    let names = candidate.parameter_names();
+    let fitted: Vec<f64> =
+        names.iter().map(|n| fit.x_opt.get(&format!("effects[{k}].{n}")).copied().unwrap_or(f64::NAN)).collect();
     let load_like = ["force", "coulomb", "static", "load", "q"];
-    let values: Vec<String> = candidate
-        .parameter_names()
+    let values: Vec<String> = names
         .iter()
+        .zip(&fitted)
         .enumerate()
-        .map(|(j, n)| {
-            let v = fit.x_opt.get(&format!("effects[{k}].{n}")).copied().unwrap_or(f64::NAN);
+        .map(|(j, (n, v))| {
             let w = fit.verdict.as_ref().and_then(|v| v.half_widths.get(j).copied()).unwrap_or(f64::NAN);
             let u = if load_like.contains(n) { unit.as_str() } else { "" };
-            format!("{n} {}{u}", value_with_interval(v, w))
+            format!("{n} {}{u}", value_with_interval(*v, w))
         })
-        .collect();
-    let fitted: Vec<f64> = candidate
-        .parameter_names()
-        .iter()
-        .map(|n| fit.x_opt.get(&format!("effects[{k}].{n}")).copied().unwrap_or(f64::NAN))
         .collect();
     NamedEffect {
         words: format!("{}, {}", candidate.describe(), values.join(", ")),

@@ -13,7 +13,8 @@ use fmucal_shared::sim::simulate;
 
 use super::Context;
 
-/// A calibrated model against the measurements.
+/// A calibrated model against the measurements (the optimized model only: the diagnosis
+/// never looks at the nominal one).
 #[derive(Clone)]
 pub struct Look {
     /// Measured, nominal and optimized outputs up to the validation stop.
@@ -31,7 +32,7 @@ pub struct Look {
 
 /// The fit of `job` at `x` (its parameter order).
 pub fn look(ctx: &Context, job: &Arc<PreparedJob>, x: &[f64]) -> Result<Look> {
-    let (fit, errors) = report::compare(&ctx.fmu, job, &ctx.data, x)?;
+    let (fit, errors) = report::optimized_fit(&ctx.fmu, job, &ctx.data, x)?;
     let stop = ctx.windows.calibration_stop;
     let rows = fit.time.partition_point(|t| *t <= stop);
     let time = fit.time[..rows].to_vec();
