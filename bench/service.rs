@@ -68,6 +68,7 @@ async fn run(spec: &JobSpec, data: &MeasurementTable, workers: usize, sample_at:
         data_dir: dir.path().join("c"),
         token: Some(TOKEN.into()),
         timing: Default::default(),
+        diagnose_program: None,
     };
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
     let server = tokio::spawn(fmucal_coordinator::run(config, listener, async {

@@ -79,7 +79,12 @@ async fn start_coordinator(data_dir: &Path) -> Coordinator {
         worker_expiry: Duration::from_millis(1500),
         evaluation_timeout: Duration::from_secs(60),
     };
-    let config = fmucal_coordinator::Config { data_dir: data_dir.to_owned(), token: Some(TOKEN.into()), timing };
+    let config = fmucal_coordinator::Config {
+        data_dir: data_dir.to_owned(),
+        token: Some(TOKEN.into()),
+        timing,
+        diagnose_program: None,
+    };
     let task = tokio::spawn(fmucal_coordinator::run(config, listener, async {
         let _ = rx.await;
     }));

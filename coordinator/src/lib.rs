@@ -1,8 +1,11 @@
 //! fmucal's coordinator: runs each job's ask/tell optimizer and hands its batches of points to
 //! workers over gRPC (package `fmucal.v1`). [`run`] serves the client-facing `Calibration` and
 //! the worker-facing `WorkerPool` services on a listener until `shutdown` resolves, so tests can
-//! start it on `127.0.0.1:0`. Job state persists in redb under the data directory.
+//! start it on `127.0.0.1:0`. Job state persists in redb under the data directory. A
+//! `Diagnose` request runs `fmucal diagnose` as a child process against this coordinator
+//! ([`diagnoses`]).
 
+pub mod diagnoses;
 pub mod error;
 pub mod models;
 pub mod scheduler;
@@ -31,6 +34,9 @@ pub struct Config {
     /// Shared token every RPC must carry; required unless listening on loopback only.
     pub token: Option<String>,
     pub timing: Timing,
+    /// The fmucal binary a `Diagnose` request runs as a child process ([`diagnoses`]);
+    /// `None` refuses diagnoses.
+    pub diagnose_program: Option<PathBuf>,
 }
 
 impl Default for Timing {
@@ -79,7 +85,9 @@ pub async fn run(
         .map_err(|e| CoordinatorError::Storage(e.to_string()))??;
     let (tx, rx) = tokio::sync::mpsc::channel(1024);
     let scheduler_task = tokio::spawn(sched.run(rx));
-    let handlers = services::Handlers { commands: tx, models };
+    let diagnoses =
+        diagnoses::Diagnoses::new(config.diagnose_program.clone(), addr, config.token.clone(), &config.data_dir)?;
+    let handlers = services::Handlers { commands: tx, models, diagnoses: Arc::new(diagnoses) };
     let auth = fmucal_proto::auth::BearerAuth::new(config.token.as_deref());
     let (a1, a2) = (auth.clone(), auth);
     let (health_reporter, health_service) = tonic_health::server::health_reporter();

@@ -61,6 +61,15 @@ impl ModelStore {
         Ok(d)
     }
 
+    /// The archive of a stored model, checked as [`ModelStore::describe`] checks it.
+    ///
+    /// # Errors
+    /// INVALID_ARGUMENT for an unknown id or an archive that is not a usable FMU.
+    pub fn archive(&mut self, id: &str) -> Result<PathBuf, CoordinatorError> {
+        self.describe(id)?;
+        Ok(self.path(id))
+    }
+
     /// The bytes of a stored model.
     pub fn bytes(&self, id: &str) -> Result<Arc<Vec<u8>>, CoordinatorError> {
         if !is_model_id(id) {

@@ -3,11 +3,15 @@
 
 use std::sync::{Arc, Mutex};
 
+use fmucal_proto::convert::SubmittedJob;
 use fmucal_proto::v1 as pb;
+use fmucal_shared::diagnose::spec::DiagnoseSpec;
+use fmucal_shared::job::JobKind;
 use tokio::sync::{mpsc, oneshot};
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Request, Response, Status, Streaming};
 
+use crate::diagnoses::Diagnoses;
 use crate::error::CoordinatorError;
 use crate::models::ModelStore;
 use crate::scheduler::Command;
@@ -28,6 +32,7 @@ fn with_models<T>(
 pub struct Handlers {
     pub commands: mpsc::Sender<Command>,
     pub models: Arc<Mutex<ModelStore>>,
+    pub diagnoses: Arc<Diagnoses>,
 }
 
 impl Handlers {
@@ -99,6 +104,30 @@ impl pb::calibration_server::Calibration for Handlers {
 
     async fn list_jobs(&self, _req: Request<pb::ListJobsRequest>) -> Result<Response<pb::ListJobsResponse>, Status> {
         Ok(Response::new(self.ask(|reply| Command::List { reply }).await?))
+    }
+
+    type DiagnoseStream = ReceiverStream<Result<pb::DiagnoseResponse, Status>>;
+
+    async fn diagnose(&self, req: Request<pb::DiagnoseRequest>) -> Result<Response<Self::DiagnoseStream>, Status> {
+        let req = req.into_inner();
+        let spec = req.spec.ok_or_else(|| Status::invalid_argument("spec is required"))?;
+        let settings = req.settings.ok_or_else(|| Status::invalid_argument("settings is required"))?;
+        let settings = DiagnoseSpec::try_from(settings).map_err(CoordinatorError::from)?;
+        let job = SubmittedJob::try_from(spec).map_err(CoordinatorError::from)?;
+        if !matches!(job.spec.kind, JobKind::Calibration) {
+            return Err(Status::invalid_argument("spec.kind: a diagnosis starts from a calibration job"));
+        }
+        let models = self.models.clone();
+        let id = job.spec.model.id.clone().unwrap_or_default();
+        let model = tokio::task::spawn_blocking(move || with_models(&models, |m| m.archive(&id)))
+            .await
+            .map_err(|e| Status::internal(e.to_string()))??;
+        let diagnoses = self.diagnoses.clone();
+        // Writing the data file is blocking work.
+        let events = tokio::task::spawn_blocking(move || diagnoses.start(job.spec, &job.data, settings, model))
+            .await
+            .map_err(|e| Status::internal(e.to_string()))??;
+        Ok(Response::new(ReceiverStream::new(events)))
     }
 }
 

@@ -20,6 +20,9 @@ pub enum ConvertError {
     /// A field holds a value outside its set (an unknown algorithm, interface, solver or kind).
     #[error("{field}: {message}")]
     Invalid { field: &'static str, message: String },
+    /// A field whose name is built from the message (an index into a list).
+    #[error("{field}: {message}")]
+    InvalidAt { field: String, message: String },
 }
 
 /// Reads an optional text choice: empty or absent is `None`, else it must parse.
@@ -92,7 +95,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 solver: choice("spec.simulation.solver", sim.solver)?,
                 set: sim.set.into_iter().map(|(k, v)| (k, SetValue::from_text(v))).collect(),
                 set_from: None,
-                validation_stop_time: None,
+                validation_stop_time: sim.validation_stop_time,
                 fixed_from_earlier_stage: vec![],
             },
             optimizer: OptimizerSpec {
@@ -112,22 +115,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 mutation_rate: o.mutation_rate,
                 elitism: o.elitism.map(|v| v as usize),
             },
-            effects: p
-                .effects
-                .into_iter()
-                .map(|e| EffectSpec {
-                    kind: e.kind,
-                    port: e.port,
-                    signal: e.signal,
-                    output: e.output,
-                    input: e.input,
-                    parameters: e
-                        .parameters
-                        .into_iter()
-                        .map(|(n, b)| (n, Bounds { start: b.start, lower: b.lower, upper: b.upper }))
-                        .collect(),
-                })
-                .collect(),
+            effects: p.effects.into_iter().map(EffectSpec::from).collect(),
             workers: WorkersSpec::default(),
             diagnose: None,
             kind,
@@ -137,6 +125,39 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
             columns: data.columns.into_iter().map(|c| (c.name, c.values)).collect(),
         };
         Ok(SubmittedJob { spec, data })
+    }
+}
+
+impl From<pb::EffectSpec> for EffectSpec {
+    fn from(e: pb::EffectSpec) -> Self {
+        EffectSpec {
+            kind: e.kind,
+            port: e.port,
+            signal: e.signal,
+            output: e.output,
+            input: e.input,
+            parameters: e
+                .parameters
+                .into_iter()
+                .map(|(n, b)| (n, Bounds { start: b.start, lower: b.lower, upper: b.upper }))
+                .collect(),
+        }
+    }
+}
+
+/// The protobuf form of an effect.
+pub fn effect_to_proto(e: &EffectSpec) -> pb::EffectSpec {
+    pb::EffectSpec {
+        kind: e.kind.clone(),
+        port: e.port.clone(),
+        signal: e.signal.clone(),
+        output: e.output.clone(),
+        input: e.input.clone(),
+        parameters: e
+            .parameters
+            .iter()
+            .map(|(n, b)| (n.clone(), pb::Bounds { start: b.start, lower: b.lower, upper: b.upper }))
+            .collect(),
     }
 }
 
@@ -171,6 +192,7 @@ pub fn job_to_proto(spec: &JobSpec, data: &MeasurementTable, model_id: &str) -> 
             tolerance: spec.simulation.tolerance,
             solver: spec.simulation.solver.map(|s| s.to_string()),
             set: spec.simulation.set.iter().map(|(k, v)| (k.clone(), v.to_string())).collect(),
+            validation_stop_time: spec.simulation.validation_stop_time,
         }),
         optimizer: Some(pb::OptimizerSpec {
             algorithm: o.algorithm.to_string(),
@@ -193,22 +215,7 @@ pub fn job_to_proto(spec: &JobSpec, data: &MeasurementTable, model_id: &str) -> 
             JobKind::Calibration => pb::JobKind::Calibration,
             JobKind::EvaluatePoints(_) => pb::JobKind::EvaluatePoints,
         } as i32,
-        effects: spec
-            .effects
-            .iter()
-            .map(|e| pb::EffectSpec {
-                kind: e.kind.clone(),
-                port: e.port.clone(),
-                signal: e.signal.clone(),
-                output: e.output.clone(),
-                input: e.input.clone(),
-                parameters: e
-                    .parameters
-                    .iter()
-                    .map(|(n, b)| (n.clone(), pb::Bounds { start: b.start, lower: b.lower, upper: b.upper }))
-                    .collect(),
-            })
-            .collect(),
+        effects: spec.effects.iter().map(effect_to_proto).collect(),
         points: match &spec.kind {
             JobKind::Calibration => vec![],
             JobKind::EvaluatePoints(points) => points.iter().map(|x| pb::Point { x: x.clone() }).collect(),

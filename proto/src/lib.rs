@@ -2,10 +2,11 @@
 //! worker-facing `WorkerPool` service, generated from `fmucal/v1/fmucal.proto`, plus what every
 //! networked part shares: conversions to and from fmucal's job types ([`convert`]) and the
 //! bearer-token interceptors ([`auth`]). Keeping them here leaves `fmucal-shared` free of
-//! network types.
+//! network types. [`diagnose`] converts the `Diagnose` RPC's settings.
 
 pub mod auth;
 pub mod convert;
+pub mod diagnose;
 
 /// Version a worker must announce at registration; a mismatch is rejected.
 pub const PROTOCOL_VERSION: u32 = 2;

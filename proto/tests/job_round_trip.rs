@@ -1,7 +1,7 @@
 //! Property: any valid job survives TOML → protocol → job unchanged (issue #14). A job crosses
 //! the protocol on every run, local ones too, so a default slipped in at the join (an output
 //! weight of 0 became 1) changes results. Fields the protocol does not carry by design (file
-//! paths, `set_from`, `validation_stop_time`, the local worker count) are left at their
+//! paths, `set_from`, the local worker count) are left at their
 //! defaults by the generator; the model is named by its upload id.
 
 use std::collections::BTreeMap;
@@ -74,13 +74,15 @@ fn simulation() -> impl Strategy<Value = SimulationSpec> {
             Just(Solver::Tsit45)
         ]),
         prop::collection::btree_map(name(), set_value(), 0..4),
+        prop::option::of(100.0..200.0f64),
     )
-        .prop_map(|(start_time, stop_time, tolerance, solver, set)| SimulationSpec {
+        .prop_map(|(start_time, stop_time, tolerance, solver, set, validation_stop_time)| SimulationSpec {
             start_time,
             stop_time,
             tolerance,
             solver,
             set: set.into_iter().collect::<BTreeMap<_, _>>(),
+            validation_stop_time,
             ..Default::default()
         })
 }

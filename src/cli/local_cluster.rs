@@ -30,6 +30,7 @@ pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>)
         data_dir: state.path().join("coordinator"),
         token: Some(token.clone()),
         timing: Default::default(),
+        diagnose_program: None,
     };
     let server = tokio::spawn(fmucal_coordinator::run(config, listener, async {
         let _ = stop_rx.await;

@@ -73,7 +73,9 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
             evaluation_timeout: std::time::Duration::from_secs_f64(args.evaluation_timeout),
             ..Default::default()
         };
-        let config = fmucal_coordinator::Config { data_dir: args.data_dir, token, timing };
+        // A Diagnose request runs this binary as `fmucal diagnose --coordinator <here>`.
+        let diagnose_program = std::env::current_exe().ok();
+        let config = fmucal_coordinator::Config { data_dir: args.data_dir, token, timing, diagnose_program };
         fmucal_coordinator::run(config, listener, terminate_signal()).await?;
         Ok(())
     })

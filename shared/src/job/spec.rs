@@ -224,7 +224,8 @@ pub struct SimulationSpec {
     /// paper's two-stage fit). Read when the TOML file is loaded; `set` entries win.
     pub set_from: Option<PathBuf>,
     /// After calibrating up to `stop_time`, also simulate up to here and report the errors on
-    /// the validation window (stop_time, validation_stop_time]. CLI only.
+    /// the validation window (stop_time, validation_stop_time]: reports and diagnoses judge on it,
+    /// calibrations never fit it.
     pub validation_stop_time: Option<f64>,
     /// Names `set_from` fixed (not part of the file format): the nominal model of the error
     /// report leaves them at the model's own values.

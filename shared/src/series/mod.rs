@@ -3,10 +3,13 @@
 //! This module owns the table, its column lookup and the check of its time column; what the
 //! samples mean belongs to their users: [`crate::sim::inputs`] validates and interpolates
 //! inputs, [`crate::job::data`] checks measurements (where NaN marks a missing value).
+//! [`write_csv`] writes a table that reads back exactly.
 
 mod read;
+mod write;
 
 pub use read::{Layout, Missing, SeriesError, TimeColumn, read, read_csv, read_mat};
+pub use write::write_csv;
 
 /// Samples of named signals at common time stamps.
 #[derive(Debug, Clone, PartialEq, Default)]

@@ -1,0 +1,249 @@
+//! The `Diagnose` RPC. A diagnosis runs as a child process of fmucal's own binary,
+//! `fmucal diagnose JOB --coordinator <this coordinator>`. So its driver is the CLI's, and every
+//! simulation-heavy step is a job on this coordinator's workers. The few simulations the
+//! driver runs itself (a fit's residuals, the signals it correlates them with) load the model's
+//! native code in the child, never in the coordinator.
+//!
+//! This module owns those children:
+//! - it writes the request's job and data to a scratch folder under `<data-dir>/diagnoses/`,
+//!   which is removed when the diagnosis ends and emptied at start;
+//! - it streams the child's progress lines, then its report;
+//! - it kills the child when the client goes away;
+//! - it runs at most [`MAX_RUNNING`] children at once.
+
+use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr};
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use fmucal_proto::convert::effect_to_proto;
+use fmucal_proto::v1 as pb;
+use fmucal_shared::diagnose::report::Diagnosis;
+use fmucal_shared::diagnose::spec::DiagnoseSpec;
+use fmucal_shared::job::{JobSpec, MeasurementTable};
+use tokio::io::{AsyncBufReadExt, AsyncReadExt, BufReader};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore, mpsc};
+use tonic::Status;
+
+use crate::error::CoordinatorError;
+
+/// Diagnoses that may run at once; a request beyond them is refused (RESOURCE_EXHAUSTED).
+pub const MAX_RUNNING: usize = 4;
+
+/// The name of the time column in the data file written for the child.
+const TIME_COLUMN: &str = "time";
+
+pub type Events = mpsc::Receiver<Result<pb::DiagnoseResponse, Status>>;
+
+/// Starts diagnoses as child processes.
+pub struct Diagnoses {
+    /// The fmucal binary; `None`: this coordinator does not run diagnoses.
+    program: Option<PathBuf>,
+    /// Where the child reaches this coordinator.
+    url: String,
+    token: Option<String>,
+    dir: PathBuf,
+    running: Arc<Semaphore>,
+    next: AtomicU64,
+}
+
+/// The URL a child on this host reaches a server listening on `addr` at.
+fn loopback_url(addr: SocketAddr) -> String {
+    let ip = match addr.ip() {
+        IpAddr::V4(ip) if ip.is_unspecified() => IpAddr::V4(Ipv4Addr::LOCALHOST),
+        IpAddr::V6(ip) if ip.is_unspecified() => IpAddr::V6(Ipv6Addr::LOCALHOST),
+        ip => ip,
+    };
+    format!("http://{}", SocketAddr::new(ip, addr.port()))
+}
+
+impl Diagnoses {
+    /// Empties `<data_dir>/diagnoses` (no diagnosis outlives the coordinator that ran it).
+    ///
+    /// # Errors
+    /// If the folder cannot be emptied or made.
+    pub fn new(
+        program: Option<PathBuf>,
+        addr: SocketAddr,
+        token: Option<String>,
+        data_dir: &Path,
+    ) -> Result<Self, CoordinatorError> {
+        let dir = data_dir.join("diagnoses");
+        if dir.exists() {
+            std::fs::remove_dir_all(&dir)?;
+        }
+        std::fs::create_dir_all(&dir)?;
+        Ok(Diagnoses {
+            program,
+            url: loopback_url(addr),
+            token,
+            dir,
+            running: Arc::new(Semaphore::new(MAX_RUNNING)),
+            next: AtomicU64::new(1),
+        })
+    }
+
+    /// Starts the diagnosis of `job` (its model stored at `model`) and returns its events.
+    ///
+    /// # Errors
+    /// FAILED_PRECONDITION if this coordinator runs no diagnoses, RESOURCE_EXHAUSTED if
+    /// [`MAX_RUNNING`] are running, INVALID_ARGUMENT for data that cannot be written, or an I/O
+    /// error starting the child.
+    pub fn start(
+        &self,
+        mut job: JobSpec,
+        data: &MeasurementTable,
+        settings: DiagnoseSpec,
+        model: PathBuf,
+    ) -> Result<Events, Status> {
+        let Some(program) = &self.program else {
+            return Err(Status::failed_precondition("this coordinator was started without diagnoses"));
+        };
+        let permit = self.running.clone().try_acquire_owned().map_err(|_| {
+            Status::resource_exhausted(format!("{MAX_RUNNING} diagnoses are running; try again when one ends"))
+        })?;
+        let scratch = self.dir.join(self.next.fetch_add(1, Ordering::Relaxed).to_string());
+        let io = |e: std::io::Error| Status::internal(format!("cannot prepare the diagnosis: {e}"));
+        std::fs::create_dir_all(&scratch).map_err(io)?;
+        let prepared = (|| {
+            let data_path = scratch.join("data.csv");
+            fmucal_shared::series::write_csv(data, &data_path, TIME_COLUMN)
+                .map_err(|e| Status::invalid_argument(format!("spec.data: {}", e.message)))?;
+            job.model.path = Some(model);
+            job.model.id = None;
+            job.data.path = Some(data_path);
+            job.data.time_column = TIME_COLUMN.into();
+            job.diagnose = Some(settings);
+            let text = toml::to_string(&job).map_err(|e| Status::internal(format!("cannot write the job: {e}")))?;
+            let job_path = scratch.join("job.toml");
+            std::fs::write(&job_path, text).map_err(io)?;
+            let mut command = tokio::process::Command::new(program);
+            command
+                .arg("diagnose")
+                .arg(&job_path)
+                .arg("--coordinator")
+                .arg(&self.url)
+                .arg("--out")
+                .arg(scratch.join("out"))
+                .env("FMUCAL_CACHE_DIR", self.dir.join("cache"))
+                .stdin(Stdio::null())
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .kill_on_drop(true);
+            match &self.token {
+                Some(t) => command.env("FMUCAL_TOKEN", t),
+                None => command.env_remove("FMUCAL_TOKEN"),
+            };
+            command.spawn().map_err(|e| Status::internal(format!("cannot start {}: {e}", program.display())))
+        })();
+        let child = match prepared {
+            Ok(child) => child,
+            Err(status) => {
+                let _ = std::fs::remove_dir_all(&scratch);
+                return Err(status);
+            }
+        };
+        let (tx, rx) = mpsc::channel(64);
+        tokio::spawn(supervise(child, tx, scratch, permit));
+        Ok(rx)
+    }
+}
+
+fn progress(line: String) -> pb::DiagnoseResponse {
+    pb::DiagnoseResponse { event: Some(pb::diagnose_response::Event::Progress(line)) }
+}
+
+/// Forwards the child's progress lines until it ends, then its report or its error; kills it
+/// if the client goes away. Removes the scratch folder in every case.
+async fn supervise(
+    mut child: tokio::process::Child,
+    tx: mpsc::Sender<Result<pb::DiagnoseResponse, Status>>,
+    scratch: PathBuf,
+    _permit: OwnedSemaphorePermit,
+) {
+    let mut stdout = child.stdout.take().expect("stdout is piped");
+    let stderr = child.stderr.take().expect("stderr is piped");
+    let summary = tokio::spawn(async move {
+        let mut s = String::new();
+        let _ = stdout.read_to_string(&mut s).await;
+        s
+    });
+    let mut lines = BufReader::new(stderr).lines();
+    let mut last = String::new();
+    let mut started = false;
+    let outcome = loop {
+        tokio::select! {
+            line = lines.next_line() => match line {
+                Ok(Some(line)) => {
+                    let line = line.trim().to_owned();
+                    // The child's last line names files in the scratch folder, which the client
+                    // never sees: the report travels in the result instead.
+                    if line.is_empty() || line.starts_with("wrote ") {
+                        continue;
+                    }
+                    started |= line.starts_with("round ");
+                    last.clone_from(&line);
+                    if tx.send(Ok(progress(line))).await.is_err() {
+                        break None;
+                    }
+                }
+                _ => break Some(child.wait().await),
+            },
+            () = tx.closed() => break None,
+        }
+    };
+    let reply = match outcome {
+        None => {
+            tracing::info!("a diagnosis was stopped: its client went away");
+            let _ = child.kill().await;
+            None
+        }
+        Some(Ok(status)) if status.success() => Some(
+            result(&scratch.join("out"), summary.await.unwrap_or_default())
+                .map(|r| pb::DiagnoseResponse { event: Some(pb::diagnose_response::Event::Result(r)) }),
+        ),
+        Some(Ok(_)) => {
+            let message = last.strip_prefix("error: ").unwrap_or(&last).to_owned();
+            // Before the first round, the child only checked the job: the request is at fault.
+            Some(Err(if started {
+                Status::aborted(format!("the diagnosis stopped: {message}"))
+            } else {
+                Status::invalid_argument(message)
+            }))
+        }
+        Some(Err(e)) => Some(Err(Status::internal(format!("the diagnosis process: {e}")))),
+    };
+    if let Some(reply) = reply {
+        let _ = tx.send(reply).await;
+    }
+    if let Err(e) = std::fs::remove_dir_all(&scratch) {
+        tracing::warn!(scratch = %scratch.display(), "cannot remove a diagnosis folder: {e}");
+    }
+}
+
+/// The result message from the child's output folder and its stdout.
+fn result(out: &Path, summary: String) -> Result<pb::DiagnoseResult, Status> {
+    let report_json = std::fs::read_to_string(out.join("report.json"))
+        .map_err(|e| Status::internal(format!("the diagnosis wrote no report: {e}")))?;
+    let report: Diagnosis = serde_json::from_str(&report_json)
+        .map_err(|e| Status::internal(format!("the diagnosis wrote an unreadable report: {e}")))?;
+    Ok(pb::DiagnoseResult {
+        summary,
+        named: report.named.iter().map(|n| n.words.clone()).collect(),
+        effects: report.named.iter().map(|n| effect_to_proto(&n.effect)).collect(),
+        report_json,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_child_reaches_a_wildcard_listener_on_loopback() {
+        assert_eq!(loopback_url("0.0.0.0:7070".parse().unwrap()), "http://127.0.0.1:7070");
+        assert_eq!(loopback_url("[::]:7070".parse().unwrap()), "http://[::1]:7070");
+        assert_eq!(loopback_url("10.1.2.3:80".parse().unwrap()), "http://10.1.2.3:80");
+    }
+}
