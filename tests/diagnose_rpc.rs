@@ -3,7 +3,8 @@
 //! - It streams progress, then a result that names the same effect, with the same values, as
 //!   `fmucal diagnose` run locally on the example in `examples/diagnose/`.
 //! - It refuses bad requests with INVALID_ARGUMENT naming the field as the job file does.
-//! - A client that goes away stops the diagnosis, and its scratch folder is removed.
+//! - A client that goes away stops the diagnosis: its jobs are cancelled and its scratch folder
+//!   is removed.
 
 mod common;
 
@@ -148,7 +149,7 @@ async fn bad_diagnose_requests_name_the_field() {
     assert!(message.starts_with("diagnose.ports[0]"), "{message}");
     assert!(!message.contains('\n'), "{message}");
     assert!(scratch_folders(&dir.path().join("coord")).is_empty());
-    assert!(servers.stop());
+    servers.stop();
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -169,11 +170,27 @@ async fn a_client_that_goes_away_stops_its_diagnosis() {
     assert!(matches!(first.event, Some(pb::diagnose_response::Event::Progress(_))));
     let data_dir = dir.path().join("coord");
     assert_eq!(scratch_folders(&data_dir).len(), 1, "one diagnosis runs");
+    // Go away once its base calibration runs on the workers.
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        let jobs = rpc.list_jobs(pb::ListJobsRequest {}).await.unwrap().into_inner().jobs;
+        if jobs.iter().any(|j| j.status == pb::JobStatus::Running as i32) {
+            break;
+        }
+        assert!(Instant::now() < deadline, "the base calibration did not start: {jobs:?}");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
     drop(stream);
     let deadline = Instant::now() + Duration::from_secs(10);
     while !scratch_folders(&data_dir).is_empty() {
         assert!(Instant::now() < deadline, "the diagnosis was not stopped");
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
-    assert!(servers.stop());
+    // It cancelled the base calibration it had submitted.
+    let jobs = rpc.list_jobs(pb::ListJobsRequest {}).await.unwrap().into_inner().jobs;
+    assert!(!jobs.is_empty());
+    for job in jobs {
+        assert_eq!(job.status, pb::JobStatus::Cancelled as i32, "{job:?}");
+    }
+    servers.stop();
 }

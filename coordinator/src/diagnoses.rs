@@ -8,7 +8,8 @@
 //! - it writes the request's job and data to a scratch folder under `<data-dir>/diagnoses/`,
 //!   which is removed when the diagnosis ends and emptied at start;
 //! - it streams the child's progress lines, then its report;
-//! - it kills the child when the client goes away;
+//! - it stops the child when the client goes away: it closes the child's stdin, so the child
+//!   cancels the jobs it submitted and exits, and kills it if it has not after a grace period;
 //! - it runs at most [`MAX_RUNNING`] children at once.
 
 use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr};
@@ -30,6 +31,9 @@ use crate::error::CoordinatorError;
 
 /// Diagnoses that may run at once; a request beyond them is refused (RESOURCE_EXHAUSTED).
 pub const MAX_RUNNING: usize = 4;
+
+/// How long a child asked to stop may take to cancel its jobs before it is killed.
+const STOP_GRACE: std::time::Duration = std::time::Duration::from_secs(10);
 
 /// The name of the time column in the data file written for the child.
 const TIME_COLUMN: &str = "time";
@@ -126,8 +130,9 @@ impl Diagnoses {
                 .arg(&self.url)
                 .arg("--out")
                 .arg(scratch.join("out"))
+                .arg("--stop-on-stdin-eof")
                 .env("FMUCAL_CACHE_DIR", self.dir.join("cache"))
-                .stdin(Stdio::null())
+                .stdin(Stdio::piped())
                 .stdout(Stdio::piped())
                 .stderr(Stdio::piped())
                 .kill_on_drop(true);
@@ -162,6 +167,8 @@ async fn supervise(
     scratch: PathBuf,
     _permit: OwnedSemaphorePermit,
 ) {
+    // Closing the child's stdin asks it to stop and cancel its jobs.
+    let stdin = child.stdin.take();
     let mut stdout = child.stdout.take().expect("stdout is piped");
     let stderr = child.stderr.take().expect("stderr is piped");
     let summary = tokio::spawn(async move {
@@ -195,8 +202,11 @@ async fn supervise(
     };
     let reply = match outcome {
         None => {
-            tracing::info!("a diagnosis was stopped: its client went away");
-            let _ = child.kill().await;
+            tracing::info!("a diagnosis is stopped: its client went away");
+            drop(stdin);
+            if tokio::time::timeout(STOP_GRACE, child.wait()).await.is_err() {
+                let _ = child.kill().await;
+            }
             None
         }
         Some(Ok(status)) if status.success() => Some(

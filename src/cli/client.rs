@@ -4,6 +4,7 @@
 //! at the optimum on the workers as a job that evaluates them.
 
 use std::path::Path;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
@@ -21,6 +22,8 @@ use tonic::transport::Channel;
 #[derive(Clone)]
 pub struct Client {
     inner: CalibrationClient<InterceptedService<Channel, AttachToken>>,
+    /// Every job this client and its clones submitted, for [`Client::cancel_submitted`].
+    submitted: Arc<Mutex<Vec<String>>>,
 }
 
 impl Client {
@@ -47,7 +50,7 @@ impl Client {
         let inner = CalibrationClient::with_interceptor(channel, attach)
             .max_encoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES)
             .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES);
-        Ok(Client { inner })
+        Ok(Client { inner, submitted: Arc::default() })
     }
 
     /// Calibrates `job`, then runs its identifiability analysis at the optimum. A failed
@@ -164,13 +167,33 @@ impl Client {
             .context("uploading the model")?
             .into_inner()
             .model_id;
-        Ok(self
+        let job_id = self
             .inner
             .submit_job(pb::SubmitJobRequest { spec: Some(job_to_proto(spec, data, &model_id)) })
             .await
             .map_err(|s| anyhow::anyhow!("the coordinator rejected the job: {}", s.message()))?
             .into_inner()
-            .job_id)
+            .job_id;
+        self.submitted.lock().expect("not poisoned").push(job_id.clone());
+        Ok(job_id)
+    }
+
+    /// Cancels every job this client or a clone submitted that has not ended; returns how many
+    /// it stopped. For a client that gives up (a diagnosis stopped midway), so its jobs do not
+    /// keep the workers busy.
+    pub async fn cancel_submitted(&mut self) -> usize {
+        let ids = std::mem::take(&mut *self.submitted.lock().expect("not poisoned"));
+        let mut stopped = 0;
+        for job_id in ids {
+            let before = self.inner.get_job(pb::GetJobRequest { job_id: job_id.clone() }).await;
+            let running = before.is_ok_and(|r| {
+                [pb::JobStatus::Queued, pb::JobStatus::Running].iter().any(|s| *s as i32 == r.get_ref().status)
+            });
+            if running && self.inner.cancel_job(pb::CancelJobRequest { job_id }).await.is_ok() {
+                stopped += 1;
+            }
+        }
+        stopped
     }
 
     /// Follows a job's `WatchJob` stream (one event per completed batch, the first at once),

@@ -146,7 +146,8 @@ pub fn job_toml(
 
 /// A coordinator (`fmucal coordinator` on a free 127.0.0.1 port, state in `dir/coord`) and one
 /// worker process with `slots` slots, both with the token `cli-test-token`; [`Servers::stop`]
-/// sends them SIGTERM and returns whether both exited cleanly.
+/// sends them SIGTERM and returns whether both exited cleanly (a process stopped before it has
+/// set up its signal handler does not); dropping them unstopped kills them.
 #[allow(dead_code)]
 pub struct Servers {
     pub url: String,
@@ -184,9 +185,19 @@ impl Servers {
     }
 
     pub fn stop(mut self) -> bool {
-        self.children.iter_mut().all(|child| {
+        std::mem::take(&mut self.children).iter_mut().all(|child| {
             let _ = std::process::Command::new("kill").args(["-TERM", &child.id().to_string()]).status();
             child.wait().unwrap().success()
         })
+    }
+}
+
+/// A test that panicked before [`Servers::stop`] leaves no process behind.
+impl Drop for Servers {
+    fn drop(&mut self) {
+        for child in &mut self.children {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
     }
 }

@@ -46,6 +46,10 @@ pub struct Args {
     /// Token file for --coordinator (else FMUCAL_TOKEN).
     #[arg(long)]
     token_file: Option<PathBuf>,
+    /// Stop (cancelling the jobs submitted) when standard input closes: how a coordinator
+    /// running this diagnosis for a `Diagnose` request stops it.
+    #[arg(long, hide = true)]
+    stop_on_stdin_eof: bool,
 }
 
 /// What every step of the driver shares.
@@ -55,6 +59,25 @@ pub(crate) struct Context {
     pub model: PathBuf,
     pub settings: fmucal_shared::diagnose::spec::DiagnoseSpec,
     pub windows: fmucal_shared::diagnose::report::Windows,
+}
+
+/// Resolves on SIGTERM or Ctrl-C, or, with `stdin_eof`, when standard input closes; says which.
+async fn stop_requested(stdin_eof: bool) -> &'static str {
+    let closed = async {
+        if !stdin_eof {
+            return std::future::pending().await;
+        }
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        std::thread::spawn(move || {
+            let _ = std::io::copy(&mut std::io::stdin(), &mut std::io::sink());
+            let _ = tx.send(());
+        });
+        let _ = rx.await;
+    };
+    tokio::select! {
+        () = super::servers::terminate_signal() => "interrupted",
+        () = closed => "stopped by the coordinator that ran it",
+    }
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -90,7 +113,15 @@ pub fn run(args: Args) -> Result<()> {
             Some(url) => {
                 let token = super::token::load(args.token_file.as_deref())?;
                 let client = Client::connect(url, token.as_deref()).await?;
-                driver::diagnose(client, &ctx, spec).await
+                // Stopped midway, the diagnosis cancels its jobs: they would keep the
+                // coordinator's workers busy for nobody.
+                tokio::select! {
+                    outcome = driver::diagnose(client.clone(), &ctx, spec) => outcome,
+                    why = stop_requested(args.stop_on_stdin_eof) => {
+                        let n = client.clone().cancel_submitted().await;
+                        bail!("{why}; cancelled {n} running jobs")
+                    }
+                }
             }
             None => {
                 super::local_cluster::run(threads, async |client: Client| driver::diagnose(client, &ctx, spec).await)
