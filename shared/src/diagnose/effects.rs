@@ -69,6 +69,14 @@ pub trait Kind: Sync {
 pub trait PortEffect: Kind + Guesses {
     /// The term at signal value `s` with parameter values `p`.
     fn term(&self, p: &[f64], s: f64) -> f64;
+
+    /// The signal values where the term is not smooth (its slope jumps), as many for any
+    /// parameter values. In Model Exchange each becomes an event indicator s − value that joins
+    /// the FMU's, so the integrator stops at the kink instead of stepping across it. Smooth
+    /// terms have none (the default).
+    fn kinks(&self, _p: &[f64]) -> Vec<f64> {
+        vec![]
+    }
 }
 
 /// A change to a measured series (`time` increasing, `values` aligned with it).
@@ -203,6 +211,12 @@ impl PortEffect for DeadZoneSpring {
         } else {
             0.0
         }
+    }
+
+    /// The edges of the dead zone, ±width.
+    fn kinks(&self, p: &[f64]) -> Vec<f64> {
+        let w = p[1].abs();
+        vec![-w, w]
     }
 }
 
@@ -432,6 +446,14 @@ mod tests {
             [dz.term(&[4.0, 0.5], 0.3), dz.term(&[4.0, 0.5], 1.5), dz.term(&[4.0, 0.5], -1.5)],
             [0.0, -4.0, 4.0]
         );
+        // Its kinks are the zone's edges, where the term is continuous; smooth terms have none.
+        assert_eq!(dz.kinks(&[4.0, -0.5]), [-0.5, 0.5]);
+        for edge in [-0.5, 0.5] {
+            assert!(dz.term(&[4.0, 0.5], edge + 1e-12).abs() < 1e-11);
+        }
+        let with_kinks: Vec<&str> =
+            port_kinds().iter().filter(|k| !k.kinks(&[1.0, 1.0, 1.0]).is_empty()).map(|k| k.name()).collect();
+        assert_eq!(with_kinks, ["dead_zone_spring"]);
         assert!((port("convection").term(&[10.0, 293.15], 303.15) + 100.0).abs() < 1e-9);
         let r = port("radiation").term(&[0.5, 300.0], 400.0);
         assert!((r - 0.5 * SIGMA * (300.0f64.powi(4) - 400.0f64.powi(4))).abs() < 1e-9);

@@ -22,6 +22,9 @@
 //! time or at a root too. A model without states but with event indicators is integrated on a
 //! stand-in state with derivative 0 (never shown to the FMU), so the roots are still found.
 //!
+//! The port terms of effects with kinks (a dead zone's edges) add event indicators of their
+//! own after the FMU's: the integrator stops at a kink as at any state event.
+//!
 //! At each event the FMU enters Event Mode before the inputs are set to their values after the
 //! event (discrete inputs may change only in Event Mode, FMI 2.0.4 section 3.2.3), then goes
 //! through `fmi2NewDiscreteStates` until no new discrete states are needed; if states changed
@@ -52,6 +55,8 @@ struct Model<'a> {
     /// End of the segment being integrated.
     segment_end: Cell<f64>,
     nx: usize,
+    /// The FMU's event indicators, then the port terms' ([`Plan::term_indicators`]): `nz` in all.
+    fmu_nz: usize,
     nz: usize,
 }
 
@@ -130,9 +135,16 @@ impl Model<'_> {
             return;
         }
         let mut inst = self.inst.borrow_mut();
+        let (fmu, terms) = z.split_at_mut(self.fmu_nz);
         let r = self
             .set_point(&mut inst, t, &x[..self.nx])
-            .and_then(|_| inst.call("fmi2GetEventIndicators", |c| c.get_event_indicators(z)).map(|_| ()));
+            .and_then(|_| {
+                if fmu.is_empty() {
+                    return Ok(());
+                }
+                inst.call("fmi2GetEventIndicators", |c| c.get_event_indicators(fmu)).map(|_| ())
+            })
+            .and_then(|_| self.plan.term_indicators(&mut inst, terms));
         self.keep(r, z);
     }
 
@@ -166,7 +178,8 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
     initialize(inst, plan)?;
     let md = inst.description();
     let nx = md.states().len();
-    let nz = md.number_of_event_indicators;
+    let fmu_nz = md.number_of_event_indicators;
+    let nz = fmu_nz + plan.term_indicator_count();
     let step_event_check = !md.model_exchange.as_ref().is_some_and(|m| m.completed_integrator_step_not_needed);
     let mut rec = Recorder::new(plan);
     let model = Model {
@@ -176,6 +189,7 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
         rhs_evaluations: Cell::new(0),
         segment_end: Cell::new(f64::INFINITY),
         nx,
+        fmu_nz,
         nz,
     };
 

@@ -335,6 +335,33 @@ impl Plan {
         Ok(())
     }
 
+    /// Event indicators of the port terms: one per kink of each term ([`PortEffect::kinks`]).
+    pub fn term_indicator_count(&self) -> usize {
+        self.port_terms.iter().map(|t| t.effect.kinks(&t.parameters).len()).sum()
+    }
+
+    /// The port terms' event indicators, signal − kink, into `z` (of
+    /// [`Plan::term_indicator_count`] values); the states must be set.
+    ///
+    /// # Errors
+    /// [`FmuError::Call`] if the FMU rejects a call.
+    pub fn term_indicators(&self, inst: &mut Instance, z: &mut [f64]) -> Result<(), FmuError> {
+        let mut k = 0;
+        for term in &self.port_terms {
+            let kinks = term.effect.kinks(&term.parameters);
+            if kinks.is_empty() {
+                continue;
+            }
+            let mut s = [0.0];
+            inst.call("fmi2GetReal", |c| c.get_real(&[term.signal_vr], &mut s))?;
+            for kink in kinks {
+                z[k] = s[0] - kink;
+                k += 1;
+            }
+        }
+        Ok(())
+    }
+
     /// Sets parameters and start values (before `fmi2EnterInitializationMode`).
     ///
     /// # Errors
