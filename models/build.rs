@@ -11,7 +11,7 @@
 //! |---|---|---|---|
 //! | FurutaHiddenCoulomb.fmu | Furuta | `HIDDEN_PENDULUM_COULOMB=0.004` | pendulum joint −0.004·tanh(w/1e-3) N·m |
 //! | FurutaHiddenSensorOffset.fmu | Furuta | `HIDDEN_ARM_SENSOR_OFFSET=0.1` | reported `armJoint.phi` + 0.1 rad |
-//! | FurutaHiddenArmDrag.fmu | Furuta | `HIDDEN_ARM_QUADRATIC_DRAG=5e-4` | arm joint −5e-4·w·\|w\| N·m |
+//! | FurutaHiddenArmDrag.fmu | Furuta | `HIDDEN_ARM_QUADRATIC_DRAG=1e-3` | arm joint −1e-3·w·\|w\| N·m |
 //! | SpringMassHiddenCubic.fmu | SpringMass | `HIDDEN_CUBIC_SPRING=0.2` | force −0.2·x³ N |
 //! | ExhaustPipeHiddenRadiation.fmu | ExhaustPipe | `HIDDEN_RADIATION_AREA=0.2` | right wall 0.2·σ·(293.15⁴ − T_wall⁴) W |
 //!
@@ -59,10 +59,10 @@ const HIDDEN: &[(&str, &str, &str)] = &[
     // The arm angle sensor reads 0.1 rad too much (a misaligned encoder zero): fmi2GetReal
     // reports armJoint.phi + 0.1, the equations use the true angle (fmucal's sensor_offset).
     ("FurutaHiddenSensorOffset", "Furuta", "-DHIDDEN_ARM_SENSOR_OFFSET=0.1"),
-    // Quadratic drag −c·w1·|w1| on the arm (fmucal's quadratic_drag), c = 5e-4 N·m·s²/rad²:
-    // on the example's first 10 s of motor torque it turns the arm 1.3 rad less, 8.2 % of the
-    // arm angle's 15.4 rad range.
-    ("FurutaHiddenArmDrag", "Furuta", "-DHIDDEN_ARM_QUADRATIC_DRAG=5e-4"),
+    // Quadratic drag −c·w1·|w1| on the arm (fmucal's quadratic_drag), c = 1e-3 N·m·s²/rad²:
+    // on the example's first 10 s of motor torque it turns the arm 2.3 rad less, 15.7 % of the
+    // arm angle's 14.4 rad range.
+    ("FurutaHiddenArmDrag", "Furuta", "-DHIDDEN_ARM_QUADRATIC_DRAG=1e-3"),
     // A hardening spring −k3·x³ on the mass (fmucal's cubic_spring), k3 = 0.2 N/m³: 5 % of the
     // linear spring force (k = 4 N/m) at |x| = 1 m; with F = 3·sin(t) N, which drives x to
     // about ±1 m over 20 s, it changes x by up to 0.11 m, 5 % of its range.

@@ -126,7 +126,7 @@ fn injected_quadratic_drag_reproduces_the_hidden_arm_drag() {
     let base = common::load_example("furuta", &dir.path().join("cache"));
     let hidden = fixture(Fixture::FurutaHiddenArmDrag, dir.path());
     let outputs = ["armJoint.phi", "pendulumJoint.phi"];
-    let drag = term("quadratic_drag", "armJoint.tauExt", "armJoint.w", vec![5e-4]);
+    let drag = term("quadratic_drag", "armJoint.tauExt", "armJoint.w", vec![1e-3]);
     let run = |fmu: &Fmu, terms: Vec<PortTerm>| simulate(fmu, &spec(10.0, 0.01, furuta_torque(), &outputs, terms));
     let (h, i, w) = (run(&hidden, vec![]).unwrap(), run(&base, vec![drag]).unwrap(), run(&base, vec![]).unwrap());
     check_port_effect(&h, &i, &w, &outputs, 1e-9, ("armJoint.phi", 0.01));

@@ -108,8 +108,8 @@ pub enum Fixture {
     FurutaHiddenSensorOffset,
     /// Discrepancy: the Furuta pendulum with quadratic drag −c·w·|w| on the arm joint torque
     /// (fmucal's `quadratic_drag` with `w` = `armJoint.w`, port `armJoint.tauExt`),
-    /// c = 5e-4 N·m·s²/rad²: on the example's first 10 s of motor torque it turns the arm
-    /// 1.3 rad less, 8.2 % of the arm angle's range.
+    /// c = 1e-3 N·m·s²/rad²: on the example's first 10 s of motor torque it turns the arm
+    /// 2.3 rad less, 15.7 % of the arm angle's range.
     FurutaHiddenArmDrag,
     /// A mass on a linear spring with viscous damping (m = 1 kg, k = 4 N/m, d = 0.3 N·s/m;
     /// states and outputs `mass.x`, `mass.v`), driven by the input force `F`, with the
