@@ -4,7 +4,9 @@
 # plus each effect at 10 % noise. Each case writes seeded noisy data from a fixture FMU whose C
 # code holds the effect, runs `fmucal diagnose --workers 2` with the base FMU, and reads its
 # report. Prints one table row per case and the targets. Set DIAGNOSIS_GRID_DIR to keep the
-# cases' folders (data, job, diagnosis/).
+# cases' folders (data, job, diagnosis/). Set DIAGNOSIS_GRID_CASES to a comma-separated list of
+# case numbers (the table's first column, the kept folders' caseNN) to run only those, e.g.
+#   DIAGNOSIS_GRID_DIR=/tmp/gridcases DIAGNOSIS_GRID_CASES=6,7,10 bash bench/diagnose_grid.sh
 #   bash bench/diagnose_grid.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,4 +16,4 @@ if ! cargo test --release --locked --test diagnosis_grid -- --ignored --nocaptur
   tail -n 40 "$log"
   exit 1
 fi
-grep -E '^(\||true effect|no effect found on|validation RMS above|at 10 %)' "$log"
+grep -E '^(\||true effect|no effect found on|validation RMS above|raw validation RMS|at 10 %)' "$log"

@@ -10,10 +10,15 @@
 //! | fixture | base | define | effect |
 //! |---|---|---|---|
 //! | FurutaHiddenCoulomb.fmu | Furuta | `HIDDEN_PENDULUM_COULOMB=0.004` | pendulum joint −0.004·tanh(w/1e-3) N·m |
-//! | FurutaHiddenSensorOffset.fmu | Furuta | `HIDDEN_ARM_SENSOR_OFFSET=0.02` | reported `armJoint.phi` + 0.02 rad |
-//! | FurutaHiddenArmDrag.fmu | Furuta | `HIDDEN_ARM_QUADRATIC_DRAG=2e-4` | arm joint −2e-4·w·\|w\| N·m |
+//! | FurutaHiddenSensorOffset.fmu | Furuta | `HIDDEN_ARM_SENSOR_OFFSET=0.1` | reported `armJoint.phi` + 0.1 rad |
+//! | FurutaHiddenArmDrag.fmu | Furuta | `HIDDEN_ARM_QUADRATIC_DRAG=1e-3` | arm joint −1e-3·w·\|w\| N·m |
 //! | SpringMassHiddenCubic.fmu | SpringMass | `HIDDEN_CUBIC_SPRING=0.2` | force −0.2·x³ N |
-//! | ExhaustPipeHiddenRadiation.fmu | ExhaustPipe | `HIDDEN_RADIATION_AREA=0.1` | right wall 0.1·σ·(293.15⁴ − T_wall⁴) W |
+//! | ExhaustPipeHiddenRadiation.fmu | ExhaustPipe | `HIDDEN_RADIATION_AREA=0.2` | right wall 0.2·σ·(293.15⁴ − T_wall⁴) W |
+//!
+//! The magnitudes follow one criterion (tests/diagnosis_grid.rs, `EFFECT_OVER_NOISE`): on every
+//! input profile of the diagnosis grid, each effect changes the outputs (RMS over them) by at
+//! least the grid's largest noise floor (2 % of each output's range); each is the smallest
+//! 1-2-5 value that does.
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -51,23 +56,22 @@ const HIDDEN: &[(&str, &str, &str)] = &[
     // Coulomb friction of 0.004 N·m in the pendulum joint, smoothed as fmucal's
     // coulomb_friction: data with an effect the base model lacks.
     ("FurutaHiddenCoulomb", "Furuta", "-DHIDDEN_PENDULUM_COULOMB=0.004"),
-    // The arm angle sensor reads 0.02 rad too much: fmi2GetReal reports armJoint.phi + 0.02,
-    // the equations use the true angle (fmucal's sensor_offset).
-    ("FurutaHiddenSensorOffset", "Furuta", "-DHIDDEN_ARM_SENSOR_OFFSET=0.02"),
-    // Quadratic drag −c·w1·|w1| on the arm (fmucal's quadratic_drag), c = 2e-4 N·m·s²/rad²:
-    // on the example's first 10 s of motor torque (|w1| up to 4.3 rad/s) it turns the arm
-    // 0.55 rad less, 3.3 % of the arm angle's 16.7 rad range (the data's noise is 0.005 rad).
-    ("FurutaHiddenArmDrag", "Furuta", "-DHIDDEN_ARM_QUADRATIC_DRAG=2e-4"),
+    // The arm angle sensor reads 0.1 rad too much (a misaligned encoder zero): fmi2GetReal
+    // reports armJoint.phi + 0.1, the equations use the true angle (fmucal's sensor_offset).
+    ("FurutaHiddenSensorOffset", "Furuta", "-DHIDDEN_ARM_SENSOR_OFFSET=0.1"),
+    // Quadratic drag −c·w1·|w1| on the arm (fmucal's quadratic_drag), c = 1e-3 N·m·s²/rad²:
+    // on the example's first 10 s of motor torque it turns the arm 2.3 rad less, 15.7 % of the
+    // arm angle's 14.4 rad range.
+    ("FurutaHiddenArmDrag", "Furuta", "-DHIDDEN_ARM_QUADRATIC_DRAG=1e-3"),
     // A hardening spring −k3·x³ on the mass (fmucal's cubic_spring), k3 = 0.2 N/m³: 5 % of the
     // linear spring force (k = 4 N/m) at |x| = 1 m; with F = 3·sin(t) N, which drives x to
     // about ±1 m over 20 s, it changes x by up to 0.11 m, 5 % of its range.
     ("SpringMassHiddenCubic", "SpringMass", "-DHIDDEN_CUBIC_SPRING=0.2"),
     // Radiation of the outlet (right) wall to surroundings at 293.15 K, εA·σ·(T_amb⁴ − T_wall⁴)
-    // (fmucal's radiation), εA = 0.1 m² (e.g. emissivity 0.8 on 0.125 m²): about 0.7 kW at a
-    // 600 K wall, nearly half its loss through the wall-to-ambient conductance. On the exhaust
-    // example's inputs (30 min) it cools the wall by up to 10 K and the output outlet.T by up
-    // to 2 K, 1.5 % of its 132 K range and ten times the data's 0.2 K noise.
-    ("ExhaustPipeHiddenRadiation", "ExhaustPipe", "-DHIDDEN_RADIATION_AREA=0.1"),
+    // (fmucal's radiation), εA = 0.2 m² (e.g. emissivity 0.8 on 0.25 m²): about 1.4 kW at a
+    // 600 K wall. On the exhaust example's inputs (30 min) it lowers the output outlet.T by up
+    // to 3.8 K, 2.9 % of its 132 K range.
+    ("ExhaustPipeHiddenRadiation", "ExhaustPipe", "-DHIDDEN_RADIATION_AREA=0.2"),
 ];
 
 const FRAMEWORK: &[&str] = &["fmi2.h", "fmu_framework.h", "fmu_framework.c"];

@@ -112,9 +112,9 @@ fn the_sensor_offset_variant_reports_the_arm_angle_plus_the_offset_and_nothing_e
         let (b, h) = (simulate(&base, &s).unwrap(), simulate(&hidden, &s).unwrap());
         assert_eq!(b.time, h.time);
         let (bp, hp) = (b.column("armJoint.phi").unwrap(), h.column("armJoint.phi").unwrap());
-        let shifted: Vec<f64> = bp.iter().map(|p| p + 0.02).collect();
+        let shifted: Vec<f64> = bp.iter().map(|p| p + 0.1).collect();
         let d = max_abs_diff(hp, &shifted);
-        assert!(d < 1e-12, "{interface}: armJoint.phi differs from the base's + 0.02 by {d:e}");
+        assert!(d < 1e-12, "{interface}: armJoint.phi differs from the base's + 0.1 by {d:e}");
         let d = max_abs_diff(h.column("pendulumJoint.phi").unwrap(), b.column("pendulumJoint.phi").unwrap());
         assert!(d < 1e-12, "{interface}: pendulumJoint.phi differs from the base's by {d:e}");
     }
@@ -126,7 +126,7 @@ fn injected_quadratic_drag_reproduces_the_hidden_arm_drag() {
     let base = common::load_example("furuta", &dir.path().join("cache"));
     let hidden = fixture(Fixture::FurutaHiddenArmDrag, dir.path());
     let outputs = ["armJoint.phi", "pendulumJoint.phi"];
-    let drag = term("quadratic_drag", "armJoint.tauExt", "armJoint.w", vec![2e-4]);
+    let drag = term("quadratic_drag", "armJoint.tauExt", "armJoint.w", vec![1e-3]);
     let run = |fmu: &Fmu, terms: Vec<PortTerm>| simulate(fmu, &spec(10.0, 0.01, furuta_torque(), &outputs, terms));
     let (h, i, w) = (run(&hidden, vec![]).unwrap(), run(&base, vec![drag]).unwrap(), run(&base, vec![]).unwrap());
     check_port_effect(&h, &i, &w, &outputs, 1e-9, ("armJoint.phi", 0.01));
@@ -154,7 +154,7 @@ fn injected_radiation_reproduces_the_hidden_radiation_of_the_outlet_wall() {
     let base = common::load_example("exhaust-pipe", &dir.path().join("cache"));
     let hidden = fixture(Fixture::ExhaustPipeHiddenRadiation, dir.path());
     let outputs = ["outlet.T", "rightVolume.wallT"];
-    let radiation = term("radiation", "rightVolume.wallQext", "rightVolume.wallT", vec![0.1, 293.15]);
+    let radiation = term("radiation", "rightVolume.wallQext", "rightVolume.wallT", vec![0.2, 293.15]);
     let run = |fmu: &Fmu, terms: Vec<PortTerm>| simulate(fmu, &spec(1800.0, 1.0, exhaust_inputs(), &outputs, terms));
     let (h, i, w) = (run(&hidden, vec![]).unwrap(), run(&base, vec![radiation]).unwrap(), run(&base, vec![]).unwrap());
     check_port_effect(&h, &i, &w, &outputs, 1e-9, ("outlet.T", 0.01));

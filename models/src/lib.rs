@@ -102,14 +102,14 @@ pub enum Fixture {
     /// fmucal's `coulomb_friction`) in the pendulum joint, in its C code but not in its
     /// description.
     FurutaHiddenCoulomb,
-    /// Discrepancy: the Furuta pendulum whose arm angle sensor reads 0.02 rad too much
-    /// (fmucal's `sensor_offset`): `fmi2GetReal` reports `armJoint.phi` + 0.02 while the
+    /// Discrepancy: the Furuta pendulum whose arm angle sensor reads 0.1 rad too much
+    /// (fmucal's `sensor_offset`): `fmi2GetReal` reports `armJoint.phi` + 0.1 while the
     /// equations and the continuous states use the true angle.
     FurutaHiddenSensorOffset,
     /// Discrepancy: the Furuta pendulum with quadratic drag −c·w·|w| on the arm joint torque
     /// (fmucal's `quadratic_drag` with `w` = `armJoint.w`, port `armJoint.tauExt`),
-    /// c = 2e-4 N·m·s²/rad²: on the example's first 10 s of motor torque it turns the arm
-    /// 0.55 rad less, 3.3 % of the arm angle's range.
+    /// c = 1e-3 N·m·s²/rad²: on the example's first 10 s of motor torque it turns the arm
+    /// 2.3 rad less, 15.7 % of the arm angle's range.
     FurutaHiddenArmDrag,
     /// A mass on a linear spring with viscous damping (m = 1 kg, k = 4 N/m, d = 0.3 N·s/m;
     /// states and outputs `mass.x`, `mass.v`), driven by the input force `F`, with the
@@ -121,9 +121,9 @@ pub enum Fixture {
     /// its range.
     SpringMassHiddenCubic,
     /// Discrepancy: the exhaust pipe whose right (outlet) wall radiates to surroundings at
-    /// 293.15 K, εA·σ·(293.15⁴ − T⁴) with T = `rightVolume.wallT`, εA = 0.1 m², σ the
+    /// 293.15 K, εA·σ·(293.15⁴ − T⁴) with T = `rightVolume.wallT`, εA = 0.2 m², σ the
     /// Stefan–Boltzmann constant (fmucal's `radiation`, port `rightVolume.wallQext`): on the
-    /// exhaust example's inputs it lowers `outlet.T` by up to 2 K, 1.5 % of its range.
+    /// exhaust example's inputs it lowers `outlet.T` by up to 3.8 K, 2.9 % of its range.
     ExhaustPipeHiddenRadiation,
 }
 

@@ -14,8 +14,12 @@
 //!    parameter, |θ − neutral| > z·SE, where SE is the standard error at the candidate's optimum
 //!    inflated by √(m/n_eff) of the candidate's own residual.
 //!
-//! Among accepted candidates the lowest ΔIC is named. If none passes, none is named: naming the
-//! wrong effect is worse than naming none.
+//! Among accepted candidates the lowest ΔIC is named, unless another accepted candidate acting
+//! at a different place of the model (another port, output or input) is within
+//! [`EQUAL_SUPPORT`] of it: the data then show that something is missing but not where, and
+//! none is named. Accepted candidates at the same place within [`EQUAL_SUPPORT`] (radiation and
+//! convection on one wall) are reported as equally supported alongside the one named. If none
+//! passes, none is named: naming the wrong effect is worse than naming none.
 
 use serde::{Deserialize, Serialize};
 
@@ -37,6 +41,21 @@ pub struct Evidence {
     /// The effect's parameters: value, neutral value, standard error (uncorrected; NaN when
     /// not available), and whether it is a strength parameter.
     pub parameters: Vec<ParameterEvidence>,
+    /// Where the effect acts ([`place`]): candidates at different places that the data support
+    /// equally well leave the diagnosis unable to say where the model is wrong.
+    #[serde(default)]
+    pub place: String,
+}
+
+/// Where an effect acts on the model: its port (whatever signal it reads), or the output or
+/// input it changes.
+pub fn place(effect: &crate::job::spec::EffectSpec) -> String {
+    match (&effect.port, &effect.output, &effect.input) {
+        (Some(p), _, _) => format!("port {p}"),
+        (None, Some(o), _) => format!("output {o}"),
+        (None, None, Some(i)) => format!("input {i}"),
+        (None, None, None) => String::new(),
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -91,6 +110,9 @@ pub struct Verdict {
     pub wins_on_validation: bool,
     pub improves_ic: bool,
     pub intervals_exclude_neutral: bool,
+    /// Where the effect acts (the evidence's `place`).
+    #[serde(default)]
+    pub place: String,
 }
 
 impl Verdict {
@@ -146,11 +168,12 @@ pub fn judge(base: &Baseline, fit: &Evidence, rule: &Rule) -> Verdict {
         wins_on_validation: validation_statistic > validation_threshold && validation_gain >= rule.min_validation_gain,
         improves_ic: delta_ic < 0.0,
         intervals_exclude_neutral,
+        place: fit.place.clone(),
     }
 }
 
 /// The index of the accepted candidate with the lowest ΔIC, if any.
-pub fn choose(verdicts: &[Option<Verdict>]) -> Option<usize> {
+fn best(verdicts: &[Option<Verdict>]) -> Option<usize> {
     verdicts
         .iter()
         .enumerate()
@@ -159,20 +182,43 @@ pub fn choose(verdicts: &[Option<Verdict>]) -> Option<usize> {
         .map(|(k, _)| k)
 }
 
+/// The accepted candidate to name: the one with the lowest ΔIC, unless [`elsewhere`] finds
+/// candidates at other places as well supported (then none).
+pub fn choose(verdicts: &[Option<Verdict>]) -> Option<usize> {
+    best(verdicts).filter(|_| elsewhere(verdicts).is_empty())
+}
+
+/// The accepted candidates within [`EQUAL_SUPPORT`] of the lowest ΔIC that act at another place
+/// than the best one (a port, output or input): when there are any, the data cannot tell where
+/// the model is wrong, and the best is not named (the best comes first in the list then).
+pub fn elsewhere(verdicts: &[Option<Verdict>]) -> Vec<usize> {
+    let Some(b) = best(verdicts) else { return vec![] };
+    let place = verdicts[b].as_ref().map(|v| v.place.as_str()).unwrap_or_default();
+    let others: Vec<usize> =
+        within(verdicts, b).into_iter().filter(|k| verdicts[*k].as_ref().is_some_and(|v| v.place != place)).collect();
+    if others.is_empty() { others } else { std::iter::once(b).chain(others).collect() }
+}
+
+/// The other accepted candidates within [`EQUAL_SUPPORT`] of candidate `of`.
+fn within(verdicts: &[Option<Verdict>], of: usize) -> Vec<usize> {
+    let Some(best) = verdicts.get(of).and_then(|v| v.as_ref()).map(|v| v.delta_ic) else { return vec![] };
+    verdicts
+        .iter()
+        .enumerate()
+        .filter(|(k, v)| *k != of && v.as_ref().is_some_and(|v| v.accepted() && v.delta_ic - best <= EQUAL_SUPPORT))
+        .map(|(k, _)| k)
+        .collect()
+}
+
 /// Information-criterion difference within which two accepted candidates are equally
 /// supported by the data (Burnham and Anderson's rule of thumb).
 pub const EQUAL_SUPPORT: f64 = 2.0;
 
 /// The other accepted candidates whose ΔIC is within [`EQUAL_SUPPORT`] of the chosen one's: the
-/// data cannot tell them from it (radiation and convection over a narrow temperature range).
+/// data cannot tell them from it (radiation and convection over a narrow temperature range; by
+/// [`choose`] they act at the same place).
 pub fn equally_supported(verdicts: &[Option<Verdict>], chosen: usize) -> Vec<usize> {
-    let Some(best) = verdicts.get(chosen).and_then(|v| v.as_ref()).map(|v| v.delta_ic) else { return vec![] };
-    verdicts
-        .iter()
-        .enumerate()
-        .filter(|(k, v)| *k != chosen && v.as_ref().is_some_and(|v| v.accepted() && v.delta_ic - best <= EQUAL_SUPPORT))
-        .map(|(k, _)| k)
-        .collect()
+    within(verdicts, chosen)
 }
 
 /// Effective number of independent samples of a residual made of `series` (one per output, on
@@ -309,7 +355,32 @@ mod tests {
                 standard_error: se,
                 strength: true,
             }],
+            place: "port a.tauExt".into(),
         }
+    }
+
+    #[test]
+    fn equally_supported_candidates_at_other_places_leave_the_effect_unnamed() {
+        let base = Baseline { ssr: 10.0, n_eff: 100.0, validation_rms: 1.0, validation_n_eff: 500.0 };
+        let rule = Rule { min_validation_gain: 0.05, confidence: 0.95 };
+        let at = |ssr: f64, place: &str| {
+            let mut e = evidence(ssr, 0.5, 0.01, 0.001);
+            e.place = place.into();
+            Some(judge(&base, &e, &rule))
+        };
+        // ΔIC differs by 100·ln(2.05/2) ≈ 2.5 > 2: the best is named wherever the other acts.
+        let clear = [at(2.05, "input u"), at(2.0, "port a.tauExt")];
+        assert_eq!((choose(&clear), elsewhere(&clear)), (Some(1), vec![]));
+        // Within 2 (ΔIC 1.0 apart) at the same place: named, the other equally supported.
+        let same = [at(2.02, "port a.tauExt"), at(2.0, "port a.tauExt")];
+        assert_eq!((choose(&same), equally_supported(&same, 1)), (Some(1), vec![0]));
+        // Within 2 at another place: the data cannot say where, none is named.
+        let apart = [at(2.02, "output y"), None, at(2.0, "port a.tauExt"), at(3.0, "input u")];
+        assert_eq!((choose(&apart), elsewhere(&apart)), (None, vec![2, 0]));
+        // A rejected candidate at another place does not count.
+        let mut rejected = judge(&base, &evidence(2.02, 0.99, 0.01, 0.001), &rule);
+        rejected.place = "output y".into();
+        assert_eq!(choose(&[Some(rejected), at(2.0, "port a.tauExt")]), Some(1));
     }
 
     #[test]

@@ -6,7 +6,7 @@ use std::fmt::Write;
 use serde::{Deserialize, Serialize};
 
 use super::candidates::{Candidate, Screened};
-use super::decision::{Baseline, Evidence, Verdict};
+use super::decision::{Baseline, Evidence, Verdict, elsewhere};
 use super::localise::Localisation;
 use crate::job::spec::EffectSpec;
 
@@ -158,11 +158,23 @@ impl Diagnosis {
             }
         }
         if self.named.is_empty() {
-            let fitted = self.rounds.first().is_some_and(|r| r.candidates.iter().any(|c| c.fit.is_some()));
-            let why = if fitted {
-                "no candidate passed all three tests"
+            let first = self.rounds.first();
+            let fitted = first.is_some_and(|r| r.candidates.iter().any(|c| c.fit.is_some()));
+            let verdicts: Vec<Option<Verdict>> = first
+                .map(|r| r.candidates.iter().map(|c| c.fit.as_ref().and_then(|f| f.verdict.clone())).collect())
+                .unwrap_or_default();
+            let apart = elsewhere(&verdicts);
+            let why = if !apart.is_empty() {
+                let round = first.expect("verdicts come from the first round");
+                let names: Vec<&str> = apart.iter().map(|k| round.candidates[*k].description.as_str()).collect();
+                format!(
+                    "candidates at different places are equally supported (ΔIC within 2), so the data do not say where the model is wrong: {}",
+                    names.join("; ")
+                )
+            } else if fitted {
+                "no candidate passed all three tests".to_owned()
             } else {
-                "the screening predicts no candidate to improve the fit enough to pay for its parameters"
+                "the screening predicts no candidate to improve the fit enough to pay for its parameters".to_owned()
             };
             let _ = writeln!(s, "no effect found: {why}");
         }

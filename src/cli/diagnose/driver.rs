@@ -313,6 +313,7 @@ fn judge_fit(
             n_eff: seen.n_eff,
             validation_rms: seen.rms.validation,
             parameters,
+            place: fmucal_shared::diagnose::decision::place(&candidate.effect),
         };
         Ok((e, seen))
     })();
