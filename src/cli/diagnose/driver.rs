@@ -14,13 +14,16 @@ use fmucal_shared::diagnose::decision::{
     Baseline, Evidence, ParameterEvidence, Rule, choose, equally_supported, judge,
 };
 use fmucal_shared::diagnose::guess::SignalStats;
-use fmucal_shared::diagnose::jobs::{candidate_job, same_place, with_starts};
+use fmucal_shared::diagnose::jobs::{
+    candidate_job, decision_optimizer, noise_ssr, polish_step, predicted_decrease, same_place, stopped_early,
+    with_starts,
+};
 use fmucal_shared::diagnose::localise::localise;
 use fmucal_shared::diagnose::report::{
-    CandidateFit, Diagnosis, NamedEffect, RankedCandidate, Round, value_with_interval,
+    CandidateFit, Diagnosis, NamedEffect, PhaseTime, RankedCandidate, Round, value_with_interval,
 };
-use fmucal_shared::job::identifiability::Identifiability;
-use fmucal_shared::job::{CalibrationResult, JobSpec, PreparedJob};
+use fmucal_shared::job::identifiability::{self, Identifiability};
+use fmucal_shared::job::{CalibrationResult, JobSpec, MeasurementTable, PreparedJob};
 
 use super::Context;
 use super::look::{Look, look, signals};
@@ -36,11 +39,28 @@ pub struct Outcome {
     pub signals: Vec<(String, Vec<f64>)>,
 }
 
+/// Wall time and simulations per phase, summed over the rounds.
+#[derive(Default)]
+struct Phases(BTreeMap<String, PhaseTime>);
+
+impl Phases {
+    /// Adds the time since `since` and `simulations` to `phase`.
+    fn add(&mut self, phase: &str, since: Instant, simulations: u64) {
+        let seconds = since.elapsed().as_secs_f64();
+        tracing::debug!("diagnose phase {phase}: {seconds:.3} s, {simulations} simulations");
+        let p = self.0.entry(phase.to_owned()).or_default();
+        p.seconds += seconds;
+        p.simulations += simulations;
+    }
+}
+
 /// A fitted candidate as it comes back from the workers.
 struct Fitted {
     job: JobSpec,
     result: Result<(CalibrationResult, Result<Identifiability>)>,
     elapsed: Duration,
+    /// Simulations of the fit and of its identifiability points.
+    simulations: u64,
 }
 
 pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> Result<Outcome> {
@@ -52,6 +72,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
     let mut first_look: Option<Look> = None;
     let mut last_look: Option<Look> = None;
     let mut first_signals = vec![];
+    let mut phases = Phases::default();
     for round in 0..ctx.settings.rounds {
         eprintln!("round {}: calibrating the base model", round + 1);
         let t = Instant::now();
@@ -59,6 +80,8 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         if round == 0 {
             base_calibration_s = t.elapsed().as_secs_f64();
         }
+        phases.add("base", t, result.evaluations);
+        let t = Instant::now();
         let prepared = Arc::new(prepare(ctx, &base)?);
         let x_base = result.x_opt_in(&prepared.parameter_names);
         let before = look(ctx, &prepared, &x_base)?;
@@ -79,10 +102,14 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         names.retain(|n| seen.insert(n.clone()));
         let signal_values = signals(ctx, &prepared, &x_base, &names)?;
         let localisation = localise(&before.time, &before.residuals, &signal_values, ctx.settings.windows);
+        phases.add("look", t, 2);
 
         // Size and screen every candidate.
         eprintln!("round {}: screening the candidates", round + 1);
-        let scales = port_scales(&mut client, ctx, &base, &x_base).await?;
+        let t = Instant::now();
+        let (scales, probed) = port_scales(&mut client, ctx, &base, &x_base).await?;
+        phases.add("probe", t, probed);
+        let t = Instant::now();
         let sizes = sizes(ctx, &base, &before, &signal_values, &scales);
         let candidates: Vec<Candidate> = generate(&base, &ctx.settings, &sizes)
             .into_iter()
@@ -90,8 +117,11 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             .collect();
         let screening = Screening::new(&base, &x_base, &candidates, ctx.settings.fix_base);
         let evaluated = client.evaluate(&screening.job, screening.points.clone(), &ctx.data, &ctx.model).await?;
+        phases.add("screen", t, screening.points.len() as u64);
         let residuals: Vec<Option<Vec<f64>>> = evaluated.iter().map(|e| e.value.map(|_| e.residuals.clone())).collect();
         let screened = screening.statistics(&residuals, before.n_eff);
+        // No candidate fit ends much below the noise: the fits' tolerances start from it.
+        let noise = residuals.first().cloned().flatten().map_or(0.0, |r| noise_ssr(&r));
         let order = ranking(&screened);
         // Only candidates the screening predicts to improve the information criterion are
         // worth a fit; a failed screening ranks last and is not fitted.
@@ -101,6 +131,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         // Where each fit starts: the best of the base optimum and the full and half Gauss–Newton
         // steps (the linear prediction can overshoot when the effect trades off against a base
         // parameter), evaluated as one batch.
+        let t = Instant::now();
         let steps: Vec<Vec<f64>> =
             top.iter().flat_map(|&c| [1.0, 0.5].map(|f| screening.along_step(c, &screened[c], f))).collect();
         let tried = if steps.is_empty() {
@@ -108,7 +139,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         } else {
             client.evaluate(&screening.job, steps.clone(), &ctx.data, &ctx.model).await?
         };
-        let starts: Vec<(Vec<f64>, Vec<f64>)> = top
+        let starts: Vec<(f64, Vec<f64>, Vec<f64>)> = top
             .iter()
             .enumerate()
             .map(|(slot, &c)| {
@@ -122,11 +153,13 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
                         best = (v, b, e);
                     }
                 }
-                (best.1, best.2)
+                best
             })
             .collect();
+        phases.add("starts", t, steps.len() as u64);
 
         // Fit the top K concurrently on the workers.
+        let t = Instant::now();
         eprintln!("round {}: fitting the {} most promising of {} candidates", round + 1, top.len(), candidates.len());
         let bar = indicatif::ProgressBar::new(top.len() as u64);
         bar.set_style(
@@ -136,7 +169,8 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         let mut tasks = tokio::task::JoinSet::new();
         for (slot, &c) in top.iter().enumerate() {
             let narrowed = candidates[c].narrowed(&screened[c].estimate);
-            let (from, effect_start) = &starts[slot];
+            let (start_ssr, from, effect_start) = &starts[slot];
+            let (start_ssr, n_eff) = (start_ssr.min(noise.max(0.0)).max(f64::MIN_POSITIVE), baseline.n_eff);
             let starts: BTreeMap<String, f64> =
                 prepared.parameter_names.iter().cloned().zip(from.iter().copied()).collect();
             let mut job = candidate_job(&base, &starts, &narrowed, effect_start, ctx.settings.fix_base);
@@ -152,14 +186,17 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             let (mut client, data, model, fmu) = (client.clone(), ctx.data.clone(), ctx.model.clone(), ctx.fmu.clone());
             tasks.spawn(async move {
                 let t = Instant::now();
-                let result = async {
-                    let r = client.calibrate_with(&job, &data, &model, |_| {}).await?;
-                    let prepared = PreparedJob::new(&job, &fmu.description, &fmu.interfaces(), &data)?;
-                    let id = client.identify(&prepared, &r, &data, &model).await;
-                    Ok((r, id))
-                }
-                .await;
-                (slot, Fitted { job, result, elapsed: t.elapsed() })
+                let prepared = PreparedJob::new(&job, &fmu.description, &fmu.interfaces(), &data);
+                let mut simulations = 0;
+                let result = match prepared {
+                    Ok(prepared) => {
+                        let fit = Fit { client: &mut client, job: &prepared, data: &data, model: &model };
+                        fit.for_decision(start_ssr, n_eff, &mut simulations).await
+                    }
+                    Err(e) => Err(e.into()),
+                };
+                tracing::debug!("candidate {slot}: {:.3} s, {simulations} simulations", t.elapsed().as_secs_f64());
+                (slot, Fitted { job, result, elapsed: t.elapsed(), simulations })
             });
         }
         let mut fitted: Vec<Option<Fitted>> = top.iter().map(|_| None).collect();
@@ -169,8 +206,11 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             fitted[slot] = Some(f);
         }
         bar.finish_and_clear();
+        let simulations = fitted.iter().flatten().map(|f| f.simulations).sum();
+        phases.add("fits", t, simulations);
 
         // Judge them.
+        let t = Instant::now();
         let mut fits: BTreeMap<usize, (CandidateFit, JobSpec, Option<Look>)> = BTreeMap::new();
         for (slot, f) in fitted.into_iter().enumerate() {
             let f = f.expect("every task reported");
@@ -178,8 +218,37 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             let narrowed = candidates[c].narrowed(&screened[c].estimate);
             fits.insert(c, judge_fit(ctx, &baseline, &rule, &narrowed, f));
         }
-        let verdicts: Vec<Option<_>> = order.iter().map(|c| fits.get(c).and_then(|f| f.0.verdict.clone())).collect();
-        let chosen = choose(&verdicts);
+        phases.add("judge", t, fits.len() as u64);
+
+        // The fits stopped once their SSR was known well enough to decide. The chosen one is
+        // polished from its optimum to the job's own tolerances, so that its values (and the
+        // starts of `job.toml`) are as precise as a calibration's, and judged again; should
+        // that change the choice, the new choice is polished too.
+        let t = Instant::now();
+        let mut polished = std::collections::BTreeSet::new();
+        let mut polish_simulations = 0;
+        let (verdicts, chosen) = loop {
+            let verdicts: Vec<Option<_>> =
+                order.iter().map(|c| fits.get(c).and_then(|f| f.0.verdict.clone())).collect();
+            let chosen = choose(&verdicts);
+            let Some(c) = chosen.map(|rank| order[rank]) else { break (verdicts, chosen) };
+            if !polished.insert(c) {
+                break (verdicts, chosen);
+            }
+            let (fit, job, _) = &fits[&c];
+            match polish(&mut client, ctx, job, fit).await {
+                Ok(f) => {
+                    polish_simulations += f.simulations;
+                    let narrowed = candidates[c].narrowed(&screened[c].estimate);
+                    let judged = judge_fit(ctx, &baseline, &rule, &narrowed, f);
+                    if judged.0.verdict.is_some() {
+                        fits.insert(c, judged);
+                    }
+                }
+                Err(e) => tracing::warn!("polishing candidate {c}: {e:#}"),
+            }
+        };
+        phases.add("polish", t, polish_simulations);
         let equally = chosen.map(|c| equally_supported(&verdicts, c)).unwrap_or_default();
         let ranked: Vec<RankedCandidate> = order
             .iter()
@@ -226,8 +295,112 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         after: after.rms,
         base_calibration_s,
         elapsed_s: started.elapsed().as_secs_f64(),
+        phases: phases.0,
     };
     Ok(Outcome { diagnosis, before, after, signals: first_signals })
+}
+
+/// A calibration job on the workers, with what its identifiability points need.
+struct Fit<'a> {
+    client: &'a mut Client,
+    job: &'a PreparedJob,
+    data: &'a MeasurementTable,
+    model: &'a std::path::Path,
+}
+
+impl Fit<'_> {
+    /// The fit of a candidate to the accuracy the decision needs ([`decision_optimizer`] at
+    /// `ssr`, the lower of the start's SSR and the noise's), then its identifiability. The
+    /// difference points of the identifiability also say what a Gauss–Newton step would still
+    /// gain ([`predicted_decrease`]): more than the tolerance means the simplex stopped on a
+    /// slope, and the fit goes on from its optimum with a fresh simplex (at most twice). The
+    /// result counts the evaluations of every leg; `simulations` adds the difference points.
+    async fn for_decision(
+        self,
+        ssr: f64,
+        n_eff: f64,
+        simulations: &mut u64,
+    ) -> Result<(CalibrationResult, Result<Identifiability>)> {
+        let own = &self.job.spec.optimizer;
+        let (optimizer, f_tol) = decision_optimizer(own, ssr, n_eff);
+        let mut leg = self.job.spec.clone();
+        leg.optimizer = optimizer;
+        let mut evaluations = 0;
+        let mut legs = 0;
+        loop {
+            let mut result = self.client.calibrate_with(&leg, self.data, self.model, |_| {}).await?;
+            evaluations += result.evaluations;
+            *simulations += result.evaluations;
+            legs += 1;
+            let (id, decrease) = identify(self.client, self.job, &result, self.data, self.model, simulations).await;
+            tracing::debug!("leg {legs}: SSR {:.6e}, a Gauss–Newton step would gain {decrease:.2e}", result.f_opt);
+            if stopped_early(decrease, f_tol, result.f_opt, n_eff) && legs < 3 {
+                tracing::debug!(
+                    "a candidate fit stopped at SSR {:.6e} where a Gauss–Newton step gains {decrease:.2e}: it goes on",
+                    result.f_opt
+                );
+                let optimizer = leg.optimizer.clone();
+                leg = with_starts(self.job.spec.clone(), &result.x_opt);
+                leg.optimizer = optimizer;
+                continue;
+            }
+            result.evaluations = evaluations;
+            return Ok((result, id));
+        }
+    }
+}
+
+/// The identifiability of `result`'s optimum from its difference points, evaluated on the
+/// workers, and what a Gauss–Newton step from there is predicted to gain (NaN if unknown).
+async fn identify(
+    client: &mut Client,
+    job: &PreparedJob,
+    result: &CalibrationResult,
+    data: &MeasurementTable,
+    model: &std::path::Path,
+    simulations: &mut u64,
+) -> (Result<Identifiability>, f64) {
+    let plan = identifiability::difference_points(job, &result.x_opt_in(&job.parameter_names));
+    *simulations += plan.points.len() as u64;
+    let residuals = match client.evaluate(&job.spec, plan.points.clone(), data, model).await {
+        Ok(evaluated) => identifiability::residuals_of(&evaluated).map_err(anyhow::Error::from),
+        Err(e) => Err(e),
+    };
+    match residuals {
+        Ok(residuals) => {
+            let (_, _, lower, upper) = job.spec.parameter_vectors();
+            let decrease = predicted_decrease(&plan, &residuals, &lower, &upper);
+            let id = identifiability::from_residuals(&job.parameter_names, &plan, &residuals);
+            (id.map_err(anyhow::Error::from), decrease)
+        }
+        Err(e) => (Err(e), f64::NAN),
+    }
+}
+
+/// The chosen candidate's fit, polished from its optimum to the job's own tolerances with a
+/// small first simplex ([`polish_step`]), one point at a time (from near the optimum that
+/// takes about half the simulations of parallel Nelder–Mead, and less wall time even on idle
+/// workers), and its identifiability there. Evaluations and wall time include the decision's
+/// fit; `simulations` only the polish's.
+async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &CandidateFit) -> Result<Fitted> {
+    let t = Instant::now();
+    let mut polish = with_starts(job.clone(), &fit.x_opt);
+    polish.optimizer.initial_step = Some(polish_step(polish.optimizer.x_tol, polish.optimizer.initial_step));
+    polish.optimizer.parallel = false;
+    let mut r = client.calibrate_with(&polish, &ctx.data, &ctx.model, |_| {}).await?;
+    let mut simulations = r.evaluations;
+    let prepared = prepare(ctx, job)?;
+    let (id, _) = identify(client, &prepared, &r, &ctx.data, &ctx.model, &mut simulations).await;
+    tracing::debug!(
+        "polish: step {:.2e}, {} evaluations, SSR {:.6e} → {:.6e}",
+        polish.optimizer.initial_step.unwrap_or(f64::NAN),
+        r.evaluations,
+        fit.evidence.as_ref().map_or(f64::NAN, |e| e.ssr),
+        r.f_opt
+    );
+    r.evaluations += fit.evaluations;
+    let elapsed = t.elapsed() + Duration::from_secs_f64(fit.elapsed_s);
+    Ok(Fitted { job: job.clone(), result: Ok((r, id)), elapsed, simulations })
 }
 
 fn prepare(ctx: &Context, job: &JobSpec) -> Result<PreparedJob> {
