@@ -58,7 +58,7 @@ pub fn noise_ssr(r: &[f64]) -> f64 {
 /// A candidate fit whose Gauss–Newton step would still gain `decrease` stopped early (its
 /// simplex small on a slope, not at an optimum) when that gain would move its ΔIC by more
 /// than 10 × [`IC_ACCURACY`], half the [`EQUAL_SUPPORT`](super::decision::EQUAL_SUPPORT)
-/// band: it goes on. `f_tol` is the tolerance it stopped at (a gain below it is noise).
+/// band: Gauss–Newton steps go on. `f_tol` is the tolerance it stopped at (a gain below it is noise).
 pub fn stopped_early(decrease: f64, f_tol: f64, ssr: f64, n_eff: f64) -> bool {
     decrease > 10.0 * f_tol.max(decision_f_tol(ssr, n_eff))
 }
@@ -72,23 +72,27 @@ pub fn polish_step(x_tol: Option<f64>, initial_step: Option<f64>) -> f64 {
     (20.0 * x_tol).min(default)
 }
 
-/// What a Gauss–Newton step from the centre of an evaluated difference plan is predicted to
-/// take off the SSR, kept inside `lower`..`upper`: ‖r₀‖² − ‖r₀ + J·s‖² with J from the plan's
-/// central differences and s the least-squares step, clamped into the bounds. Near 0 at an
-/// optimum (also at one on a bound); well above a fit's tolerance where its Nelder–Mead
-/// stopped early, its simplex small on a slope. NaN if the residuals do not match the plan.
-pub fn predicted_decrease(plan: &DifferencePlan, residuals: &[Vec<f64>], lower: &[f64], upper: &[f64]) -> f64 {
+/// The Gauss–Newton step from the centre of an evaluated difference plan, kept inside
+/// `lower`..`upper`, and what it is predicted to take off the SSR: x + s with J from the plan's
+/// central differences and s the least-squares step, clamped into the bounds, and
+/// ‖r₀‖² − ‖r₀ + J·s‖². `None` if the residuals do not match the plan.
+pub fn gauss_newton(
+    plan: &DifferencePlan,
+    residuals: &[Vec<f64>],
+    lower: &[f64],
+    upper: &[f64],
+) -> Option<(Vec<f64>, f64)> {
     let n = plan.pairs.len();
-    let Some(r0) = residuals.first() else { return f64::NAN };
+    let r0 = residuals.first()?;
     let m = r0.len();
     if residuals.len() != plan.points.len() || residuals.iter().any(|r| r.len() != m) || m == 0 || n == 0 {
-        return f64::NAN;
+        return None;
     }
     let x = &plan.points[0];
     let mut jac = nalgebra::DMatrix::<f64>::zeros(m, n);
     for (i, &(up, down, dist)) in plan.pairs.iter().enumerate() {
         if dist <= 0.0 {
-            return f64::NAN;
+            return None;
         }
         for k in 0..m {
             jac[(k, i)] = (residuals[up][k] - residuals[down][k]) / dist;
@@ -97,13 +101,19 @@ pub fn predicted_decrease(plan: &DifferencePlan, residuals: &[Vec<f64>], lower: 
     let r = nalgebra::DVector::from_column_slice(r0);
     let svd = jac.clone().svd(true, true);
     let eps = 1e-12 * svd.singular_values.max();
-    let Ok(step) = svd.solve(&(-&r), eps) else { return f64::NAN };
-    let clamped = nalgebra::DVector::from_iterator(
-        n,
-        (0..n).map(|i| (x[i] + step[i]).clamp(lower[i].min(x[i]), upper[i].max(x[i])) - x[i]),
-    );
+    let step = svd.solve(&(-&r), eps).ok()?;
+    let next: Vec<f64> = (0..n).map(|i| (x[i] + step[i]).clamp(lower[i].min(x[i]), upper[i].max(x[i]))).collect();
+    let clamped = nalgebra::DVector::from_iterator(n, (0..n).map(|i| next[i] - x[i]));
     let after = &r + &jac * clamped;
-    (r.norm_squared() - after.norm_squared()).max(0.0)
+    let gain = (r.norm_squared() - after.norm_squared()).max(0.0);
+    gain.is_finite().then_some((next, gain))
+}
+
+/// What the [`gauss_newton`] step is predicted to take off the SSR: near 0 at an optimum (also
+/// at one on a bound); well above a fit's tolerance where its Nelder–Mead stopped early, its
+/// simplex small on a slope. NaN if the residuals do not match the plan.
+pub fn predicted_decrease(plan: &DifferencePlan, residuals: &[Vec<f64>], lower: &[f64], upper: &[f64]) -> f64 {
+    gauss_newton(plan, residuals, lower, upper).map_or(f64::NAN, |(_, gain)| gain)
 }
 
 /// `job` with the start of every calibrated value named in `values` (`[[parameters]]` by name,
@@ -323,6 +333,8 @@ top = 3
         let at_opt = ssr(&linear(&opt).1[0]);
         let d = predicted_decrease(&plan, &residuals, &lo, &hi);
         assert!((d - (ssr(&residuals[0]) - at_opt)).abs() < 1e-9, "{d}");
+        let (next, _) = gauss_newton(&plan, &residuals, &lo, &hi).unwrap();
+        assert!((next[0] - opt[0]).abs() < 1e-9 && (next[1] - opt[1]).abs() < 1e-9, "{next:?} vs {opt:?}");
         // A bound that holds the step back: only the part inside the box counts.
         let held = predicted_decrease(&plan, &residuals, &lo, &[10.0, 0.0]);
         assert!(held > 0.0 && held < d, "{held} vs {d}");

@@ -15,7 +15,7 @@ use fmucal_shared::diagnose::decision::{
 };
 use fmucal_shared::diagnose::guess::SignalStats;
 use fmucal_shared::diagnose::jobs::{
-    candidate_job, decision_optimizer, noise_ssr, polish_step, predicted_decrease, same_place, stopped_early,
+    candidate_job, decision_f_tol, decision_optimizer, gauss_newton, noise_ssr, polish_step, same_place, stopped_early,
     with_starts,
 };
 use fmucal_shared::diagnose::localise::localise;
@@ -221,7 +221,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         phases.add("judge", t, fits.len() as u64);
 
         // The fits stopped once their SSR was known well enough to decide. The chosen one is
-        // polished from its optimum to the job's own tolerances, so that its values (and the
+        // polished from its optimum to the job's own f_tol (Gauss–Newton), so that its values (and the
         // starts of `job.toml`) are as precise as a calibration's, and judged again; should
         // that change the choice, the new choice is polished too.
         let t = Instant::now();
@@ -236,7 +236,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
                 break (verdicts, chosen);
             }
             let (fit, job, _) = &fits[&c];
-            match polish(&mut client, ctx, job, fit).await {
+            match polish(&mut client, ctx, job, fit, baseline.n_eff).await {
                 Ok(f) => {
                     polish_simulations += f.simulations;
                     let narrowed = candidates[c].narrowed(&screened[c].estimate);
@@ -310,97 +310,142 @@ struct Fit<'a> {
 
 impl Fit<'_> {
     /// The fit of a candidate to the accuracy the decision needs ([`decision_optimizer`] at
-    /// `ssr`, the lower of the start's SSR and the noise's), then its identifiability. The
-    /// difference points of the identifiability also say what a Gauss–Newton step would still
-    /// gain ([`predicted_decrease`]): more than the tolerance means the simplex stopped on a
-    /// slope, and the fit goes on from its optimum with a fresh simplex (at most twice). The
-    /// result counts the evaluations of every leg; `simulations` adds the difference points.
+    /// `ssr`, the lower of the start's SSR and the noise's), then its identifiability from the
+    /// difference points at its optimum. Those also say what a Gauss–Newton step would still
+    /// gain ([`gauss_newton`]): more than [`stopped_early`] allows means the simplex stopped on
+    /// a slope, and Gauss–Newton steps go on ([`Fit::gauss_newton`]). The result counts the
+    /// evaluations of the fit and `simulations` adds the difference points.
     async fn for_decision(
-        self,
+        mut self,
         ssr: f64,
         n_eff: f64,
         simulations: &mut u64,
     ) -> Result<(CalibrationResult, Result<Identifiability>)> {
-        let own = &self.job.spec.optimizer;
-        let (optimizer, f_tol) = decision_optimizer(own, ssr, n_eff);
-        let mut leg = self.job.spec.clone();
-        leg.optimizer = optimizer;
-        let mut evaluations = 0;
-        let mut legs = 0;
-        loop {
-            let mut result = self.client.calibrate_with(&leg, self.data, self.model, |_| {}).await?;
-            evaluations += result.evaluations;
-            *simulations += result.evaluations;
-            legs += 1;
-            let (id, decrease) = identify(self.client, self.job, &result, self.data, self.model, simulations).await;
-            tracing::debug!("leg {legs}: SSR {:.6e}, a Gauss–Newton step would gain {decrease:.2e}", result.f_opt);
-            if stopped_early(decrease, f_tol, result.f_opt, n_eff) && legs < 3 {
-                tracing::debug!(
-                    "a candidate fit stopped at SSR {:.6e} where a Gauss–Newton step gains {decrease:.2e}: it goes on",
-                    result.f_opt
-                );
-                let optimizer = leg.optimizer.clone();
-                leg = with_starts(self.job.spec.clone(), &result.x_opt);
-                leg.optimizer = optimizer;
-                continue;
+        let (optimizer, f_tol) = decision_optimizer(&self.job.spec.optimizer, ssr, n_eff);
+        let mut job = self.job.spec.clone();
+        job.optimizer = optimizer;
+        let mut result = self.client.calibrate_with(&job, self.data, self.model, |_| {}).await?;
+        *simulations += result.evaluations;
+        let x = result.x_opt_in(&self.job.parameter_names);
+        let done = |ssr: f64, gain: f64| !stopped_early(gain, f_tol, ssr, n_eff);
+        let (refined, id) = self.gauss_newton(x, done, simulations).await?;
+        if let Some((ssr, x, _)) = refined.filter(|(ssr, ..)| *ssr < result.f_opt) {
+            result.f_opt = ssr;
+            result.x_opt = self.job.parameter_names.iter().cloned().zip(x).collect();
+        }
+        Ok((result, id))
+    }
+
+    /// Gauss–Newton from `x`: each iteration is one job that evaluates the difference points
+    /// at the current point (2n + 1 simulations side by side on the workers), which give its
+    /// SSR, its identifiability and the next step ([`gauss_newton`]). It stops when
+    /// `done(ssr, predicted gain)`, when a step does not lower the SSR (the point before it is
+    /// kept) or lowers it by less than a quarter of its predicted gain, or after
+    /// [`GAUSS_NEWTON_ITERATIONS`]. Returns the last point kept, its SSR and
+    /// what a step from it was predicted to gain (`None` if the points at `x` failed), and its
+    /// identifiability.
+    async fn gauss_newton(
+        &mut self,
+        mut x: Vec<f64>,
+        done: impl Fn(f64, f64) -> bool,
+        simulations: &mut u64,
+    ) -> Result<(Option<(f64, Vec<f64>, f64)>, Result<Identifiability>)> {
+        let (_, _, lower, upper) = self.job.spec.parameter_vectors();
+        let mut best: Option<(f64, Vec<f64>, identifiability::DifferencePlan, Vec<Vec<f64>>, f64)> = None;
+        let mut failed = None;
+        for iteration in 0..GAUSS_NEWTON_ITERATIONS {
+            let plan = identifiability::difference_points(self.job, &x);
+            *simulations += plan.points.len() as u64;
+            let evaluated = self.client.evaluate(&self.job.spec, plan.points.clone(), self.data, self.model).await?;
+            let residuals = match identifiability::residuals_of(&evaluated) {
+                Ok(r) => r,
+                Err(e) => {
+                    failed = Some(anyhow::Error::from(e));
+                    break;
+                }
+            };
+            let ssr: f64 = residuals[0].iter().map(|r| r * r).sum();
+            if best.as_ref().is_some_and(|b| ssr >= b.0) {
+                break;
             }
-            result.evaluations = evaluations;
-            return Ok((result, id));
+            // A step that realised less than a quarter of its predicted gain: the linear model
+            // does not hold here, and further steps would not either.
+            let poor = best.as_ref().is_some_and(|b| b.0 - ssr < 0.25 * b.4);
+            let next = gauss_newton(&plan, &residuals, &lower, &upper);
+            tracing::debug!(
+                "Gauss–Newton {iteration}: SSR {ssr:.6e}, a step would gain {:.2e}",
+                next.as_ref().map_or(f64::NAN, |n| n.1)
+            );
+            best = Some((ssr, x.clone(), plan, residuals, next.as_ref().map_or(f64::NAN, |n| n.1)));
+            match next {
+                Some((next, gain)) if !poor && !done(ssr, gain) => x = next,
+                _ => break,
+            }
         }
+        Ok(match best {
+            Some((ssr, x, plan, residuals, gain)) => {
+                let id = identifiability::from_residuals(&self.job.parameter_names, &plan, &residuals);
+                (Some((ssr, x, gain)), id.map_err(anyhow::Error::from))
+            }
+            None => (None, Err(failed.unwrap_or_else(|| anyhow::anyhow!("no difference point was evaluated")))),
+        })
     }
 }
 
-/// The identifiability of `result`'s optimum from its difference points, evaluated on the
-/// workers, and what a Gauss–Newton step from there is predicted to gain (NaN if unknown).
-async fn identify(
-    client: &mut Client,
-    job: &PreparedJob,
-    result: &CalibrationResult,
-    data: &MeasurementTable,
-    model: &std::path::Path,
-    simulations: &mut u64,
-) -> (Result<Identifiability>, f64) {
-    let plan = identifiability::difference_points(job, &result.x_opt_in(&job.parameter_names));
-    *simulations += plan.points.len() as u64;
-    let residuals = match client.evaluate(&job.spec, plan.points.clone(), data, model).await {
-        Ok(evaluated) => identifiability::residuals_of(&evaluated).map_err(anyhow::Error::from),
-        Err(e) => Err(e),
-    };
-    match residuals {
-        Ok(residuals) => {
-            let (_, _, lower, upper) = job.spec.parameter_vectors();
-            let decrease = predicted_decrease(&plan, &residuals, &lower, &upper);
-            let id = identifiability::from_residuals(&job.parameter_names, &plan, &residuals);
-            (id.map_err(anyhow::Error::from), decrease)
-        }
-        Err(e) => (Err(e), f64::NAN),
-    }
-}
+/// Gauss–Newton iterations after a fit, at most.
+const GAUSS_NEWTON_ITERATIONS: usize = 4;
 
-/// The chosen candidate's fit, polished from its optimum to the job's own tolerances with a
-/// small first simplex ([`polish_step`]), one point at a time (from near the optimum that
-/// takes about half the simulations of parallel Nelder–Mead, and less wall time even on idle
-/// workers), and its identifiability there. Evaluations and wall time include the decision's
+/// The chosen candidate's fit, polished from its optimum to the job's own tolerances, so that
+/// its values (and the starts of `job.toml`) are as precise as a calibration's: Gauss–Newton
+/// ([`Fit::gauss_newton`], each step 2n + 1 simulations side by side) until a step is predicted
+/// to gain less than the job's f_tol. Where the model is too nonlinear for that (the last
+/// step's predicted gain is still above the decision's accuracy, [`decision_f_tol`] at
+/// `n_eff`), Nelder–Mead goes on from there with the job's own settings, one point at a time
+/// from a small simplex ([`polish_step`]). Evaluations and wall time include the decision's
 /// fit; `simulations` only the polish's.
-async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &CandidateFit) -> Result<Fitted> {
+async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &CandidateFit, n_eff: f64) -> Result<Fitted> {
     let t = Instant::now();
-    let mut polish = with_starts(job.clone(), &fit.x_opt);
-    polish.optimizer.initial_step = Some(polish_step(polish.optimizer.x_tol, polish.optimizer.initial_step));
-    polish.optimizer.parallel = false;
-    let mut r = client.calibrate_with(&polish, &ctx.data, &ctx.model, |_| {}).await?;
-    let mut simulations = r.evaluations;
     let prepared = prepare(ctx, job)?;
-    let (id, _) = identify(client, &prepared, &r, &ctx.data, &ctx.model, &mut simulations).await;
+    let names = prepared.parameter_names.clone();
+    let f_tol = job.optimizer.f_tol.filter(|t| *t > 0.0).unwrap_or(1e-8);
+    let x: Vec<f64> = names.iter().map(|n| fit.x_opt.get(n).copied().unwrap_or(f64::NAN)).collect();
+    let mut simulations = 0;
+    let mut gn = Fit { client, job: &prepared, data: &ctx.data, model: &ctx.model };
+    let (refined, mut id) = gn.gauss_newton(x, |_, gain| gain <= f_tol, &mut simulations).await?;
+    let (mut ssr, mut x, gain) = refined.context("the polish's first point failed")?;
+    let mut termination = "Gauss–Newton polish";
+    if gain > decision_f_tol(ssr, n_eff) {
+        let mut nm = with_starts(job.clone(), &names.iter().cloned().zip(x.iter().copied()).collect());
+        nm.optimizer.initial_step = Some(polish_step(nm.optimizer.x_tol, nm.optimizer.initial_step));
+        nm.optimizer.parallel = false;
+        let r = gn.client.calibrate_with(&nm, &ctx.data, &ctx.model, |_| {}).await?;
+        simulations += r.evaluations;
+        if r.f_opt < ssr {
+            let (_, again) = gn.gauss_newton(r.x_opt_in(&names), |_, _| true, &mut simulations).await?;
+            (ssr, x, id) = (r.f_opt, r.x_opt_in(&names), again);
+            termination = "Gauss–Newton and Nelder–Mead polish";
+        }
+    }
     tracing::debug!(
-        "polish: step {:.2e}, {} evaluations, SSR {:.6e} → {:.6e}",
-        polish.optimizer.initial_step.unwrap_or(f64::NAN),
-        r.evaluations,
-        fit.evidence.as_ref().map_or(f64::NAN, |e| e.ssr),
-        r.f_opt
+        "polish ({termination}): {simulations} simulations, SSR {:.6e} → {ssr:.6e}",
+        fit.evidence.as_ref().map_or(f64::NAN, |e| e.ssr)
     );
-    r.evaluations += fit.evaluations;
     let elapsed = t.elapsed() + Duration::from_secs_f64(fit.elapsed_s);
-    Ok(Fitted { job: job.clone(), result: Ok((r, id)), elapsed, simulations })
+    let result = CalibrationResult {
+        x_opt: names.iter().cloned().zip(x).collect(),
+        f_opt: ssr,
+        iterations: 0,
+        evaluations: fit.evaluations + simulations,
+        rounds: 0,
+        failed_evaluations: 0,
+        termination: termination.into(),
+        elapsed_s: elapsed.as_secs_f64(),
+        history: vec![],
+        evaluated: vec![],
+        errors: None,
+        identifiability: None,
+    };
+    Ok(Fitted { job: job.clone(), result: Ok((result, id)), elapsed, simulations })
 }
 
 fn prepare(ctx: &Context, job: &JobSpec) -> Result<PreparedJob> {
