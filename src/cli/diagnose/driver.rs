@@ -221,9 +221,9 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         phases.add("judge", t, fits.len() as u64);
 
         // The fits stopped once their SSR was known well enough to decide. The chosen one is
-        // polished from its optimum to the job's own f_tol (Gauss–Newton), so that its values (and the
-        // starts of `job.toml`) are as precise as a calibration's, and judged again; should
-        // that change the choice, the new choice is polished too.
+        // polished from its optimum to the job's own tolerances ([`polish`]), so that its
+        // values (and the starts of `job.toml`) are as precise as a calibration's, and judged
+        // again; should that change the choice, the new choice is polished too.
         let t = Instant::now();
         let mut polished = std::collections::BTreeSet::new();
         let mut polish_simulations = 0;
