@@ -596,3 +596,15 @@ fn full_grid() {
     println!("raw validation RMS at least halved where an effect was found: {raw_halved}/{found}");
     println!("at 10 % noise, a wrong effect named: {loud_wrong}/{loud_total}");
 }
+
+/// Writes one exhaust-pipe case with a hidden radiation loss (1 % noise) into
+/// `DIAGNOSE_SPEED_DIR` for `bench/diagnose_speed.sh`, which times `fmucal diagnose` on it.
+#[test]
+#[ignore = "writes the case bench/diagnose_speed.sh times"]
+fn speed_case() {
+    let dir = PathBuf::from(std::env::var_os("DIAGNOSE_SPEED_DIR").expect("DIAGNOSE_SPEED_DIR is set"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let case = Case { truth: Truth::Radiation, noise: 0.01, input: 0, seed: 7 };
+    let (job, _) = write_case(&case, &dir);
+    println!("{}", job.display());
+}

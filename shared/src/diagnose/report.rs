@@ -24,6 +24,17 @@ pub struct Diagnosis {
     /// Wall time of the first base calibration and of the whole diagnosis [s].
     pub base_calibration_s: f64,
     pub elapsed_s: f64,
+    /// Where the time went, summed over the rounds: each phase's wall time and simulations.
+    #[serde(default)]
+    pub phases: BTreeMap<String, PhaseTime>,
+}
+
+/// One phase of a diagnosis: wall time [s] and the simulations it ran (on the workers, or in
+/// this process for the local looks).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct PhaseTime {
+    pub seconds: f64,
+    pub simulations: u64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

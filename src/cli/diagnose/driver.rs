@@ -14,13 +14,16 @@ use fmucal_shared::diagnose::decision::{
     Baseline, Evidence, ParameterEvidence, Rule, choose, equally_supported, judge,
 };
 use fmucal_shared::diagnose::guess::SignalStats;
-use fmucal_shared::diagnose::jobs::{candidate_job, same_place, with_starts};
+use fmucal_shared::diagnose::jobs::{
+    candidate_job, decision_f_tol, decision_optimizer, gauss_newton, noise_ssr, polish_step, same_place, stopped_early,
+    with_starts,
+};
 use fmucal_shared::diagnose::localise::localise;
 use fmucal_shared::diagnose::report::{
-    CandidateFit, Diagnosis, NamedEffect, RankedCandidate, Round, value_with_interval,
+    CandidateFit, Diagnosis, NamedEffect, PhaseTime, RankedCandidate, Round, value_with_interval,
 };
-use fmucal_shared::job::identifiability::Identifiability;
-use fmucal_shared::job::{CalibrationResult, JobSpec, PreparedJob};
+use fmucal_shared::job::identifiability::{self, Identifiability};
+use fmucal_shared::job::{CalibrationResult, JobSpec, MeasurementTable, PreparedJob};
 
 use super::Context;
 use super::look::{Look, look, signals};
@@ -36,11 +39,28 @@ pub struct Outcome {
     pub signals: Vec<(String, Vec<f64>)>,
 }
 
+/// Wall time and simulations per phase, summed over the rounds.
+#[derive(Default)]
+struct Phases(BTreeMap<String, PhaseTime>);
+
+impl Phases {
+    /// Adds the time since `since` and `simulations` to `phase`.
+    fn add(&mut self, phase: &str, since: Instant, simulations: u64) {
+        let seconds = since.elapsed().as_secs_f64();
+        tracing::debug!("diagnose phase {phase}: {seconds:.3} s, {simulations} simulations");
+        let p = self.0.entry(phase.to_owned()).or_default();
+        p.seconds += seconds;
+        p.simulations += simulations;
+    }
+}
+
 /// A fitted candidate as it comes back from the workers.
 struct Fitted {
     job: JobSpec,
     result: Result<(CalibrationResult, Result<Identifiability>)>,
     elapsed: Duration,
+    /// Simulations of the fit and of its identifiability points.
+    simulations: u64,
 }
 
 pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> Result<Outcome> {
@@ -52,6 +72,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
     let mut first_look: Option<Look> = None;
     let mut last_look: Option<Look> = None;
     let mut first_signals = vec![];
+    let mut phases = Phases::default();
     for round in 0..ctx.settings.rounds {
         eprintln!("round {}: calibrating the base model", round + 1);
         let t = Instant::now();
@@ -59,6 +80,8 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         if round == 0 {
             base_calibration_s = t.elapsed().as_secs_f64();
         }
+        phases.add("base", t, result.evaluations);
+        let t = Instant::now();
         let prepared = Arc::new(prepare(ctx, &base)?);
         let x_base = result.x_opt_in(&prepared.parameter_names);
         let before = look(ctx, &prepared, &x_base)?;
@@ -79,10 +102,14 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         names.retain(|n| seen.insert(n.clone()));
         let signal_values = signals(ctx, &prepared, &x_base, &names)?;
         let localisation = localise(&before.time, &before.residuals, &signal_values, ctx.settings.windows);
+        phases.add("look", t, 2);
 
         // Size and screen every candidate.
         eprintln!("round {}: screening the candidates", round + 1);
-        let scales = port_scales(&mut client, ctx, &base, &x_base).await?;
+        let t = Instant::now();
+        let (scales, probed) = port_scales(&mut client, ctx, &base, &x_base).await?;
+        phases.add("probe", t, probed);
+        let t = Instant::now();
         let sizes = sizes(ctx, &base, &before, &signal_values, &scales);
         let candidates: Vec<Candidate> = generate(&base, &ctx.settings, &sizes)
             .into_iter()
@@ -90,8 +117,11 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             .collect();
         let screening = Screening::new(&base, &x_base, &candidates, ctx.settings.fix_base);
         let evaluated = client.evaluate(&screening.job, screening.points.clone(), &ctx.data, &ctx.model).await?;
+        phases.add("screen", t, screening.points.len() as u64);
         let residuals: Vec<Option<Vec<f64>>> = evaluated.iter().map(|e| e.value.map(|_| e.residuals.clone())).collect();
         let screened = screening.statistics(&residuals, before.n_eff);
+        // No candidate fit ends much below the noise: the fits' tolerances start from it.
+        let noise = residuals.first().cloned().flatten().map_or(0.0, |r| noise_ssr(&r));
         let order = ranking(&screened);
         // Only candidates the screening predicts to improve the information criterion are
         // worth a fit; a failed screening ranks last and is not fitted.
@@ -101,6 +131,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         // Where each fit starts: the best of the base optimum and the full and half Gauss–Newton
         // steps (the linear prediction can overshoot when the effect trades off against a base
         // parameter), evaluated as one batch.
+        let t = Instant::now();
         let steps: Vec<Vec<f64>> =
             top.iter().flat_map(|&c| [1.0, 0.5].map(|f| screening.along_step(c, &screened[c], f))).collect();
         let tried = if steps.is_empty() {
@@ -108,7 +139,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         } else {
             client.evaluate(&screening.job, steps.clone(), &ctx.data, &ctx.model).await?
         };
-        let starts: Vec<(Vec<f64>, Vec<f64>)> = top
+        let starts: Vec<(f64, Vec<f64>, Vec<f64>)> = top
             .iter()
             .enumerate()
             .map(|(slot, &c)| {
@@ -122,11 +153,13 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
                         best = (v, b, e);
                     }
                 }
-                (best.1, best.2)
+                best
             })
             .collect();
+        phases.add("starts", t, steps.len() as u64);
 
         // Fit the top K concurrently on the workers.
+        let t = Instant::now();
         eprintln!("round {}: fitting the {} most promising of {} candidates", round + 1, top.len(), candidates.len());
         let bar = indicatif::ProgressBar::new(top.len() as u64);
         bar.set_style(
@@ -136,7 +169,8 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         let mut tasks = tokio::task::JoinSet::new();
         for (slot, &c) in top.iter().enumerate() {
             let narrowed = candidates[c].narrowed(&screened[c].estimate);
-            let (from, effect_start) = &starts[slot];
+            let (start_ssr, from, effect_start) = &starts[slot];
+            let (start_ssr, n_eff) = (start_ssr.min(noise.max(0.0)).max(f64::MIN_POSITIVE), baseline.n_eff);
             let starts: BTreeMap<String, f64> =
                 prepared.parameter_names.iter().cloned().zip(from.iter().copied()).collect();
             let mut job = candidate_job(&base, &starts, &narrowed, effect_start, ctx.settings.fix_base);
@@ -152,14 +186,17 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             let (mut client, data, model, fmu) = (client.clone(), ctx.data.clone(), ctx.model.clone(), ctx.fmu.clone());
             tasks.spawn(async move {
                 let t = Instant::now();
-                let result = async {
-                    let r = client.calibrate_with(&job, &data, &model, |_| {}).await?;
-                    let prepared = PreparedJob::new(&job, &fmu.description, &fmu.interfaces(), &data)?;
-                    let id = client.identify(&prepared, &r, &data, &model).await;
-                    Ok((r, id))
-                }
-                .await;
-                (slot, Fitted { job, result, elapsed: t.elapsed() })
+                let prepared = PreparedJob::new(&job, &fmu.description, &fmu.interfaces(), &data);
+                let mut simulations = 0;
+                let result = match prepared {
+                    Ok(prepared) => {
+                        let fit = Fit { client: &mut client, job: &prepared, data: &data, model: &model };
+                        fit.for_decision(start_ssr, n_eff, &mut simulations).await
+                    }
+                    Err(e) => Err(e.into()),
+                };
+                tracing::debug!("candidate {slot}: {:.3} s, {simulations} simulations", t.elapsed().as_secs_f64());
+                (slot, Fitted { job, result, elapsed: t.elapsed(), simulations })
             });
         }
         let mut fitted: Vec<Option<Fitted>> = top.iter().map(|_| None).collect();
@@ -169,8 +206,11 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             fitted[slot] = Some(f);
         }
         bar.finish_and_clear();
+        let simulations = fitted.iter().flatten().map(|f| f.simulations).sum();
+        phases.add("fits", t, simulations);
 
         // Judge them.
+        let t = Instant::now();
         let mut fits: BTreeMap<usize, (CandidateFit, JobSpec, Option<Look>)> = BTreeMap::new();
         for (slot, f) in fitted.into_iter().enumerate() {
             let f = f.expect("every task reported");
@@ -178,8 +218,37 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             let narrowed = candidates[c].narrowed(&screened[c].estimate);
             fits.insert(c, judge_fit(ctx, &baseline, &rule, &narrowed, f));
         }
-        let verdicts: Vec<Option<_>> = order.iter().map(|c| fits.get(c).and_then(|f| f.0.verdict.clone())).collect();
-        let chosen = choose(&verdicts);
+        phases.add("judge", t, fits.len() as u64);
+
+        // The fits stopped once their SSR was known well enough to decide. The chosen one is
+        // polished from its optimum to the job's own tolerances ([`polish`]), so that its
+        // values (and the starts of `job.toml`) are as precise as a calibration's, and judged
+        // again; should that change the choice, the new choice is polished too.
+        let t = Instant::now();
+        let mut polished = std::collections::BTreeSet::new();
+        let mut polish_simulations = 0;
+        let (verdicts, chosen) = loop {
+            let verdicts: Vec<Option<_>> =
+                order.iter().map(|c| fits.get(c).and_then(|f| f.0.verdict.clone())).collect();
+            let chosen = choose(&verdicts);
+            let Some(c) = chosen.map(|rank| order[rank]) else { break (verdicts, chosen) };
+            if !polished.insert(c) {
+                break (verdicts, chosen);
+            }
+            let (fit, job, _) = &fits[&c];
+            match polish(&mut client, ctx, job, fit, baseline.n_eff).await {
+                Ok(f) => {
+                    polish_simulations += f.simulations;
+                    let narrowed = candidates[c].narrowed(&screened[c].estimate);
+                    let judged = judge_fit(ctx, &baseline, &rule, &narrowed, f);
+                    if judged.0.verdict.is_some() {
+                        fits.insert(c, judged);
+                    }
+                }
+                Err(e) => tracing::warn!("polishing candidate {c}: {e:#}"),
+            }
+        };
+        phases.add("polish", t, polish_simulations);
         let equally = chosen.map(|c| equally_supported(&verdicts, c)).unwrap_or_default();
         let ranked: Vec<RankedCandidate> = order
             .iter()
@@ -226,8 +295,157 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         after: after.rms,
         base_calibration_s,
         elapsed_s: started.elapsed().as_secs_f64(),
+        phases: phases.0,
     };
     Ok(Outcome { diagnosis, before, after, signals: first_signals })
+}
+
+/// A calibration job on the workers, with what its identifiability points need.
+struct Fit<'a> {
+    client: &'a mut Client,
+    job: &'a PreparedJob,
+    data: &'a MeasurementTable,
+    model: &'a std::path::Path,
+}
+
+impl Fit<'_> {
+    /// The fit of a candidate to the accuracy the decision needs ([`decision_optimizer`] at
+    /// `ssr`, the lower of the start's SSR and the noise's), then its identifiability from the
+    /// difference points at its optimum. Those also say what a Gauss–Newton step would still
+    /// gain ([`gauss_newton`]): more than [`stopped_early`] allows means the simplex stopped on
+    /// a slope, and Gauss–Newton steps go on ([`Fit::gauss_newton`]). The result counts the
+    /// evaluations of the fit and `simulations` adds the difference points.
+    async fn for_decision(
+        mut self,
+        ssr: f64,
+        n_eff: f64,
+        simulations: &mut u64,
+    ) -> Result<(CalibrationResult, Result<Identifiability>)> {
+        let (optimizer, f_tol) = decision_optimizer(&self.job.spec.optimizer, ssr, n_eff);
+        let mut job = self.job.spec.clone();
+        job.optimizer = optimizer;
+        let mut result = self.client.calibrate_with(&job, self.data, self.model, |_| {}).await?;
+        *simulations += result.evaluations;
+        let x = result.x_opt_in(&self.job.parameter_names);
+        let done = |ssr: f64, gain: f64| !stopped_early(gain, f_tol, ssr, n_eff);
+        let (refined, id) = self.gauss_newton(x, done, simulations).await?;
+        if let Some((ssr, x, _)) = refined.filter(|(ssr, ..)| *ssr < result.f_opt) {
+            result.f_opt = ssr;
+            result.x_opt = self.job.parameter_names.iter().cloned().zip(x).collect();
+        }
+        Ok((result, id))
+    }
+
+    /// Gauss–Newton from `x`: each iteration is one job that evaluates the difference points
+    /// at the current point (2n + 1 simulations side by side on the workers), which give its
+    /// SSR, its identifiability and the next step ([`gauss_newton`]). It stops when
+    /// `done(ssr, predicted gain)`, when a step does not lower the SSR (the point before it is
+    /// kept) or lowers it by less than a quarter of its predicted gain, or after
+    /// [`GAUSS_NEWTON_ITERATIONS`]. Returns the last point kept, its SSR and
+    /// what a step from it was predicted to gain (`None` if the points at `x` failed), and its
+    /// identifiability.
+    async fn gauss_newton(
+        &mut self,
+        mut x: Vec<f64>,
+        done: impl Fn(f64, f64) -> bool,
+        simulations: &mut u64,
+    ) -> Result<(Option<(f64, Vec<f64>, f64)>, Result<Identifiability>)> {
+        let (_, _, lower, upper) = self.job.spec.parameter_vectors();
+        let mut best: Option<(f64, Vec<f64>, identifiability::DifferencePlan, Vec<Vec<f64>>, f64)> = None;
+        let mut failed = None;
+        for iteration in 0..GAUSS_NEWTON_ITERATIONS {
+            let plan = identifiability::difference_points(self.job, &x);
+            *simulations += plan.points.len() as u64;
+            let evaluated = self.client.evaluate(&self.job.spec, plan.points.clone(), self.data, self.model).await?;
+            let residuals = match identifiability::residuals_of(&evaluated) {
+                Ok(r) => r,
+                Err(e) => {
+                    failed = Some(anyhow::Error::from(e));
+                    break;
+                }
+            };
+            let ssr: f64 = residuals[0].iter().map(|r| r * r).sum();
+            if best.as_ref().is_some_and(|b| ssr >= b.0) {
+                break;
+            }
+            // A step that realised less than a quarter of its predicted gain: the linear model
+            // does not hold here, and further steps would not either.
+            let poor = best.as_ref().is_some_and(|b| b.0 - ssr < 0.25 * b.4);
+            let next = gauss_newton(&plan, &residuals, &lower, &upper);
+            tracing::debug!(
+                "Gauss–Newton {iteration}: SSR {ssr:.6e}, a step would gain {:.2e}",
+                next.as_ref().map_or(f64::NAN, |n| n.1)
+            );
+            best = Some((ssr, x.clone(), plan, residuals, next.as_ref().map_or(f64::NAN, |n| n.1)));
+            match next {
+                Some((next, gain)) if !poor && !done(ssr, gain) => x = next,
+                _ => break,
+            }
+        }
+        Ok(match best {
+            Some((ssr, x, plan, residuals, gain)) => {
+                let id = identifiability::from_residuals(&self.job.parameter_names, &plan, &residuals);
+                (Some((ssr, x, gain)), id.map_err(anyhow::Error::from))
+            }
+            None => (None, Err(failed.unwrap_or_else(|| anyhow::anyhow!("no difference point was evaluated")))),
+        })
+    }
+}
+
+/// Gauss–Newton iterations after a fit, at most.
+const GAUSS_NEWTON_ITERATIONS: usize = 4;
+
+/// The chosen candidate's fit, polished from its optimum to the job's own tolerances, so that
+/// its values (and the starts of `job.toml`) are as precise as a calibration's: Gauss–Newton
+/// ([`Fit::gauss_newton`], each step 2n + 1 simulations side by side) until a step is predicted
+/// to gain less than the job's f_tol. Where the model is too nonlinear for that (the last
+/// step's predicted gain is still above the decision's accuracy, [`decision_f_tol`] at
+/// `n_eff`), Nelder–Mead goes on from there with the job's own settings, one point at a time
+/// from a small simplex ([`polish_step`]). Evaluations and wall time include the decision's
+/// fit; `simulations` only the polish's.
+async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &CandidateFit, n_eff: f64) -> Result<Fitted> {
+    let t = Instant::now();
+    let prepared = prepare(ctx, job)?;
+    let names = prepared.parameter_names.clone();
+    let f_tol = job.optimizer.f_tol.filter(|t| *t > 0.0).unwrap_or(1e-8);
+    let x: Vec<f64> = names.iter().map(|n| fit.x_opt.get(n).copied().unwrap_or(f64::NAN)).collect();
+    let mut simulations = 0;
+    let mut gn = Fit { client, job: &prepared, data: &ctx.data, model: &ctx.model };
+    let (refined, mut id) = gn.gauss_newton(x, |_, gain| gain <= f_tol, &mut simulations).await?;
+    let (mut ssr, mut x, gain) = refined.context("the polish's first point failed")?;
+    let mut termination = "Gauss–Newton polish";
+    if gain > decision_f_tol(ssr, n_eff) {
+        let mut nm = with_starts(job.clone(), &names.iter().cloned().zip(x.iter().copied()).collect());
+        nm.optimizer.initial_step = Some(polish_step(nm.optimizer.x_tol, nm.optimizer.initial_step));
+        nm.optimizer.parallel = false;
+        let r = gn.client.calibrate_with(&nm, &ctx.data, &ctx.model, |_| {}).await?;
+        simulations += r.evaluations;
+        if r.f_opt < ssr {
+            let (_, again) = gn.gauss_newton(r.x_opt_in(&names), |_, _| true, &mut simulations).await?;
+            (ssr, x, id) = (r.f_opt, r.x_opt_in(&names), again);
+            termination = "Gauss–Newton and Nelder–Mead polish";
+        }
+    }
+    tracing::debug!(
+        "polish ({termination}): {simulations} simulations, SSR {:.6e} → {ssr:.6e}",
+        fit.evidence.as_ref().map_or(f64::NAN, |e| e.ssr)
+    );
+    let elapsed = t.elapsed() + Duration::from_secs_f64(fit.elapsed_s);
+    let result = CalibrationResult {
+        x_opt: names.iter().cloned().zip(x).collect(),
+        f_opt: ssr,
+        iterations: 0,
+        evaluations: fit.evaluations + simulations,
+        rounds: 0,
+        failed_evaluations: 0,
+        termination: termination.into(),
+        elapsed_s: elapsed.as_secs_f64(),
+        history: vec![],
+        evaluated: vec![],
+        errors: None,
+        identifiability: None,
+    };
+    Ok(Fitted { job: job.clone(), result: Ok((result, id)), elapsed, simulations })
 }
 
 fn prepare(ctx: &Context, job: &JobSpec) -> Result<PreparedJob> {

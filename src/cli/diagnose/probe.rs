@@ -25,13 +25,13 @@ fn rms(v: &[f64]) -> f64 {
 }
 
 /// The load scale of every port of the `[diagnose]` section, given or probed around the base
-/// optimum `x_base` of `base`.
+/// optimum `x_base` of `base`, and the simulations the probe ran.
 pub async fn port_scales(
     client: &mut Client,
     ctx: &Context,
     base: &JobSpec,
     x_base: &[f64],
-) -> Result<BTreeMap<String, f64>> {
+) -> Result<(BTreeMap<String, f64>, u64)> {
     let mut scales: BTreeMap<String, f64> =
         ctx.settings.ports.iter().filter_map(|p| p.scale.map(|s| (p.port.clone(), s))).collect();
     let probed: Vec<(usize, &str, &str, PortDomain)> = ctx
@@ -43,7 +43,7 @@ pub async fn port_scales(
         .filter_map(|(k, p)| p.signals().next().map(|(_, s)| (k, p.port.as_str(), s, p.domain)))
         .collect();
     if probed.is_empty() {
-        return Ok(scales);
+        return Ok((scales, 0));
     }
     let mut job = base.clone();
     job.diagnose = None;
@@ -65,6 +65,7 @@ pub async fn port_scales(
     let n = x_base.len();
     let mut loads = vec![1e-3; probed.len()];
     let mut done = vec![false; probed.len()];
+    let mut simulations = 0;
     for _ in 0..ATTEMPTS {
         let mut x0 = x_base.to_vec();
         x0.extend(std::iter::repeat_n(0.0, probed.len()));
@@ -74,6 +75,7 @@ pub async fn port_scales(
             p[n + k] = *load;
             points.push(p);
         }
+        simulations += points.len() as u64;
         let evaluated = client.evaluate(&job, points, &ctx.data, &ctx.model).await?;
         let Some(r0) = evaluated.first().filter(|e| e.value.is_some()).map(|e| &e.residuals) else {
             bail!("the probe of the ports' load scales failed at the base optimum");
@@ -102,7 +104,7 @@ pub async fn port_scales(
             }
         }
         if done.iter().all(|d| *d) {
-            return Ok(scales);
+            return Ok((scales, simulations));
         }
     }
     let (k, port, _, _) = probed[done.iter().position(|d| !d).expect("one is not done")];
