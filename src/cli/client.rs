@@ -3,7 +3,8 @@
 //! `WatchJob` stream (a calibration with a progress bar), and runs the identifiability points
 //! at the optimum on the workers as a job that evaluates them.
 
-use std::path::Path;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -24,6 +25,8 @@ pub struct Client {
     inner: CalibrationClient<InterceptedService<Channel, AttachToken>>,
     /// Every job this client and its clones submitted, for [`Client::cancel_submitted`].
     submitted: Arc<Mutex<Vec<String>>>,
+    /// Model ids by file, for [`Client::upload`].
+    uploaded: Arc<Mutex<HashMap<PathBuf, String>>>,
 }
 
 impl Client {
@@ -50,7 +53,7 @@ impl Client {
         let inner = CalibrationClient::with_interceptor(channel, attach)
             .max_encoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES)
             .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES);
-        Ok(Client { inner, submitted: Arc::default() })
+        Ok(Client { inner, submitted: Arc::default(), uploaded: Arc::default() })
     }
 
     /// Calibrates `job`, then runs its identifiability analysis at the optimum. A failed
@@ -153,8 +156,12 @@ impl Client {
         Ok(identifiability::from_residuals(&job.parameter_names, &plan, &residuals)?)
     }
 
-    /// Uploads the model (a no-op if the coordinator has it) and submits the job.
-    async fn submit(&mut self, spec: &JobSpec, data: &MeasurementTable, model: &Path) -> Result<String> {
+    /// The id of `model` on the coordinator: uploaded on first use by this client or a clone
+    /// (the coordinator keeps uploads on disk), so a diagnosis's dozens of jobs send it once.
+    async fn upload(&mut self, model: &Path) -> Result<String> {
+        if let Some(id) = self.uploaded.lock().expect("not poisoned").get(model) {
+            return Ok(id.clone());
+        }
         let bytes = std::fs::read(model)?;
         let chunks: Vec<pb::UploadModelRequest> = bytes
             .chunks(fmucal_proto::MODEL_CHUNK_BYTES)
@@ -167,6 +174,13 @@ impl Client {
             .context("uploading the model")?
             .into_inner()
             .model_id;
+        self.uploaded.lock().expect("not poisoned").insert(model.to_owned(), model_id.clone());
+        Ok(model_id)
+    }
+
+    /// Uploads the model (once, [`Client::upload`]) and submits the job.
+    async fn submit(&mut self, spec: &JobSpec, data: &MeasurementTable, model: &Path) -> Result<String> {
+        let model_id = self.upload(model).await?;
         let job_id = self
             .inner
             .submit_job(pb::SubmitJobRequest { spec: Some(job_to_proto(spec, data, &model_id)) })
@@ -180,18 +194,14 @@ impl Client {
 
     /// Cancels every job this client or a clone submitted that has not ended; returns how many
     /// it stopped. For a client that gives up (a diagnosis stopped midway), so its jobs do not
-    /// keep the workers busy.
+    /// keep the workers busy. Cancelling a job that has ended changes nothing and answers its
+    /// final status.
     pub async fn cancel_submitted(&mut self) -> usize {
         let ids = std::mem::take(&mut *self.submitted.lock().expect("not poisoned"));
         let mut stopped = 0;
         for job_id in ids {
-            let before = self.inner.get_job(pb::GetJobRequest { job_id: job_id.clone() }).await;
-            let running = before.is_ok_and(|r| {
-                [pb::JobStatus::Queued, pb::JobStatus::Running].iter().any(|s| *s as i32 == r.get_ref().status)
-            });
-            if running && self.inner.cancel_job(pb::CancelJobRequest { job_id }).await.is_ok() {
-                stopped += 1;
-            }
+            let status = self.inner.cancel_job(pb::CancelJobRequest { job_id }).await.map(|r| r.into_inner().status);
+            stopped += usize::from(status.is_ok_and(|s| s == pb::JobStatus::Cancelled as i32));
         }
         stopped
     }

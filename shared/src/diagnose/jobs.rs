@@ -109,13 +109,6 @@ pub fn gauss_newton(
     gain.is_finite().then_some((next, gain))
 }
 
-/// What the [`gauss_newton`] step is predicted to take off the SSR: near 0 at an optimum (also
-/// at one on a bound); well above a fit's tolerance where its Nelder–Mead stopped early, its
-/// simplex small on a slope. NaN if the residuals do not match the plan.
-pub fn predicted_decrease(plan: &DifferencePlan, residuals: &[Vec<f64>], lower: &[f64], upper: &[f64]) -> f64 {
-    gauss_newton(plan, residuals, lower, upper).map_or(f64::NAN, |(_, gain)| gain)
-}
-
 /// `job` with the start of every calibrated value named in `values` (`[[parameters]]` by name,
 /// effect parameters as `effects[K].NAME`) set to that value, clamped into its bounds.
 pub fn with_starts(mut job: JobSpec, values: &BTreeMap<String, f64>) -> JobSpec {
@@ -317,6 +310,11 @@ top = 3
         }
         let residuals = points.iter().map(|p| r(p)).collect();
         (DifferencePlan { points, pairs }, residuals)
+    }
+
+    /// What the [`gauss_newton`] step is predicted to take off the SSR (NaN without a step).
+    fn predicted_decrease(plan: &DifferencePlan, residuals: &[Vec<f64>], lower: &[f64], upper: &[f64]) -> f64 {
+        gauss_newton(plan, residuals, lower, upper).map_or(f64::NAN, |(_, gain)| gain)
     }
 
     #[test]
