@@ -58,4 +58,10 @@ impl Optimizer for AnyOptimizer {
     fn rounds(&self) -> u64 {
         self.inner().rounds()
     }
+    fn wants_residuals(&self) -> bool {
+        self.inner().wants_residuals()
+    }
+    fn tell_residuals(&mut self, id: CandidateId, residuals: Option<&[f64]>) -> Result<(), OptimError> {
+        self.inner_mut().tell_residuals(id, residuals)
+    }
 }

@@ -180,6 +180,10 @@ pub enum OptimError {
     /// `tell` with an id that is not in the current batch.
     #[error("candidate {0} is not awaiting a result")]
     UnknownCandidate(CandidateId),
+    /// `tell` with only a value, to an optimizer that needs the residual vector
+    /// ([`Optimizer::wants_residuals`]).
+    #[error("candidate {0}: this optimizer needs the residual vector, not only the objective value")]
+    ResidualsNeeded(CandidateId),
 }
 
 impl OptimError {
@@ -215,4 +219,23 @@ pub trait Optimizer {
 
     /// Batches handed out so far.
     fn rounds(&self) -> u64;
+
+    /// Whether results should be told as residual vectors ([`Optimizer::tell_residuals`]): true
+    /// for the least-squares solvers, which use the residuals and not only their sum of squares.
+    fn wants_residuals(&self) -> bool {
+        false
+    }
+
+    /// Reports candidate `id`'s residual vector r, whose objective is Σ r² (`None`: the
+    /// evaluation failed). An optimizer that uses only the objective is told Σ r².
+    ///
+    /// # Errors
+    /// [`OptimError::UnknownCandidate`] if `id` is not awaiting a result.
+    fn tell_residuals(&mut self, id: CandidateId, residuals: Option<&[f64]>) -> Result<(), OptimError> {
+        let outcome = match residuals {
+            Some(r) => Outcome::Value(r.iter().map(|v| v * v).sum()),
+            None => Outcome::Failed,
+        };
+        self.tell(id, outcome)
+    }
 }
