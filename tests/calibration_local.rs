@@ -54,7 +54,7 @@ fn prepare(
 ) -> (Arc<fmucal_shared::fmu::Fmu>, Result<PreparedJob, fmucal_shared::job::JobError>) {
     let fmu = Arc::new(common::load_example("decay", &dir.join("cache")));
     let table = MeasurementTable::read(spec.data.path.as_ref().unwrap(), "time").unwrap();
-    let prepared = PreparedJob::new(spec, &fmu.description, &fmu.interfaces(), &table);
+    let prepared = PreparedJob::new(spec, &fmu.description, &fmu.interfaces(), std::slice::from_ref(&table));
     (fmu, prepared)
 }
 
@@ -81,7 +81,7 @@ fn duplicate_stamps_are_averaged_and_missing_cells_skipped() {
     let dir = tempfile::tempdir().unwrap();
     let spec = job(dir.path(), "");
     let (_, prepared) = prepare(&spec, dir.path());
-    let obj = prepared.unwrap().objective;
+    let obj = prepared.unwrap().single().objective.clone();
     assert_eq!(obj.times.len(), 41, "41 unique time stamps");
     assert!(obj.targets[0].values[10].is_nan(), "the empty cell is missing");
     assert!(obj.times.windows(2).all(|w| w[0] < w[1]));
@@ -121,9 +121,9 @@ fn in_process_identifiability_uses_each_difference_points_own_residuals() {
     // The same statistics from the plan's points evaluated one by one on a plain evaluator.
     let plan = identifiability::difference_points(&prepared, &x);
     let mut ev = Evaluator::new(&fmu, Arc::new(prepared.clone())).unwrap();
-    let residuals: Vec<Vec<f64>> = plan.points.iter().map(|p| ev.evaluate(p, true).residuals.unwrap()).collect();
+    let residuals: Vec<Vec<f64>> = plan.points.iter().map(|p| ev.evaluate(p, 0, true).residuals.unwrap()).collect();
     let direct = identifiability::from_residuals(&prepared.parameter_names, &plan, &residuals).unwrap();
     assert_eq!(analysed, direct);
     assert!(analysed.standard_errors[0] > 0.0 && analysed.standard_errors[0].is_finite(), "{analysed:?}");
-    assert_eq!(analysed.residuals, prepared.objective.times.len() - 1, "one measurement is missing");
+    assert_eq!(analysed.residuals, prepared.single().objective.times.len() - 1, "one measurement is missing");
 }

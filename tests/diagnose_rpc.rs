@@ -50,7 +50,7 @@ async fn example_request(rpc: &mut Rpc) -> pb::DiagnoseRequest {
     let data = MeasurementTable::read(&example_dir().join("data.csv"), "time").unwrap();
     let settings = spec.diagnose.take().unwrap();
     pb::DiagnoseRequest {
-        spec: Some(job_to_proto(&spec, &data, &model_id)),
+        spec: Some(job_to_proto(&spec, std::slice::from_ref(&data), &model_id)),
         settings: Some(diagnose_to_proto(&settings)),
     }
 }

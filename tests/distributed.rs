@@ -60,7 +60,8 @@ fn furuta_job(dir: &Path, max_iters: u64) -> (JobSpec, MeasurementTable) {
 /// The in-process reference result.
 fn reference(spec: &JobSpec, data: &MeasurementTable, dir: &Path) -> fmucal_shared::job::CalibrationResult {
     let fmu = Arc::new(common::load(spec.model.path.as_ref().unwrap(), &dir.join("cache")));
-    let job = Arc::new(PreparedJob::new(spec, &fmu.description, &fmu.interfaces(), data).unwrap());
+    let job =
+        Arc::new(PreparedJob::new(spec, &fmu.description, &fmu.interfaces(), std::slice::from_ref(data)).unwrap());
     local::calibrate(fmu, job, 1, |_| {}).unwrap()
 }
 
@@ -138,7 +139,11 @@ async fn upload(c: &mut Client, path: &Path) -> Result<String, tonic::Status> {
 
 async fn submit(c: &mut Client, spec: &JobSpec, data: &MeasurementTable) -> String {
     let id = upload(c, spec.model.path.as_ref().unwrap()).await.unwrap();
-    c.submit_job(pb::SubmitJobRequest { spec: Some(job_to_proto(spec, data, &id)) }).await.unwrap().into_inner().job_id
+    c.submit_job(pb::SubmitJobRequest { spec: Some(job_to_proto(spec, std::slice::from_ref(data), &id)) })
+        .await
+        .unwrap()
+        .into_inner()
+        .job_id
 }
 
 /// Polls until the job leaves RUNNING; `during` runs once the job has completed `after_rounds`.
@@ -389,7 +394,7 @@ async fn invalid_requests_get_invalid_argument_naming_the_field() {
     let coord = start_coordinator(&dir.path().join("coord")).await;
     let mut c = client(&coord.url, Some(TOKEN)).await;
     let model = upload(&mut c, &common::example("furuta")).await.unwrap();
-    let base = job_to_proto(&spec, &data, &model);
+    let base = job_to_proto(&spec, std::slice::from_ref(&data), &model);
     let cases: Vec<(Box<dyn Fn(&mut pb::JobSpec)>, &str)> = vec![
         (Box::new(|j| j.parameters[0].name = "armFrction".into()), "parameters[0].name"),
         (Box::new(|j| j.parameters[1].lower = 0.5), "parameters[1].lower"),

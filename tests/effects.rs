@@ -198,7 +198,7 @@ upper = 0.012
 fn calibrate(dir: &std::path::Path, spec: &JobSpec) -> fmucal_shared::job::CalibrationResult {
     let fmu = std::sync::Arc::new(furuta(dir));
     let data = MeasurementTable::read(spec.data.path.as_ref().unwrap(), "time").unwrap();
-    let job = PreparedJob::new(spec, &fmu.description, &fmu.interfaces(), &data).unwrap();
+    let job = PreparedJob::new(spec, &fmu.description, &fmu.interfaces(), std::slice::from_ref(&data)).unwrap();
     local::calibrate(fmu, std::sync::Arc::new(job), 2, |_| {}).unwrap()
 }
 
@@ -252,7 +252,7 @@ f_tol = 1e-16
     );
     let spec = JobSpec::from_toml(&toml, dir.path()).unwrap();
     let data = MeasurementTable::read(&dir.path().join("d.csv"), "time").unwrap();
-    let job = PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), &data).unwrap();
+    let job = PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), std::slice::from_ref(&data)).unwrap();
     assert_eq!(job.parameter_names, ["k", "effects[0].offset"]);
     let r = local::calibrate(fmu, std::sync::Arc::new(job), 2, |_| {}).unwrap();
     assert!((r.x_opt["k"] - 1.7).abs() < 1e-5, "{:?}", r.x_opt);
@@ -295,7 +295,7 @@ fn bad_effects_in_a_job_name_the_field() {
         let text = good.replacen(from, to, 1);
         let err = match JobSpec::from_toml(&text, dir.path()) {
             Err(e) => e.to_string(),
-            Ok(spec) => PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), &data)
+            Ok(spec) => PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), std::slice::from_ref(&data))
                 .err()
                 .map(|e| e.to_string())
                 .unwrap_or_default(),

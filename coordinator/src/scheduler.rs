@@ -2,7 +2,9 @@
 //! requests, then send a [`Command`] here and await the reply; no lock is held across awaits.
 //!
 //! Dispatch is pull-based: workers long-poll with the results of their previous points and the
-//! number of free slots, and get points from the open batches (oldest job first). Pull lets a
+//! number of free slots, and get points from the open batches (oldest job first). A "point"
+//! here is a work item of the job's run: a candidate on one of its fitted experiments, so one
+//! candidate's experiments run in parallel on the pool. Pull lets a
 //! pool grow by simply starting more workers that point at the coordinator, through NAT or a
 //! Kubernetes service, with no connection from the coordinator to the workers.
 //!
@@ -57,8 +59,10 @@ pub struct Timing {
     pub evaluation_timeout: Duration,
 }
 
+/// A work item of a job: a point on one experiment.
 struct Point {
     x: Vec<f64>,
+    experiment: usize,
     failed_on: Vec<String>,
     /// Why the last attempt failed.
     last_error: String,
@@ -349,7 +353,14 @@ impl Scheduler {
         job.batch_started = Instant::now();
         for c in batch {
             if !job.open.contains_key(&c.id) {
-                job.open.insert(c.id, Point { x: c.x, failed_on: vec![], last_error: String::new(), assigned: None });
+                let point = Point {
+                    x: c.x,
+                    experiment: c.experiment,
+                    failed_on: vec![],
+                    last_error: String::new(),
+                    assigned: None,
+                };
+                job.open.insert(c.id, point);
                 job.queue.push_back(c.id);
             }
         }
@@ -497,8 +508,13 @@ impl Scheduler {
                     continue;
                 }
                 p.assigned = Some((wid.to_owned(), Instant::now()));
-                let want_residuals = job.prepared.spec.kind.wants_residuals();
-                out.push(pb::Assignment { job_id: id.clone(), point_id: pid, x: p.x.clone(), want_residuals });
+                out.push(pb::Assignment {
+                    job_id: id.clone(),
+                    point_id: pid,
+                    x: p.x.clone(),
+                    want_residuals: job.state.run.wants_residuals(),
+                    experiment: u32::try_from(p.experiment).unwrap_or(u32::MAX),
+                });
             }
             skipped.extend(job.queue.drain(..));
             job.queue = skipped;
@@ -596,11 +612,12 @@ impl Scheduler {
 
 fn progress(job: &Job, batch_wall_s: f64) -> pb::WatchJobResponse {
     let o = job.state.run.optimizer();
+    let best = job.state.run.best();
     pb::WatchJobResponse {
         iteration: o.iterations(),
         evaluations: o.evaluations(),
-        best_f: o.best().map(|b| b.1).unwrap_or(f64::INFINITY),
-        best_x: o.best().map(|b| b.0).unwrap_or_default(),
+        best_f: best.as_ref().map_or(f64::INFINITY, |b| b.1),
+        best_x: best.map(|b| b.0).unwrap_or_default(),
         batch_wall_s,
         status: wire(job.state.status),
         rounds: o.rounds(),

@@ -117,6 +117,9 @@ impl pb::calibration_server::Calibration for Handlers {
         if !matches!(job.spec.kind, JobKind::Calibration) {
             return Err(Status::invalid_argument("spec.kind: a diagnosis starts from a calibration job"));
         }
+        if !job.spec.experiments.is_empty() {
+            return Err(Status::invalid_argument("spec.experiments: a diagnosis takes a job with one experiment"));
+        }
         let models = self.models.clone();
         let id = job.spec.model.id.clone().unwrap_or_default();
         let model = tokio::task::spawn_blocking(move || with_models(&models, |m| m.archive(&id)))
@@ -124,7 +127,7 @@ impl pb::calibration_server::Calibration for Handlers {
             .map_err(|e| Status::internal(e.to_string()))??;
         let diagnoses = self.diagnoses.clone();
         // Writing the data file is blocking work.
-        let events = tokio::task::spawn_blocking(move || diagnoses.start(job.spec, &job.data, settings, model))
+        let events = tokio::task::spawn_blocking(move || diagnoses.start(job.spec, &job.data[0], settings, model))
             .await
             .map_err(|e| Status::internal(e.to_string()))??;
         Ok(Response::new(ReceiverStream::new(events)))

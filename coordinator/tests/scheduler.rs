@@ -74,7 +74,7 @@ fn job(dir: &Path, optimizer: &str) -> pb::JobSpec {
     let spec = JobSpec::from_toml(&toml, dir).unwrap();
     let time: Vec<f64> = (0..=20).map(|i| f64::from(i) * 0.1).collect();
     let x = time.iter().map(|t| (-1.7 * t).exp()).collect();
-    job_to_proto(&spec, &MeasurementTable { time, columns: vec![("x".into(), x)] }, &model_id)
+    job_to_proto(&spec, &[MeasurementTable { time, columns: vec![("x".into(), x)] }], &model_id)
 }
 
 /// Differential evolution: batches of `population` points, `max_iters` generations after the

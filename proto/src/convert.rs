@@ -4,6 +4,7 @@
 
 use crate::v1 as pb;
 use fmucal_shared::job::choices::{interface_name, parse_interface};
+use fmucal_shared::job::experiments::ExperimentSpec;
 use fmucal_shared::job::spec::{
     Bounds, DataRef, EffectSpec, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec,
     WorkersSpec,
@@ -46,20 +47,95 @@ impl From<JobStatus> for pb::JobStatus {
     }
 }
 
-/// A job as submitted over gRPC: the spec and the data that travels with it.
+/// A job as submitted over gRPC: the spec and the data that travels with it, one table per
+/// experiment of [`JobSpec::experiment_views`] (the job's shared table repeated for those that
+/// have none of their own).
 #[derive(Debug, Clone)]
 pub struct SubmittedJob {
     pub spec: JobSpec,
-    pub data: MeasurementTable,
+    pub data: Vec<MeasurementTable>,
+}
+
+fn table(d: pb::MeasurementData) -> MeasurementTable {
+    MeasurementTable { time: d.time, columns: d.columns.into_iter().map(|c| (c.name, c.values)).collect() }
+}
+
+fn data_to_proto(d: &MeasurementTable) -> pb::MeasurementData {
+    pb::MeasurementData {
+        time: d.time.clone(),
+        columns: d.columns.iter().map(|(n, v)| pb::Column { name: n.clone(), values: v.clone() }).collect(),
+    }
+}
+
+fn output_from(o: pb::OutputMap) -> OutputMap {
+    OutputMap { variable: o.variable, column: o.column, weight: o.weight.unwrap_or(1.0) }
+}
+
+fn output_to(o: &OutputMap) -> pb::OutputMap {
+    pb::OutputMap { variable: o.variable.clone(), column: o.column.clone(), weight: Some(o.weight) }
+}
+
+fn input_from(i: pb::InputMap) -> InputMap {
+    InputMap { column: i.column, variable: i.variable }
+}
+
+fn input_to(i: &InputMap) -> pb::InputMap {
+    pb::InputMap { column: i.column.clone(), variable: i.variable.clone() }
+}
+
+/// An experiment and its own data table, if it has one.
+fn experiment_from(k: usize, e: pb::Experiment) -> Result<(ExperimentSpec, Option<MeasurementTable>), ConvertError> {
+    let role = (!e.role.is_empty())
+        .then(|| e.role.parse())
+        .transpose()
+        .map_err(|message| ConvertError::InvalidAt { field: format!("spec.experiments[{k}].role"), message })?
+        .unwrap_or_default();
+    let data = e.data.map(table);
+    let spec = ExperimentSpec {
+        name: e.name,
+        role,
+        data: data.as_ref().map(|_| DataRef::default()),
+        outputs: e.outputs.map(|l| l.items.into_iter().map(output_from).collect()),
+        inputs: e.inputs.map(|l| l.items.into_iter().map(input_from).collect()),
+        set: e.set.into_iter().map(|(k, v)| (k, SetValue::from_text(v))).collect(),
+        start_time: e.start_time,
+        stop_time: e.stop_time,
+        validation_stop_time: e.validation_stop_time,
+        starts: e.starts.into_iter().collect(),
+    };
+    Ok((spec, data))
 }
 
 impl TryFrom<pb::JobSpec> for SubmittedJob {
     type Error = ConvertError;
 
     fn try_from(p: pb::JobSpec) -> Result<Self, ConvertError> {
-        let data = p.data.ok_or(ConvertError::Missing("spec.data"))?;
+        let mut experiments = vec![];
+        let mut own_data = vec![];
+        for (k, e) in p.experiments.into_iter().enumerate() {
+            let (spec, data) = experiment_from(k, e)?;
+            experiments.push(spec);
+            own_data.push(data);
+        }
+        let shared = p.data.map(table);
+        if shared.is_none() && (own_data.is_empty() || own_data.iter().any(Option::is_none)) {
+            return Err(ConvertError::Missing("spec.data"));
+        }
         if p.model_id.is_empty() {
             return Err(ConvertError::Missing("spec.model_id"));
+        }
+        let mut parameters = vec![];
+        for (k, q) in p.parameters.into_iter().enumerate() {
+            let scale = (!q.scale.is_empty())
+                .then(|| q.scale.parse())
+                .transpose()
+                .map_err(|message| ConvertError::InvalidAt { field: format!("spec.parameters[{k}].scale"), message })?
+                .unwrap_or_default();
+            parameters.push(ParameterSpec {
+                per_experiment: q.per_experiment,
+                scale,
+                ..ParameterSpec::new(q.name, q.start, q.lower, q.upper)
+            });
         }
         let sim = p.simulation.unwrap_or_default();
         let o = p.optimizer.unwrap_or_default();
@@ -76,18 +152,10 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
         };
         let spec = JobSpec {
             model: ModelRef { path: None, id: Some(p.model_id), interface },
-            data: DataRef { path: None, time_column: "time".into() },
-            outputs: p
-                .outputs
-                .into_iter()
-                .map(|o| OutputMap { variable: o.variable, column: o.column, weight: o.weight.unwrap_or(1.0) })
-                .collect(),
-            inputs: p.inputs.into_iter().map(|i| InputMap { column: i.column, variable: i.variable }).collect(),
-            parameters: p
-                .parameters
-                .into_iter()
-                .map(|q| ParameterSpec { name: q.name, start: q.start, lower: q.lower, upper: q.upper })
-                .collect(),
+            data: DataRef::default(),
+            outputs: p.outputs.into_iter().map(output_from).collect(),
+            inputs: p.inputs.into_iter().map(input_from).collect(),
+            parameters,
             simulation: SimulationSpec {
                 start_time: sim.start_time,
                 stop_time: sim.stop_time,
@@ -118,11 +186,13 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
             effects: p.effects.into_iter().map(EffectSpec::from).collect(),
             workers: WorkersSpec::default(),
             diagnose: None,
+            experiments,
             kind,
         };
-        let data = MeasurementTable {
-            time: data.time,
-            columns: data.columns.into_iter().map(|c| (c.name, c.values)).collect(),
+        let data = if own_data.is_empty() {
+            shared.into_iter().collect()
+        } else {
+            own_data.into_iter().map(|own| own.or_else(|| shared.clone()).unwrap_or_default()).collect()
         };
         Ok(SubmittedJob { spec, data })
     }
@@ -161,30 +231,50 @@ pub fn effect_to_proto(e: &EffectSpec) -> pb::EffectSpec {
     }
 }
 
-/// The protobuf form of a job, for clients (the model must already be uploaded as `model_id`).
-pub fn job_to_proto(spec: &JobSpec, data: &MeasurementTable, model_id: &str) -> pb::JobSpec {
+/// The protobuf form of a job, for clients (the model must already be uploaded as `model_id`):
+/// `data[k]` is the table of experiment `k` of [`JobSpec::experiment_views`]. The job's shared
+/// table travels once, as the data of the first experiment that has none of its own.
+pub fn job_to_proto(spec: &JobSpec, data: &[MeasurementTable], model_id: &str) -> pb::JobSpec {
     let o = &spec.optimizer;
+    let shared = if spec.experiments.is_empty() {
+        data.first()
+    } else {
+        spec.experiments.iter().zip(data).find(|(e, _)| e.data.is_none()).map(|(_, d)| d)
+    };
+    let experiments = spec
+        .experiments
+        .iter()
+        .zip(data)
+        .map(|(e, d)| pb::Experiment {
+            name: e.name.clone(),
+            role: e.role.to_string(),
+            data: e.data.as_ref().map(|_| data_to_proto(d)),
+            outputs: e.outputs.as_ref().map(|l| pb::OutputList { items: l.iter().map(output_to).collect() }),
+            inputs: e.inputs.as_ref().map(|l| pb::InputList { items: l.iter().map(input_to).collect() }),
+            set: e.set.iter().map(|(k, v)| (k.clone(), v.to_string())).collect(),
+            start_time: e.start_time,
+            stop_time: e.stop_time,
+            validation_stop_time: e.validation_stop_time,
+            starts: e.starts.iter().map(|(k, v)| (k.clone(), *v)).collect(),
+        })
+        .collect();
     pb::JobSpec {
         model_id: model_id.to_owned(),
         interface: spec.model.interface.map(interface_name).unwrap_or_default().to_owned(),
-        data: Some(pb::MeasurementData {
-            time: data.time.clone(),
-            columns: data.columns.iter().map(|(n, v)| pb::Column { name: n.clone(), values: v.clone() }).collect(),
-        }),
-        outputs: spec
-            .outputs
-            .iter()
-            .map(|o| pb::OutputMap { variable: o.variable.clone(), column: o.column.clone(), weight: Some(o.weight) })
-            .collect(),
-        inputs: spec
-            .inputs
-            .iter()
-            .map(|i| pb::InputMap { column: i.column.clone(), variable: i.variable.clone() })
-            .collect(),
+        data: shared.map(data_to_proto),
+        outputs: spec.outputs.iter().map(output_to).collect(),
+        inputs: spec.inputs.iter().map(input_to).collect(),
         parameters: spec
             .parameters
             .iter()
-            .map(|p| pb::ParameterSpec { name: p.name.clone(), start: p.start, lower: p.lower, upper: p.upper })
+            .map(|p| pb::ParameterSpec {
+                name: p.name.clone(),
+                start: p.start,
+                lower: p.lower,
+                upper: p.upper,
+                per_experiment: p.per_experiment,
+                scale: p.scale.to_string(),
+            })
             .collect(),
         simulation: Some(pb::SimulationSpec {
             start_time: spec.simulation.start_time,
@@ -220,6 +310,7 @@ pub fn job_to_proto(spec: &JobSpec, data: &MeasurementTable, model_id: &str) -> 
             JobKind::Calibration => vec![],
             JobKind::EvaluatePoints(points) => points.iter().map(|x| pb::Point { x: x.clone() }).collect(),
         },
+        experiments,
     }
 }
 
@@ -297,6 +388,7 @@ pub fn result_from_proto(r: pb::JobResult, history: Vec<HistoryPoint>) -> Calibr
             .collect(),
         errors: None,
         identifiability: None,
+        experiments: vec![],
     }
 }
 
@@ -320,8 +412,9 @@ mod tests {
         )
         .unwrap();
         let data = MeasurementTable { time: vec![0.0, 1.0], columns: vec![("y".into(), vec![1.0, f64::NAN])] };
-        let back = SubmittedJob::try_from(job_to_proto(&spec, &data, "m")).unwrap();
+        let back = SubmittedJob::try_from(job_to_proto(&spec, std::slice::from_ref(&data), "m")).unwrap();
         assert_eq!(back.spec, spec);
-        assert_eq!(back.data.time, data.time);
+        assert_eq!(back.data.len(), 1);
+        assert_eq!(back.data[0].time, data.time);
     }
 }

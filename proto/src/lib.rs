@@ -9,7 +9,7 @@ pub mod convert;
 pub mod diagnose;
 
 /// Version a worker must announce at registration; a mismatch is rejected.
-pub const PROTOCOL_VERSION: u32 = 2;
+pub const PROTOCOL_VERSION: u32 = 3;
 
 /// Largest gRPC message any fmucal client or server encodes or decodes (a job with its data,
 /// a batch of points, a result): 256 MiB.

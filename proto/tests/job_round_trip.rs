@@ -10,6 +10,8 @@ use std::path::Path;
 use fmucal_proto::convert::{SubmittedJob, job_to_proto};
 use fmucal_shared::diagnose::effects;
 use fmucal_shared::fmu::Interface;
+use fmucal_shared::job::choices::{ExperimentRole, Scale};
+use fmucal_shared::job::experiments::ExperimentSpec;
 use fmucal_shared::job::spec::{
     Bounds, DataRef, EffectSpec, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec,
     WorkersSpec,
@@ -38,16 +40,67 @@ fn parameters() -> impl Strategy<Value = Vec<ParameterSpec>> {
     prop::collection::btree_map(name(), (finite(), 0.0..1.0f64, 1e-9..1e3f64), 1..5)
         .prop_map(|m| {
             m.into_iter()
-                .map(|(name, (lower, at, width))| ParameterSpec {
-                    name,
-                    start: lower + at * width,
-                    lower,
-                    upper: lower + width,
-                })
+                .map(|(name, (lower, at, width))| ParameterSpec::new(name, lower + at * width, lower, lower + width))
                 .filter(|p| p.start >= p.lower && p.start <= p.upper)
                 .collect::<Vec<_>>()
         })
         .prop_filter("at least one parameter", |v| !v.is_empty())
+}
+
+/// Marks some parameters per-experiment (when there are experiments) and some log-scaled (when
+/// their bounds are positive); per-experiment ones get a start in some experiments.
+fn with_experiments(
+    mut parameters: Vec<ParameterSpec>,
+    mut experiments: Vec<ExperimentSpec>,
+    flags: Vec<(bool, bool, f64)>,
+) -> (Vec<ParameterSpec>, Vec<ExperimentSpec>) {
+    for (p, (per_experiment, log, at)) in parameters.iter_mut().zip(flags) {
+        if log && p.lower > 0.0 {
+            p.scale = Scale::Log;
+        }
+        if per_experiment && !experiments.is_empty() {
+            p.per_experiment = true;
+            let k = (at * 7.0) as usize % experiments.len();
+            let e = &mut experiments[k];
+            e.starts.insert(p.name.clone(), p.lower + at * (p.upper - p.lower));
+        }
+    }
+    (parameters, experiments)
+}
+
+/// Zero to three experiments, the first fitted, each with or without its own data, outputs,
+/// inputs, fixed values and times.
+fn experiments() -> impl Strategy<Value = Vec<ExperimentSpec>> {
+    let one = (
+        any::<bool>(),
+        any::<bool>(),
+        prop::option::of(prop::collection::vec(output(), 1..3)),
+        prop::option::of(prop::collection::vec(
+            (name(), name()).prop_map(|(column, variable)| InputMap { column, variable }),
+            0..2,
+        )),
+        prop::collection::btree_map(name(), set_value(), 0..2),
+        (prop::option::of(0.0..10.0f64), prop::option::of(10.0..100.0f64), prop::option::of(100.0..200.0f64)),
+    );
+    prop::collection::vec(one, 0..4).prop_map(|list| {
+        list.into_iter()
+            .enumerate()
+            .map(|(k, (validation, own_data, outputs, inputs, set, (start_time, stop_time, validation_stop_time)))| {
+                ExperimentSpec {
+                    name: format!("e{k}"),
+                    role: if validation && k > 0 { ExperimentRole::Validation } else { ExperimentRole::Fit },
+                    data: own_data.then(DataRef::default),
+                    outputs,
+                    inputs,
+                    set,
+                    start_time,
+                    stop_time,
+                    validation_stop_time,
+                    starts: BTreeMap::new(),
+                }
+            })
+            .collect()
+    })
 }
 
 fn set_value() -> impl Strategy<Value = SetValue> {
@@ -153,8 +206,11 @@ fn job() -> impl Strategy<Value = JobSpec> {
         parameters(),
         simulation(),
         prop::collection::vec(effect(), 0..3),
+        experiments(),
+        prop::collection::vec((any::<bool>(), any::<bool>(), 0.0..1.0f64), 5),
     )
-        .prop_flat_map(|(id, interface, outputs, inputs, parameters, simulation, effects)| {
+        .prop_flat_map(|(id, interface, outputs, inputs, parameters, simulation, effects, experiments, flags)| {
+            let (parameters, experiments) = with_experiments(parameters, experiments, flags);
             optimizer().prop_map(move |optimizer| JobSpec {
                 model: ModelRef { path: None, id: Some(id.clone()), interface },
                 data: DataRef { path: None, time_column: "time".into() },
@@ -166,6 +222,7 @@ fn job() -> impl Strategy<Value = JobSpec> {
                 optimizer,
                 workers: WorkersSpec::default(),
                 diagnose: None,
+                experiments: experiments.clone(),
                 kind: JobKind::Calibration,
             })
         })
@@ -175,7 +232,7 @@ fn job() -> impl Strategy<Value = JobSpec> {
 /// of the coordinator), so it round-trips through the protocol only.
 fn points_job() -> impl Strategy<Value = JobSpec> {
     job().prop_flat_map(|spec| {
-        let n = spec.parameters.len();
+        let n = spec.parameter_vectors().0.len();
         prop::collection::vec(prop::collection::vec(finite(), n), 1..4)
             .prop_map(move |points| spec.evaluating_points(points))
     })
@@ -183,6 +240,11 @@ fn points_job() -> impl Strategy<Value = JobSpec> {
 
 fn data() -> MeasurementTable {
     MeasurementTable { time: vec![0.0, 1.0], columns: vec![("y".into(), vec![1.0, f64::NAN])] }
+}
+
+/// One table per experiment of `spec`, each telling which experiment it is.
+fn tables(spec: &JobSpec) -> Vec<MeasurementTable> {
+    (0..spec.experiment_views().len()).map(|k| MeasurementTable { time: vec![0.0, 1.0 + k as f64], ..data() }).collect()
 }
 
 proptest! {
@@ -195,14 +257,24 @@ proptest! {
         prop_assert!(parsed.validate().is_ok(), "{:?}", parsed.validate());
         prop_assert_eq!(&parsed, &spec);
         let id = spec.model.id.clone().unwrap();
-        let back = SubmittedJob::try_from(job_to_proto(&parsed, &data(), &id)).expect("converts back");
-        prop_assert_eq!(back.spec, parsed);
+        let tables = tables(&parsed);
+        let back = SubmittedJob::try_from(job_to_proto(&parsed, &tables, &id)).expect("converts back");
+        prop_assert_eq!(&back.spec, &parsed);
+        // Every experiment gets its own table back, or the job's shared one (the first
+        // experiment's that has no data of its own).
+        let views = parsed.experiment_views();
+        let shared = parsed.experiments.iter().position(|e| e.data.is_none()).unwrap_or(0);
+        prop_assert_eq!(back.data.len(), views.len());
+        for (k, table) in back.data.iter().enumerate() {
+            let own = parsed.experiments.get(k).is_none_or(|e| e.data.is_some());
+            prop_assert_eq!(&table.time, &tables[if own { k } else { shared }].time);
+        }
     }
 
     #[test]
     fn any_points_job_survives_the_protocol(spec in points_job()) {
         let id = spec.model.id.clone().unwrap();
-        let back = SubmittedJob::try_from(job_to_proto(&spec, &data(), &id)).expect("converts back");
+        let back = SubmittedJob::try_from(job_to_proto(&spec, &tables(&spec), &id)).expect("converts back");
         prop_assert_eq!(back.spec, spec);
     }
 }
@@ -219,7 +291,7 @@ fn small_job(weight: f64) -> JobSpec {
 #[test]
 fn unknown_choices_in_a_message_name_their_field() {
     let spec = small_job(1.0);
-    let good = job_to_proto(&spec, &data(), "m");
+    let good = job_to_proto(&spec, &[data()], "m");
     let mut m = good.clone();
     m.optimizer.as_mut().unwrap().algorithm = "points".into();
     let e = SubmittedJob::try_from(m).unwrap_err().to_string();
@@ -239,10 +311,10 @@ fn unknown_choices_in_a_message_name_their_field() {
 fn an_output_weight_of_zero_stays_zero() {
     let spec = small_job(0.0);
     let data = MeasurementTable { time: vec![0.0], columns: vec![("y".into(), vec![1.0])] };
-    let back = SubmittedJob::try_from(job_to_proto(&spec, &data, "m")).unwrap();
+    let back = SubmittedJob::try_from(job_to_proto(&spec, std::slice::from_ref(&data), "m")).unwrap();
     assert_eq!(back.spec.outputs[0].weight, 0.0);
     // A message without a weight (an older or minimal client) means 1.
-    let mut message = job_to_proto(&spec, &data, "m");
+    let mut message = job_to_proto(&spec, std::slice::from_ref(&data), "m");
     message.outputs[0].weight = None;
     assert_eq!(SubmittedJob::try_from(message).unwrap().spec.outputs[0].weight, 1.0);
 }
@@ -260,6 +332,6 @@ fn effects_survive_toml_and_the_protocol() {
     spec.validate().unwrap();
     assert_eq!(spec.effects.len(), 2);
     assert_eq!(spec.parameter_vectors().0, ["k", "effects[0].force", "effects[1].offset"]);
-    let back = SubmittedJob::try_from(job_to_proto(&spec, &data(), "m")).unwrap();
+    let back = SubmittedJob::try_from(job_to_proto(&spec, &[data()], "m")).unwrap();
     assert_eq!(back.spec, spec);
 }

@@ -3,13 +3,15 @@
 //! submits to `--coordinator URL` ([`super::client`]). Then compares the nominal and optimized
 //! models with the measurements and writes `result.json`, `convergence.csv` and `fit.csv`
 //! ([`super::outputs`]) and the plots (`fit`, `error`, `convergence`, as SVG and PNG) to `--out`.
+//! A job with `[[experiments]]` gets one folder `--out/NAME` per experiment for its `fit.csv`
+//! and plots, and its RMS errors per experiment in `result.json`.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use fmucal_shared::fmu::Fmu;
-use fmucal_shared::job::{JobSpec, MeasurementTable, PreparedJob, report};
+use fmucal_shared::job::{ExperimentErrors, JobSpec, PreparedJob, report};
 
 use super::client::Client;
 
@@ -47,8 +49,7 @@ pub fn run(args: Args) -> Result<()> {
     spec.validate()?;
     let model = model_path(&spec)?;
     spec.model.path = Some(model.clone());
-    let data_path = spec.data.path.clone().context("the job's [data] needs a path for the CLI")?;
-    let data = MeasurementTable::read(&data_path, &spec.data.time_column)?;
+    let data = fmucal_shared::job::data::read_all(&spec)?;
     // Check everything locally first: bad jobs fail before any process starts.
     let fmu = Arc::new(Fmu::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
     let prepared = Arc::new(PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), &data)?);
@@ -75,10 +76,30 @@ pub fn run(args: Args) -> Result<()> {
         Err(e) => tracing::warn!("no identifiability analysis: {e:#}"),
     }
 
-    let (fit, errors) = report::compare(&fmu, &prepared, &data, &result.x_opt_in(&prepared.parameter_names))?;
-    result.errors = Some(errors);
-    super::outputs::write(&args.out, &result, &fit)?;
-    crate::report::draw_all(&args.out, &fit, &result.history, result.errors.as_ref())?;
+    let x_opt = result.x_opt_in(&prepared.parameter_names);
+    let mut fits = vec![];
+    for (k, table) in data.iter().enumerate() {
+        fits.push(report::compare(&fmu, &prepared, k, table, &x_opt)?);
+    }
+    if spec.experiments.is_empty() {
+        let (fit, errors) = fits.pop().context("one experiment")?;
+        result.errors = Some(errors);
+        super::outputs::write(&args.out, &result, &fit)?;
+        crate::report::draw_all(&args.out, &fit, &result.history, result.errors.as_ref())?;
+    } else {
+        for (e, (fit, errors)) in prepared.experiments.iter().zip(&fits) {
+            let dir = args.out.join(&e.name);
+            std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+            super::outputs::write_fit(&dir, fit)?;
+            crate::report::draw_all(&dir, fit, &result.history, Some(errors))?;
+            result.experiments.push(ExperimentErrors {
+                name: e.name.clone(),
+                role: e.role.to_string(),
+                errors: errors.clone(),
+            });
+        }
+        super::outputs::write_result(&args.out, &result)?;
+    }
     println!(
         "termination: {}; f_opt = {:.6e} after {} evaluations in {:.1} s",
         result.termination, result.f_opt, result.evaluations, result.elapsed_s
@@ -93,6 +114,15 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(e) = &result.errors {
         let v = e.validation.as_ref().map(|v| format!(", validation {:.3}", v.scaled_rms)).unwrap_or_default();
         println!("scaled RMS error (optimized / nominal): calibration {:.3}{v}", e.calibration.scaled_rms);
+    }
+    for x in &result.experiments {
+        let e = &x.errors;
+        let v = e.validation.as_ref().map(|v| format!(", validation window {:.3}", v.scaled_rms)).unwrap_or_default();
+        let window = if x.role == "fit" { "calibration window" } else { "whole span (not fitted)" };
+        println!(
+            "experiment {} ({}): scaled RMS error (optimized / nominal): {window} {:.3}{v}",
+            x.name, x.role, e.calibration.scaled_rms
+        );
     }
     if let Some(id) = &result.identifiability
         && id.names.len() > 1

@@ -61,7 +61,7 @@ impl Client {
     pub async fn calibrate_and_identify(
         &mut self,
         job: &PreparedJob,
-        data: &MeasurementTable,
+        data: &[MeasurementTable],
         model: &Path,
     ) -> Result<(CalibrationResult, Result<Identifiability>)> {
         let result = self.calibrate(&job.spec, data, model).await?;
@@ -74,7 +74,7 @@ impl Client {
     pub async fn calibrate(
         &mut self,
         spec: &JobSpec,
-        data: &MeasurementTable,
+        data: &[MeasurementTable],
         model: &Path,
     ) -> Result<CalibrationResult> {
         let bar = indicatif::ProgressBar::new_spinner();
@@ -98,7 +98,7 @@ impl Client {
     pub async fn calibrate_with(
         &mut self,
         spec: &JobSpec,
-        data: &MeasurementTable,
+        data: &[MeasurementTable],
         model: &Path,
         mut on_event: impl FnMut(&pb::WatchJobResponse),
     ) -> Result<CalibrationResult> {
@@ -130,7 +130,7 @@ impl Client {
         &mut self,
         spec: &JobSpec,
         points: Vec<Vec<f64>>,
-        data: &MeasurementTable,
+        data: &[MeasurementTable],
         model: &Path,
     ) -> Result<Vec<EvaluatedPoint>> {
         let job_id = self.submit(&spec.evaluating_points(points), data, model).await?;
@@ -147,7 +147,7 @@ impl Client {
         &mut self,
         job: &PreparedJob,
         result: &CalibrationResult,
-        data: &MeasurementTable,
+        data: &[MeasurementTable],
         model: &Path,
     ) -> Result<Identifiability> {
         let plan = identifiability::difference_points(job, &result.x_opt_in(&job.parameter_names));
@@ -179,7 +179,7 @@ impl Client {
     }
 
     /// Uploads the model (once, [`Client::upload`]) and submits the job.
-    async fn submit(&mut self, spec: &JobSpec, data: &MeasurementTable, model: &Path) -> Result<String> {
+    async fn submit(&mut self, spec: &JobSpec, data: &[MeasurementTable], model: &Path) -> Result<String> {
         let model_id = self.upload(model).await?;
         let job_id = self
             .inner

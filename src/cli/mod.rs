@@ -63,9 +63,12 @@ pub fn main() -> ExitCode {
         Command::Diagnose(args) => diagnose::run(args),
         Command::Coordinator(args) => servers::coordinator(args),
         Command::Worker(args) => servers::worker(args),
-        Command::Plot { dir } => outputs::read(&dir).and_then(|(result, fit)| {
-            crate::report::draw_all(&dir, &fit, &result.history, result.errors.as_ref())?;
-            eprintln!("wrote the plots to {}", dir.display());
+        Command::Plot { dir } => outputs::read(&dir).and_then(|(result, fits)| {
+            for (k, (folder, fit)) in fits.iter().enumerate() {
+                let errors = result.experiments.get(k).map(|e| &e.errors).or(result.errors.as_ref());
+                crate::report::draw_all(folder, fit, &result.history, errors)?;
+                eprintln!("wrote the plots to {}", folder.display());
+            }
             Ok(())
         }),
         Command::Examples => fmucal_models::example_names().into_iter().try_for_each(|name| {

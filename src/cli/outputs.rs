@@ -13,7 +13,18 @@ const KINDS: [&str; 3] = ["measured", "nominal", "optimized"];
 
 /// Writes `fit.csv`, `result.json` and `convergence.csv` into `dir`.
 pub fn write(dir: &Path, result: &CalibrationResult, fit: &FitTable) -> Result<()> {
+    write_fit(dir, fit)?;
+    write_result(dir, result)
+}
+
+/// Writes `fit.csv` into `dir` (an experiment's folder, for a job with several).
+pub fn write_fit(dir: &Path, fit: &FitTable) -> Result<()> {
     std::fs::write(dir.join("fit.csv"), fit_csv(fit))?;
+    Ok(())
+}
+
+/// Writes `result.json` and `convergence.csv` into `dir`.
+pub fn write_result(dir: &Path, result: &CalibrationResult) -> Result<()> {
     std::fs::write(dir.join("result.json"), serde_json::to_string_pretty(result)?)?;
     let mut conv = String::from("round,evaluations,best_f,batch_wall_s\n");
     for h in &result.history {
@@ -23,13 +34,20 @@ pub fn write(dir: &Path, result: &CalibrationResult, fit: &FitTable) -> Result<(
     Ok(())
 }
 
-/// Reads `fit.csv` and `result.json` from a folder [`write`] wrote.
-pub fn read(dir: &Path) -> Result<(CalibrationResult, FitTable)> {
-    let fit = read_fit(&dir.join("fit.csv"))?;
+/// Reads `result.json` and the `fit.csv` files from a folder [`write`] wrote: its own, or one
+/// per experiment (in `DIR/NAME`) for a job with several.
+pub fn read(dir: &Path) -> Result<(CalibrationResult, Vec<(std::path::PathBuf, FitTable)>)> {
     let path = dir.join("result.json");
     let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
-    let result = serde_json::from_str(&text).with_context(|| format!("cannot read {}", path.display()))?;
-    Ok((result, fit))
+    let result: CalibrationResult =
+        serde_json::from_str(&text).with_context(|| format!("cannot read {}", path.display()))?;
+    let dirs: Vec<std::path::PathBuf> = if result.experiments.is_empty() {
+        vec![dir.to_owned()]
+    } else {
+        result.experiments.iter().map(|e| dir.join(&e.name)).collect()
+    };
+    let fits = dirs.into_iter().map(|d| Ok((d.clone(), read_fit(&d.join("fit.csv"))?))).collect::<Result<_>>()?;
+    Ok((result, fits))
 }
 
 fn fit_csv(fit: &FitTable) -> String {

@@ -81,6 +81,7 @@ pub async fn run(mut s: SlotContext) {
                         fmu: ctx.fmu.clone(),
                         job: ctx.job.clone(),
                         x: a.x.clone(),
+                        experiment: a.experiment as usize,
                         want_residuals: a.want_residuals,
                     };
                     s.pool.submit(Some(thread), request, move |e| {

@@ -1,7 +1,7 @@
-//! The closed sets of choices a job names — its kind, optimizer algorithm, FMI interface,
-//! integrator and status — as enums. Each is read from and written as the same text in the
-//! TOML job file and in the protocol, so the names live here once ([`text`] and
-//! [`optional_text`] are the serde adapters for the text form).
+//! The closed sets of choices a job names — its kind, optimizer algorithm, parameter scale,
+//! experiment role, FMI interface, integrator and status — as enums. Each is read from and
+//! written as the same text in the TOML job file and in the protocol, so the names live here
+//! once ([`text`] and [`optional_text`] are the serde adapters for the text form).
 
 use std::fmt;
 use std::str::FromStr;
@@ -61,6 +61,63 @@ impl FromStr for Algorithm {
             .find(|(_, n)| *n == s)
             .map(|(a, _)| *a)
             .ok_or_else(|| format!("{s:?} is not nelder-mead, differential-evolution or genetic"))
+    }
+}
+
+/// How the optimizer sees a parameter: as it is, or as its logarithm (for values that span
+/// decades; the bounds must then be positive).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Scale {
+    #[default]
+    Linear,
+    Log,
+}
+
+impl fmt::Display for Scale {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Scale::Linear => "linear",
+            Scale::Log => "log",
+        })
+    }
+}
+
+impl FromStr for Scale {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "linear" => Ok(Scale::Linear),
+            "log" => Ok(Scale::Log),
+            other => Err(format!("{other:?} is not linear or log")),
+        }
+    }
+}
+
+/// What an experiment of a job is for: fitted, or only simulated with the optimum and reported.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum ExperimentRole {
+    #[default]
+    Fit,
+    Validation,
+}
+
+impl fmt::Display for ExperimentRole {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ExperimentRole::Fit => "fit",
+            ExperimentRole::Validation => "validation",
+        })
+    }
+}
+
+impl FromStr for ExperimentRole {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "fit" => Ok(ExperimentRole::Fit),
+            "validation" => Ok(ExperimentRole::Validation),
+            other => Err(format!("{other:?} is not fit or validation")),
+        }
     }
 }
 
@@ -165,5 +222,16 @@ mod tests {
             assert_eq!(parse_interface(interface_name(i)), Ok(i));
         }
         assert_eq!(parse_interface("ME").unwrap_err(), "\"ME\" is not me or cs");
+    }
+
+    #[test]
+    fn scales_and_roles_read_back_from_their_names() {
+        for s in [Scale::Linear, Scale::Log] {
+            assert_eq!(s.to_string().parse::<Scale>(), Ok(s));
+        }
+        for r in [ExperimentRole::Fit, ExperimentRole::Validation] {
+            assert_eq!(r.to_string().parse::<ExperimentRole>(), Ok(r));
+        }
+        assert_eq!("ln".parse::<Scale>().unwrap_err(), "\"ln\" is not linear or log");
     }
 }

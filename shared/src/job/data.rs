@@ -47,6 +47,33 @@ impl TimeSeries {
     }
 }
 
+/// Reads the data of each experiment of `spec` ([`super::JobSpec::experiment_views`]) from its
+/// file; experiments that share the job's file share one read.
+///
+/// # Errors
+/// [`JobError::Invalid`] naming `data` (or `experiments[K].data`) when there is no path, else as
+/// [`TimeSeries::read`].
+pub fn read_all(spec: &super::JobSpec) -> Result<Vec<MeasurementTable>, JobError> {
+    let mut read: Vec<(std::path::PathBuf, String, MeasurementTable)> = vec![];
+    let mut out = vec![];
+    for view in spec.experiment_views() {
+        let d = &view.spec.data;
+        let path = d.path.clone().ok_or_else(|| {
+            JobError::invalid(format!("{}data", view.field_prefix), "give the path of the measurements")
+        })?;
+        let table = match read.iter().find(|(p, c, _)| *p == path && *c == d.time_column) {
+            Some((_, _, t)) => t.clone(),
+            None => {
+                let t = MeasurementTable::read(&path, &d.time_column)?;
+                read.push((path, d.time_column.clone(), t.clone()));
+                t
+            }
+        };
+        out.push(table);
+    }
+    Ok(out)
+}
+
 /// A reader's error as the job reports it: `cannot read PATH: line N: ...`.
 fn read_error(e: SeriesError) -> JobError {
     let message = match e.line {

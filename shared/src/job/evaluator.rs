@@ -1,6 +1,8 @@
-//! One evaluation of the objective at a parameter point, on a warm FMU instance that is reset
-//! between points and re-instantiated after a failure (see [`crate::sim::Simulator`]). A
-//! failed simulation is an [`Evaluation`] with no value and the error text, never a panic.
+//! One evaluation of the objective at a parameter point on one experiment, on a warm FMU
+//! instance that is reset between points and re-instantiated after a failure (see
+//! [`crate::sim::Simulator`]); one instance serves every experiment of a job. A failed
+//! simulation is an [`Evaluation`] with no value and the error text, never a panic. A point's
+//! evaluations on the fitted experiments add up to its evaluation ([`Evaluation::combine`]).
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -8,7 +10,8 @@ use std::time::{Duration, Instant};
 use serde::{Deserialize, Serialize};
 
 use super::JobError;
-use super::objective::{Objective, PreparedJob};
+use super::objective::Objective;
+use super::prepared::PreparedJob;
 use crate::fmu::Fmu;
 use crate::sim::{SimError, SimResult, Simulator};
 
@@ -52,6 +55,27 @@ impl Evaluation {
     pub fn failed(error: impl Into<String>) -> Self {
         Evaluation { value: None, residuals: None, error: Some(error.into()), wall: Duration::ZERO }
     }
+
+    /// One point's evaluation from its evaluations on the fitted experiments, in order: the
+    /// values add up, the residual vectors are concatenated and the wall times add up. It fails
+    /// if any part failed (the first failure's error, naming the experiment in `names`).
+    pub fn combine(parts: Vec<Evaluation>, names: &[&str]) -> Evaluation {
+        if parts.len() == 1 {
+            return parts.into_iter().next().expect("one part");
+        }
+        let wall = parts.iter().map(|p| p.wall).sum();
+        if let Some((k, failed)) = parts.iter().enumerate().find(|(_, p)| p.value.is_none()) {
+            let why = failed.error.clone().unwrap_or_default();
+            let error = match names.get(k) {
+                Some(name) if !name.is_empty() => format!("experiment {name}: {why}"),
+                _ => why,
+            };
+            return Evaluation { value: None, residuals: None, error: Some(error), wall };
+        }
+        let residuals =
+            parts.iter().map(|p| p.residuals.as_deref()).collect::<Option<Vec<&[f64]>>>().map(|r| r.concat());
+        Evaluation { value: Some(parts.iter().filter_map(|p| p.value).sum()), residuals, error: None, wall }
+    }
 }
 
 /// Evaluates points of one job on one warm instance. Not `Send`: keep it on its thread.
@@ -69,23 +93,29 @@ impl Evaluator {
         Ok(Evaluator { simulator: Simulator::new(fmu, Some(job.interface))?, job })
     }
 
-    /// Simulates at `x` on the measurement grid, sensor effects applied.
+    /// Simulates experiment `experiment` at `x` on its measurement grid, sensor effects applied.
     ///
     /// # Errors
-    /// The simulation's error.
-    pub fn simulate(&mut self, x: &[f64]) -> Result<SimResult, SimError> {
-        let mut sim = self.simulator.run(&self.job.sim_spec(x))?;
-        self.job.apply_sensor_effects(x, &mut sim);
+    /// The simulation's error; [`SimError::Invalid`] for an experiment the job does not have.
+    pub fn simulate(&mut self, x: &[f64], experiment: usize) -> Result<SimResult, SimError> {
+        let e = self
+            .job
+            .experiments
+            .get(experiment)
+            .ok_or_else(|| SimError::Invalid(format!("the job has no experiment {experiment}")))?;
+        let mut sim = self.simulator.run(&e.sim_spec(x))?;
+        e.apply_sensor_effects(x, &mut sim);
         Ok(sim)
     }
 
-    /// Evaluates the objective at `x`.
-    pub fn evaluate(&mut self, x: &[f64], want_residuals: bool) -> Evaluation {
+    /// Evaluates the objective of experiment `experiment` at `x`.
+    pub fn evaluate(&mut self, x: &[f64], experiment: usize, want_residuals: bool) -> Evaluation {
         let start = Instant::now();
-        let outcome = self.simulate(x);
+        let outcome = self.simulate(x, experiment);
         let wall = start.elapsed();
+        let objective = &self.job.experiments[experiment.min(self.job.experiments.len() - 1)].objective;
         match outcome {
-            Ok(sim) => match self.job.objective.residuals(&sim) {
+            Ok(sim) => match objective.residuals(&sim) {
                 Some(r) => Evaluation {
                     value: Some(Objective::value(&r)),
                     residuals: want_residuals.then_some(r),

@@ -9,21 +9,21 @@ use std::time::Instant;
 
 use super::JobError;
 use super::evaluator::Evaluation;
-use super::objective::PreparedJob;
 use super::pool::EvaluatorPool;
+use super::prepared::PreparedJob;
 use super::result::HistoryPoint;
-use super::run::JobRun;
+use super::run::{JobRun, WorkItem};
 use crate::fmu::Fmu;
-use crate::optim::Candidate;
 
-/// Evaluates a round of candidates.
+/// Evaluates a round of work items.
 pub trait Backend {
-    /// The evaluations of `round`, in its order.
-    fn evaluate(&mut self, round: &[Candidate]) -> Vec<Evaluation>;
+    /// The evaluations of `round`, in its order, with their residual vectors if
+    /// `want_residuals`.
+    fn evaluate(&mut self, round: &[WorkItem], want_residuals: bool) -> Vec<Evaluation>;
 }
 
 /// Asks rounds from `run` until it is done, evaluates each on `backend` and tells the results
-/// in candidate order, so the run is the same whatever the backend's parallelism;
+/// in item order, so the run is the same whatever the backend's parallelism;
 /// `on_round` sees every completed round.
 ///
 /// # Errors
@@ -40,7 +40,7 @@ pub fn execute(
             return Ok(());
         }
         let started = Instant::now();
-        let evaluations = backend.evaluate(&round);
+        let evaluations = backend.evaluate(&round, run.wants_residuals());
         if evaluations.len() != round.len() {
             return Err(JobError::invalid(
                 "executor",
@@ -66,8 +66,7 @@ pub struct PoolBackend<'a> {
 }
 
 impl Backend for PoolBackend<'_> {
-    fn evaluate(&mut self, round: &[Candidate]) -> Vec<Evaluation> {
-        let points: Vec<Vec<f64>> = round.iter().map(|c| c.x.clone()).collect();
-        self.pool.evaluate_all(&self.job_key, &self.fmu, &self.job, &points)
+    fn evaluate(&mut self, round: &[WorkItem], want_residuals: bool) -> Vec<Evaluation> {
+        self.pool.evaluate_items(&self.job_key, &self.fmu, &self.job, round, want_residuals)
     }
 }

@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 
 use super::JobError;
 use super::executor::{PoolBackend, execute};
-use super::objective::PreparedJob;
 use super::pool::EvaluatorPool;
+use super::prepared::PreparedJob;
 use super::result::EvaluatedPoint;
 use super::run::JobRun;
 use crate::fmu::Fmu;

@@ -8,8 +8,8 @@ use std::time::Instant;
 
 use super::JobError;
 use super::executor::{PoolBackend, execute};
-use super::objective::PreparedJob;
 use super::pool::EvaluatorPool;
+use super::prepared::PreparedJob;
 use super::result::{CalibrationResult, HistoryPoint};
 use super::run::JobRun;
 use crate::fmu::Fmu;

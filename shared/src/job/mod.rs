@@ -1,22 +1,29 @@
-//! Calibration jobs (paper section 6): the job specification ([`spec`], TOML for the CLI and
-//! the same fields over gRPC), measurement data ([`data`]: CSV or MATLAB v5), the quadratic
-//! error objective ([`objective`], the paper's `quad_err`), one evaluation of a parameter point
-//! on a warm FMU instance ([`evaluator`]) and a pool of threads keeping such instances warm
-//! ([`pool`]), the optimizer built from the spec ([`optimizer`]), one job's run and its
-//! bookkeeping ([`run`]), the one ask/evaluate/tell loop ([`executor`]), in-process
-//! calibration ([`local`]), standard errors and correlations at the optimum
-//! ([`identifiability`]), the result ([`result`]) and what its report compares — measured against nominal and
-//! optimized outputs, RMS errors per window ([`report`]) — and the enums a job names ([`choices`]).
+//! Calibration jobs (paper section 6):
+//! - the job specification ([`spec`], TOML for the CLI and the same fields over gRPC), with
+//!   several experiments in one job ([`experiments`]) and the enums a job names ([`choices`]);
+//! - measurement data ([`data`]: CSV or MATLAB v5) and the quadratic error objective
+//!   ([`objective`], the paper's `quad_err`);
+//! - the job checked against its model and data ([`prepared`]);
+//! - one evaluation of a parameter point on one experiment, on a warm FMU instance
+//!   ([`evaluator`]), and a pool of threads keeping such instances warm ([`pool`]);
+//! - the optimizer built from the spec ([`optimizer`]), one job's run and its bookkeeping
+//!   ([`run`]), the one ask/evaluate/tell loop ([`executor`]) and in-process calibration
+//!   ([`local`]);
+//! - standard errors and correlations at the optimum ([`identifiability`]), the result
+//!   ([`result`]) and what its report compares: measured against nominal and optimized outputs,
+//!   RMS errors per window ([`report`]).
 
 pub mod choices;
 pub mod data;
 pub mod evaluator;
 pub mod executor;
+pub mod experiments;
 pub mod identifiability;
 pub mod local;
 pub mod objective;
 pub mod optimizer;
 pub mod pool;
+pub mod prepared;
 pub mod report;
 pub mod result;
 pub mod run;
@@ -29,9 +36,10 @@ use crate::sim::SimError;
 pub use choices::{Algorithm, JobKind, JobStatus};
 pub use data::MeasurementTable;
 pub use evaluator::{Evaluation, Evaluator};
-pub use objective::{Objective, PreparedJob};
+pub use objective::Objective;
+pub use prepared::{PreparedExperiment, PreparedJob};
 pub use report::FitTable;
-pub use result::{CalibrationResult, ErrorReport, EvaluatedPoint, HistoryPoint};
+pub use result::{CalibrationResult, ErrorReport, EvaluatedPoint, ExperimentErrors, HistoryPoint};
 pub use run::JobRun;
 pub use spec::JobSpec;
 

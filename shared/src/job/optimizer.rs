@@ -1,5 +1,6 @@
 //! Builds the job's optimizer from its kind and `[optimizer]` table: unset fields keep each
-//! optimizer's defaults.
+//! optimizer's defaults. A parameter with `scale = "log"` enters the optimizer as its logarithm
+//! (start and bounds alike); [`super::run::JobRun`] turns the points back into user units.
 
 use super::choices::{Algorithm, JobKind};
 use super::spec::JobSpec;
@@ -14,7 +15,18 @@ use crate::optim::{
 /// # Errors
 /// [`OptimError::Setting`] naming the bad field.
 pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
-    let (_, x0, lower, upper) = spec.parameter_vectors();
+    let (_, mut x0, mut lower, mut upper) = spec.parameter_vectors();
+    if let JobKind::EvaluatePoints(points) = &spec.kind {
+        // Given points are in user units, and so is this optimizer (see `JobRun::new`).
+        return Ok(AnyOptimizer::Points(PointBatch::new(&lower, &upper, points)?));
+    }
+    for (i, log) in spec.log_scaled().into_iter().enumerate() {
+        if log {
+            for v in [&mut x0[i], &mut lower[i], &mut upper[i]] {
+                *v = v.ln();
+            }
+        }
+    }
     let o = &spec.optimizer;
     let n = x0.len();
     let defaults = Stopping::default_for(n);
@@ -30,9 +42,6 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
         max_iters: o.max_iters.or(defaults.max_iters),
         max_fevals: o.max_fevals,
     };
-    if let JobKind::EvaluatePoints(points) = &spec.kind {
-        return Ok(AnyOptimizer::Points(PointBatch::new(&lower, &upper, points)?));
-    }
     Ok(match o.algorithm {
         Algorithm::DifferentialEvolution => {
             let d = DeSettings::new(n);

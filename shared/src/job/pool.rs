@@ -14,7 +14,8 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use super::evaluator::{Evaluation, Evaluator};
-use super::objective::PreparedJob;
+use super::prepared::PreparedJob;
+use super::run::WorkItem;
 use crate::fmu::Fmu;
 
 /// Jobs whose instances a thread keeps warm; a long-lived worker sees many jobs.
@@ -28,6 +29,8 @@ pub struct EvalRequest {
     pub job: Arc<PreparedJob>,
     /// The point, in parameter order.
     pub x: Vec<f64>,
+    /// The experiment to simulate (its index in the job).
+    pub experiment: usize,
     pub want_residuals: bool,
 }
 
@@ -86,31 +89,33 @@ impl EvaluatorPool {
         self.shared.ready.notify_all();
     }
 
-    /// Evaluates `points` of one job, spread over the threads; the evaluations come back in
-    /// the order of `points`.
-    pub fn evaluate_all(
+    /// Evaluates work `items` of one job, spread over the threads; the evaluations come back in
+    /// the order of `items`.
+    pub fn evaluate_items(
         &self,
         job_key: &str,
         fmu: &Arc<Fmu>,
         job: &Arc<PreparedJob>,
-        points: &[Vec<f64>],
+        items: &[WorkItem],
+        want_residuals: bool,
     ) -> Vec<Evaluation> {
         let (tx, rx) = std::sync::mpsc::channel();
-        for (i, x) in points.iter().enumerate() {
+        for (i, item) in items.iter().enumerate() {
             let tx = tx.clone();
             let request = EvalRequest {
                 job_key: job_key.to_owned(),
                 fmu: fmu.clone(),
                 job: job.clone(),
-                x: x.clone(),
-                want_residuals: job.spec.kind.wants_residuals(),
+                x: item.x.clone(),
+                experiment: item.experiment,
+                want_residuals,
             };
             self.submit(None, request, move |e| {
                 let _ = tx.send((i, e));
             });
         }
         drop(tx);
-        let mut out: Vec<Option<Evaluation>> = vec![None; points.len()];
+        let mut out: Vec<Option<Evaluation>> = vec![None; items.len()];
         for (i, e) in rx {
             out[i] = Some(e);
         }
@@ -171,5 +176,5 @@ fn evaluate(warm: &mut HashMap<String, Evaluator>, r: EvalRequest) -> Evaluation
         std::collections::hash_map::Entry::Occupied(e) => Ok(e.into_mut()),
         std::collections::hash_map::Entry::Vacant(v) => Evaluator::new(&r.fmu, r.job).map(|ev| v.insert(ev)),
     }
-    .map_or_else(|e| Evaluation::failed(e.to_string()), |ev| ev.evaluate(&r.x, r.want_residuals))
+    .map_or_else(|e| Evaluation::failed(e.to_string()), |ev| ev.evaluate(&r.x, r.experiment, r.want_residuals))
 }

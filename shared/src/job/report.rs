@@ -8,7 +8,8 @@ use std::sync::Arc;
 use super::JobError;
 use super::data::MeasurementTable;
 use super::evaluator::Evaluator;
-use super::objective::{Objective, PreparedJob};
+use super::objective::Objective;
+use super::prepared::PreparedJob;
 use super::result::{ErrorReport, WindowError};
 use crate::fmu::Fmu;
 use crate::sim::SimResult;
@@ -96,21 +97,23 @@ pub fn error_report(
     }
 }
 
-/// The fit table and error report of `job` calibrated to `x_opt` (in parameter order): the
-/// optimized model at `x_opt` and the nominal model at the start values, both simulated up to
-/// the validation stop time if the job has one. The nominal model leaves the parameters an
-/// earlier stage fixed at the model's own values. A failed simulation leaves its cells empty.
+/// The fit table and error report of experiment `experiment` of `job` calibrated to `x_opt`
+/// (in parameter order; `data` is the experiment's table): the optimized model at `x_opt` and
+/// the nominal model at the start values, both simulated up to the experiment's validation stop
+/// time if it has one. The nominal model leaves the parameters an earlier stage fixed at the
+/// model's own values. A failed simulation leaves its cells empty.
 ///
 /// # Errors
-/// [`JobError`] if the job does not extend to the validation window or the FMU cannot be
+/// [`JobError`] if the experiment does not extend to the validation window or the FMU cannot be
 /// instantiated.
 pub fn compare(
     fmu: &Fmu,
     job: &Arc<PreparedJob>,
+    experiment: usize,
     data: &MeasurementTable,
     x_opt: &[f64],
 ) -> Result<(FitTable, ErrorReport), JobError> {
-    compare_with(fmu, job, data, x_opt, true)
+    compare_with(fmu, job, experiment, data, x_opt, true)
 }
 
 /// As [`compare`] without the nominal model (its cells empty, its RMS NaN): one simulation,
@@ -121,43 +124,50 @@ pub fn compare(
 pub fn optimized_fit(
     fmu: &Fmu,
     job: &Arc<PreparedJob>,
+    experiment: usize,
     data: &MeasurementTable,
     x_opt: &[f64],
 ) -> Result<(FitTable, ErrorReport), JobError> {
-    compare_with(fmu, job, data, x_opt, false)
+    compare_with(fmu, job, experiment, data, x_opt, false)
 }
 
 fn compare_with(
     fmu: &Fmu,
     job: &Arc<PreparedJob>,
+    experiment: usize,
     data: &MeasurementTable,
     x_opt: &[f64],
     with_nominal: bool,
 ) -> Result<(FitTable, ErrorReport), JobError> {
-    let spec = &job.spec;
-    let (_, x0, _, _) = spec.parameter_vectors();
-    let report_job = match spec.simulation.validation_stop_time {
+    let e = job
+        .experiments
+        .get(experiment)
+        .ok_or_else(|| JobError::invalid("experiment", format!("the job has no experiment {experiment}")))?;
+    let (md, interfaces) = (&fmu.description, fmu.interfaces());
+    let (_, x0, _, _) = job.spec.parameter_vectors();
+    let reported = match e.spec.simulation.validation_stop_time {
         Some(stop) => {
-            let mut s = spec.clone();
+            let mut s = e.spec.clone();
             s.simulation.stop_time = Some(stop);
-            Arc::new(PreparedJob::new(&s, &fmu.description, &fmu.interfaces(), data)?)
+            Arc::new(job.with_experiment(experiment, e.with_spec(s, md, &interfaces, data, &x0)?))
         }
         None => job.clone(),
     };
-    let mut ev = Evaluator::new(fmu, report_job.clone())?;
-    let optimized = ev.simulate(x_opt).ok();
+    let mut ev = Evaluator::new(fmu, reported.clone())?;
+    let optimized = ev.simulate(x_opt, experiment).ok();
+    let fixed = &e.spec.simulation.fixed_from_earlier_stage;
     let nominal = if !with_nominal {
         None
-    } else if spec.simulation.fixed_from_earlier_stage.is_empty() {
-        ev.simulate(&x0).ok()
+    } else if fixed.is_empty() {
+        ev.simulate(&x0, experiment).ok()
     } else {
-        let mut s = report_job.spec.clone();
-        s.simulation.set.retain(|k, _| !s.simulation.fixed_from_earlier_stage.contains(k));
-        let baseline = Arc::new(PreparedJob::new(&s, &fmu.description, &fmu.interfaces(), data)?);
-        Evaluator::new(fmu, baseline)?.simulate(&x0).ok()
+        let mut s = reported.experiments[experiment].spec.clone();
+        s.simulation.set.retain(|k, _| !fixed.contains(k));
+        let baseline = job.with_experiment(experiment, e.with_spec(s, md, &interfaces, data, &x0)?);
+        Evaluator::new(fmu, Arc::new(baseline))?.simulate(&x0, experiment).ok()
     };
-    let calibration_stop = job.objective.times.last().copied().unwrap_or(f64::INFINITY);
-    let objective = &report_job.objective;
+    let calibration_stop = e.objective.times.last().copied().unwrap_or(f64::INFINITY);
+    let objective = &reported.experiments[experiment].objective;
     let (nominal, optimized) = (nominal.as_ref(), optimized.as_ref());
     Ok((FitTable::new(objective, nominal, optimized), error_report(objective, calibration_stop, nominal, optimized)))
 }

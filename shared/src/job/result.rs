@@ -77,6 +77,18 @@ pub struct CalibrationResult {
     /// Standard errors and correlations at the optimum, when computed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub identifiability: Option<super::identifiability::Identifiability>,
+    /// For a job with `[[experiments]]`: each experiment's RMS errors, when the CLI computed them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub experiments: Vec<ExperimentErrors>,
+}
+
+/// One experiment's RMS errors in `result.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExperimentErrors {
+    pub name: String,
+    /// `fit` or `validation`.
+    pub role: String,
+    pub errors: ErrorReport,
 }
 
 impl CalibrationResult {
@@ -141,6 +153,7 @@ mod tests {
             evaluated: vec![],
             errors: Some(report),
             identifiability: None,
+            experiments: vec![],
         };
         let json = serde_json::to_string(&result).unwrap();
         // The optimum and the best value so far keep their infinity (a job with no successful

@@ -5,6 +5,13 @@
 //! [`CalibrationResult`] it ends with. It is serializable, so the coordinator stores it after
 //! every round and resumes from it.
 //!
+//! A run hands out [`WorkItem`]s: one simulation each, a candidate point on one fitted
+//! experiment. Item `c·K + k` is candidate `c` on the `k`-th of the K fitted experiments, so a
+//! one-experiment job's items are its candidates. Once all K items of a candidate are told, the
+//! optimizer is told the candidate's total ([`Evaluation::combine`]): its residual vector for a
+//! least-squares optimizer, else its value. Parameters with `scale = "log"` are optimized as
+//! their logarithm; items, results and progress are in user units.
+//!
 //! [`super::executor::execute`] drives a run to its end on a synchronous backend (threads in
 //! this process); the coordinator drives the same type from worker results as they arrive.
 //! Neither does any bookkeeping of its own. Like the optimizers, a run reads no clock: the
@@ -14,11 +21,22 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use super::JobKind;
 use super::evaluator::Evaluation;
-use super::objective::PreparedJob;
 use super::optimizer;
+use super::prepared::PreparedJob;
 use super::result::{CalibrationResult, EvaluatedPoint, HistoryPoint};
-use crate::optim::{AnyOptimizer, Candidate, CandidateId, OptimError, Optimizer, Outcome, Status};
+use crate::optim::{AnyOptimizer, CandidateId, OptimError, Optimizer, Outcome, Status};
+
+/// One simulation to run: a candidate point (user units) on one experiment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WorkItem {
+    /// Unique within the run; see the module docs.
+    pub id: u64,
+    /// The experiment's index in the job.
+    pub experiment: usize,
+    pub x: Vec<f64>,
+}
 
 /// A job's optimizer and the bookkeeping of its rounds.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -29,6 +47,22 @@ pub struct JobRun {
     /// Kept for jobs that want residuals: each told point, by candidate id.
     evaluated: BTreeMap<CandidateId, EvaluatedPoint>,
     keep_points: bool,
+    /// The fitted experiments, in item order.
+    #[serde(default = "one_experiment")]
+    experiments: Vec<usize>,
+    /// Their names, for the error of a failed part.
+    #[serde(default)]
+    experiment_names: Vec<String>,
+    /// The parts told so far of candidates whose items are not all told.
+    #[serde(default)]
+    partial: BTreeMap<CandidateId, Vec<Option<Evaluation>>>,
+    /// Which values the optimizer sees as their logarithm (empty: none).
+    #[serde(default)]
+    log: Vec<bool>,
+}
+
+fn one_experiment() -> Vec<usize> {
+    vec![0]
 }
 
 impl JobRun {
@@ -37,36 +71,110 @@ impl JobRun {
     /// # Errors
     /// [`OptimError::Setting`] naming the bad optimizer setting.
     pub fn new(job: &PreparedJob) -> Result<Self, OptimError> {
+        // A points job's optimizer works in user units (see `optimizer::build`).
+        let log = if matches!(job.spec.kind, JobKind::EvaluatePoints(_)) { vec![] } else { job.spec.log_scaled() };
         Ok(JobRun {
             optimizer: optimizer::build(&job.spec)?,
             history: vec![],
             failed_evaluations: 0,
             evaluated: BTreeMap::new(),
             keep_points: job.spec.kind.wants_residuals(),
+            experiments: job.fitted.clone(),
+            experiment_names: job.fitted.iter().map(|&k| job.experiments[k].name.clone()).collect(),
+            partial: BTreeMap::new(),
+            log: if log.contains(&true) { log } else { vec![] },
         })
     }
 
-    /// The candidates of the current round still awaiting a result; empty once the run is done.
-    pub fn ask(&mut self) -> Vec<Candidate> {
-        self.optimizer.ask()
+    /// Whether the items' residual vectors are wanted back, not only their values.
+    pub fn wants_residuals(&self) -> bool {
+        self.keep_points || self.optimizer.wants_residuals()
     }
 
-    /// Tells the evaluation of candidate `id` (at `x`). When it completes the round, the round
-    /// is added to the history (with `round_wall_s`, the round's wall time so far) and returned.
+    /// A point of the optimizer in user units.
+    fn to_user(&self, mut x: Vec<f64>) -> Vec<f64> {
+        for (v, log) in x.iter_mut().zip(&self.log) {
+            if *log {
+                *v = v.exp();
+            }
+        }
+        x
+    }
+
+    /// The items of the current round still awaiting a result; empty once the run is done.
+    pub fn ask(&mut self) -> Vec<WorkItem> {
+        let k = self.experiments.len() as u64;
+        let mut items = vec![];
+        for c in self.optimizer.ask() {
+            let told = self.partial.get(&c.id);
+            let x = self.to_user(c.x);
+            for (j, &experiment) in self.experiments.iter().enumerate() {
+                if told.is_none_or(|parts| parts[j].is_none()) {
+                    items.push(WorkItem { id: c.id * k + j as u64, experiment, x: x.clone() });
+                }
+            }
+        }
+        items
+    }
+
+    /// Tells the evaluation of item `id` (at `x`). When it completes its candidate, the
+    /// optimizer is told; when that completes the round, the round is added to the history
+    /// (with `round_wall_s`, the round's wall time so far) and returned.
     ///
     /// # Errors
-    /// [`OptimError::UnknownCandidate`] if `id` is not awaiting a result; nothing is recorded.
+    /// [`OptimError::UnknownCandidate`] if item `id` is not awaiting a result; nothing is
+    /// recorded.
     pub fn tell(
+        &mut self,
+        id: u64,
+        x: &[f64],
+        evaluation: &Evaluation,
+        round_wall_s: f64,
+    ) -> Result<Option<HistoryPoint>, OptimError> {
+        let k = self.experiments.len().max(1) as u64;
+        let (candidate, part) = (id / k, (id % k) as usize);
+        let combined;
+        let evaluation = if k == 1 {
+            evaluation
+        } else {
+            if !self.optimizer.ask().iter().any(|c| c.id == candidate) {
+                return Err(OptimError::UnknownCandidate(id));
+            }
+            let parts = self.partial.entry(candidate).or_insert_with(|| vec![None; k as usize]);
+            if parts[part].is_some() {
+                return Err(OptimError::UnknownCandidate(id));
+            }
+            parts[part] = Some(evaluation.clone());
+            if parts.iter().any(Option::is_none) {
+                return Ok(None);
+            }
+            let parts = self.partial.remove(&candidate).unwrap_or_default().into_iter().flatten().collect();
+            let names: Vec<&str> = self.experiment_names.iter().map(String::as_str).collect();
+            combined = Evaluation::combine(parts, &names);
+            &combined
+        };
+        self.tell_candidate(candidate, x, evaluation, round_wall_s)
+    }
+
+    /// Tells the optimizer candidate `id`'s evaluation (over every fitted experiment).
+    fn tell_candidate(
         &mut self,
         id: CandidateId,
         x: &[f64],
         evaluation: &Evaluation,
         round_wall_s: f64,
     ) -> Result<Option<HistoryPoint>, OptimError> {
-        let outcome = evaluation.value.map_or(Outcome::Failed, Outcome::Value);
         // The optimizer forms its next round once the current one is fully told.
         let rounds_before = self.optimizer.rounds();
-        self.optimizer.tell(id, outcome)?;
+        if self.optimizer.wants_residuals() {
+            if evaluation.value.is_some() && evaluation.residuals.is_none() {
+                tracing::error!(candidate = id, "an evaluation came back without the residuals asked for");
+            }
+            let residuals = evaluation.value.and(evaluation.residuals.as_deref());
+            self.optimizer.tell_residuals(id, residuals)?;
+        } else {
+            self.optimizer.tell(id, evaluation.value.map_or(Outcome::Failed, Outcome::Value))?;
+        }
         if evaluation.value.is_none() {
             self.failed_evaluations += 1;
             tracing::debug!(?x, error = ?evaluation.error, "evaluation failed");
@@ -102,10 +210,15 @@ impl JobRun {
         self.optimizer.best().map_or(f64::INFINITY, |b| b.1)
     }
 
+    /// The best point so far (user units) and its value.
+    pub fn best(&self) -> Option<(Vec<f64>, f64)> {
+        self.optimizer.best().map(|(x, f)| (self.to_user(x), f))
+    }
+
     /// The result so far: the optimum (the start point if nothing succeeded), counters, history
     /// and evaluated points. `termination` overrides the optimizer's reason (e.g. "cancelled").
     pub fn result(&self, job: &PreparedJob, elapsed_s: f64, termination: Option<&str>) -> CalibrationResult {
-        let (x, f) = self.optimizer.best().unwrap_or_else(|| (job.spec.parameter_vectors().1, f64::INFINITY));
+        let (x, f) = self.best().unwrap_or_else(|| (job.spec.parameter_vectors().1, f64::INFINITY));
         let termination = match (termination, self.optimizer.status()) {
             (Some(why), _) => why.to_owned(),
             (None, Status::Done(t)) => t.to_string(),
@@ -124,6 +237,7 @@ impl JobRun {
             evaluated: self.evaluated.values().cloned().collect(),
             errors: None,
             identifiability: None,
+            experiments: vec![],
         }
     }
 }

@@ -54,7 +54,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::JobError;
-use super::choices::{Algorithm, JobKind, optional_interface, optional_text, text};
+use super::choices::{Algorithm, JobKind, Scale, optional_interface, optional_text, text};
+use super::experiments::ExperimentSpec;
 use crate::diagnose::effects::{self, Domain};
 use crate::diagnose::spec::DiagnoseSpec;
 use crate::fmu::Interface;
@@ -64,6 +65,8 @@ use crate::sim::Solver;
 #[serde(deny_unknown_fields)]
 pub struct JobSpec {
     pub model: ModelRef,
+    /// The measurements; with `[[experiments]]`, the default of those that name none.
+    #[serde(default)]
     pub data: DataRef,
     pub outputs: Vec<OutputMap>,
     #[serde(default)]
@@ -83,6 +86,10 @@ pub struct JobSpec {
     /// not sent to a coordinator.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub diagnose: Option<DiagnoseSpec>,
+    /// Several experiments fitted with one parameter set ([`super::experiments`]); none: the
+    /// job is one experiment.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub experiments: Vec<ExperimentSpec>,
     /// Calibrate (every job file) or evaluate given points (internal, over the protocol).
     #[serde(skip)]
     pub kind: JobKind,
@@ -114,6 +121,12 @@ fn default_time_column() -> String {
     "time".into()
 }
 
+impl Default for DataRef {
+    fn default() -> Self {
+        DataRef { path: None, time_column: default_time_column() }
+    }
+}
+
 fn one() -> f64 {
     1.0
 }
@@ -141,6 +154,23 @@ pub struct ParameterSpec {
     pub start: f64,
     pub lower: f64,
     pub upper: f64,
+    /// One value per fitted experiment (an initial state, say), named `NAME@EXPERIMENT`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub per_experiment: bool,
+    /// `linear` (default) or `log`: the optimizer works on log(x); the bounds must be positive.
+    #[serde(default, with = "text", skip_serializing_if = "is_linear")]
+    pub scale: Scale,
+}
+
+fn is_linear(scale: &Scale) -> bool {
+    *scale == Scale::Linear
+}
+
+impl ParameterSpec {
+    /// A shared, linearly scaled parameter.
+    pub fn new(name: impl Into<String>, start: f64, lower: f64, upper: f64) -> Self {
+        ParameterSpec { name: name.into(), start, lower, upper, per_experiment: false, scale: Scale::Linear }
+    }
 }
 
 /// An effect of the library ([`crate::diagnose::effects`]) added to the model:
@@ -335,7 +365,14 @@ impl JobSpec {
                 *value = SetValue::from_text(std::mem::take(t));
             }
         }
-        for p in [&mut spec.model.path, &mut spec.data.path].into_iter().flatten() {
+        for value in spec.experiments.iter_mut().flat_map(|e| e.set.values_mut()) {
+            if let SetValue::Text(t) = value {
+                *value = SetValue::from_text(std::mem::take(t));
+            }
+        }
+        let experiment_data = spec.experiments.iter_mut().filter_map(|e| e.data.as_mut());
+        let data_paths = std::iter::once(&mut spec.data).chain(experiment_data).map(|d| &mut d.path);
+        for p in std::iter::once(&mut spec.model.path).chain(data_paths).flatten() {
             // `example:NAME` names a built-in example FMU and is left as written.
             if p.is_relative() && !p.to_string_lossy().starts_with("example:") {
                 *p = base_dir.join(&*p);
@@ -377,17 +414,6 @@ impl JobSpec {
         if self.model.path.is_none() && self.model.id.is_none() {
             return Err(JobError::invalid("model", "give a path or an id"));
         }
-        if self.outputs.is_empty() {
-            return Err(JobError::invalid("outputs", "at least one output is needed"));
-        }
-        for (k, o) in self.outputs.iter().enumerate() {
-            if !(o.weight >= 0.0 && o.weight.is_finite()) {
-                return Err(JobError::invalid(
-                    format!("outputs[{k}].weight"),
-                    format!("{} must be a non-negative number", o.weight),
-                ));
-            }
-        }
         if self.parameters.is_empty() && self.effects.is_empty() {
             return Err(JobError::invalid("parameters", "at least one parameter (or effect) is needed"));
         }
@@ -415,8 +441,45 @@ impl JobSpec {
         for (k, e) in self.effects.iter().enumerate() {
             self.validate_effect(k, e)?;
         }
+        self.validate_experiments()?;
+        if self.experiments.is_empty() {
+            self.validate_mapping()?;
+        }
         if let Some(d) = &self.diagnose {
             d.validate()?;
+        }
+        Ok(())
+    }
+
+    /// One experiment's mapping: outputs present with valid weights, and the outputs and inputs
+    /// the sensor and actuator effects name among them.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] naming the field.
+    pub(super) fn validate_mapping(&self) -> Result<(), JobError> {
+        if self.outputs.is_empty() {
+            return Err(JobError::invalid("outputs", "at least one output is needed"));
+        }
+        for (k, o) in self.outputs.iter().enumerate() {
+            if !(o.weight >= 0.0 && o.weight.is_finite()) {
+                return Err(JobError::invalid(
+                    format!("outputs[{k}].weight"),
+                    format!("{} must be a non-negative number", o.weight),
+                ));
+            }
+        }
+        for (k, e) in self.effects.iter().enumerate() {
+            let field = |f: &str| format!("effects[{k}].{f}");
+            if let Some(out) = &e.output
+                && !self.outputs.iter().any(|o| &o.variable == out)
+            {
+                return Err(JobError::invalid(field("output"), format!("{out:?} is not one of the job's [[outputs]]")));
+            }
+            if let Some(input) = &e.input
+                && !self.inputs.iter().any(|i| &i.variable == input)
+            {
+                return Err(JobError::invalid(field("input"), format!("{input:?} is not one of the job's [[inputs]]")));
+            }
         }
         Ok(())
     }
@@ -457,32 +520,7 @@ impl JobSpec {
                 return Err(JobError::invalid(field(name), format!("{} takes no {name}", e.kind)));
             }
         }
-        if let Some(out) = &e.output
-            && !self.outputs.iter().any(|o| &o.variable == out)
-        {
-            return Err(JobError::invalid(field("output"), format!("{out:?} is not one of the job's [[outputs]]")));
-        }
-        if let Some(input) = &e.input
-            && !self.inputs.iter().any(|i| &i.variable == input)
-        {
-            return Err(JobError::invalid(field("input"), format!("{input:?} is not one of the job's [[inputs]]")));
-        }
         Ok(())
-    }
-
-    /// The calibrated names, starts and bounds of the effects' parameters (`effects[K].NAME`),
-    /// after the `[[parameters]]`; an invalid effect contributes nothing (see [`Self::validate`]).
-    fn effect_parameters(&self) -> Vec<(String, Bounds)> {
-        self.effects
-            .iter()
-            .enumerate()
-            .flat_map(|(k, e)| {
-                e.ordered_parameters(k)
-                    .unwrap_or_default()
-                    .into_iter()
-                    .map(move |(n, b)| (format!("effects[{k}].{n}"), b))
-            })
-            .collect()
     }
 
     /// The same model, data and mapping, asked to evaluate `points` instead of calibrating.
@@ -490,21 +528,21 @@ impl JobSpec {
         JobSpec { kind: JobKind::EvaluatePoints(points), optimizer: OptimizerSpec::default(), ..self.clone() }
     }
 
-    /// Names, starts and bounds of every calibrated value: the `[[parameters]]`, then the
-    /// effects' parameters.
+    /// Names, starts and bounds of every calibrated value ([`Self::calibrated`]): the
+    /// `[[parameters]]`, then the effects' parameters.
     pub fn parameter_vectors(&self) -> (Vec<String>, Vec<f64>, Vec<f64>, Vec<f64>) {
-        let all: Vec<(String, Bounds)> = self
-            .parameters
-            .iter()
-            .map(|p| (p.name.clone(), Bounds { start: p.start, lower: p.lower, upper: p.upper }))
-            .chain(self.effect_parameters())
-            .collect();
+        let all = self.calibrated();
         (
-            all.iter().map(|p| p.0.clone()).collect(),
-            all.iter().map(|p| p.1.start).collect(),
-            all.iter().map(|p| p.1.lower).collect(),
-            all.iter().map(|p| p.1.upper).collect(),
+            all.iter().map(|p| p.name.clone()).collect(),
+            all.iter().map(|p| p.bounds.start).collect(),
+            all.iter().map(|p| p.bounds.lower).collect(),
+            all.iter().map(|p| p.bounds.upper).collect(),
         )
+    }
+
+    /// Which calibrated values the optimizer sees as their logarithm.
+    pub fn log_scaled(&self) -> Vec<bool> {
+        self.calibrated().iter().map(|p| p.scale == Scale::Log).collect()
     }
 }
 

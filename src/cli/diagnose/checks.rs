@@ -64,7 +64,7 @@ fn any_sizes(spec: &JobSpec, settings: &DiagnoseSpec) -> Sizes {
 /// The job's own error, or one naming the `[diagnose]` field a bad candidate comes from.
 pub fn job_and_candidates(spec: &JobSpec, settings: &DiagnoseSpec, fmu: &Fmu, data: &MeasurementTable) -> Result<()> {
     let md = &fmu.description;
-    PreparedJob::new(spec, md, &fmu.interfaces(), data)?;
+    PreparedJob::new(spec, md, &fmu.interfaces(), std::slice::from_ref(data))?;
     fmucal_shared::job::optimizer::build(spec)?;
     for (k, s) in settings.signals.iter().enumerate() {
         if md.variable(s).is_none() {
@@ -82,7 +82,7 @@ pub fn job_and_candidates(spec: &JobSpec, settings: &DiagnoseSpec, fmu: &Fmu, da
         checked.push(key);
         let mut one = spec.clone();
         one.effects.push(c.effect.clone());
-        if let Err(e) = PreparedJob::new(&one, md, &fmu.interfaces(), data) {
+        if let Err(e) = PreparedJob::new(&one, md, &fmu.interfaces(), std::slice::from_ref(data)) {
             let message = match e {
                 JobError::Invalid { message, .. } => message,
                 other => other.to_string(),

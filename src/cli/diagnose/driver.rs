@@ -76,7 +76,10 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
     for round in 0..ctx.settings.rounds {
         eprintln!("round {}: calibrating the base model", round + 1);
         let t = Instant::now();
-        let result = client.calibrate(&base, &ctx.data, &ctx.model).await.context("the base calibration")?;
+        let result = client
+            .calibrate(&base, std::slice::from_ref(&*ctx.data), &ctx.model)
+            .await
+            .context("the base calibration")?;
         if round == 0 {
             base_calibration_s = t.elapsed().as_secs_f64();
         }
@@ -116,7 +119,9 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             .filter(|c| !base.effects.iter().any(|e| same_place(e, &c.effect)))
             .collect();
         let screening = Screening::new(&base, &x_base, &candidates, ctx.settings.fix_base);
-        let evaluated = client.evaluate(&screening.job, screening.points.clone(), &ctx.data, &ctx.model).await?;
+        let evaluated = client
+            .evaluate(&screening.job, screening.points.clone(), std::slice::from_ref(&*ctx.data), &ctx.model)
+            .await?;
         phases.add("screen", t, screening.points.len() as u64);
         let residuals: Vec<Option<Vec<f64>>> = evaluated.iter().map(|e| e.value.map(|_| e.residuals.clone())).collect();
         let screened = screening.statistics(&residuals, before.n_eff);
@@ -137,7 +142,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         let tried = if steps.is_empty() {
             vec![]
         } else {
-            client.evaluate(&screening.job, steps.clone(), &ctx.data, &ctx.model).await?
+            client.evaluate(&screening.job, steps.clone(), std::slice::from_ref(&*ctx.data), &ctx.model).await?
         };
         let starts: Vec<(f64, Vec<f64>, Vec<f64>)> = top
             .iter()
@@ -186,7 +191,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             let (mut client, data, model, fmu) = (client.clone(), ctx.data.clone(), ctx.model.clone(), ctx.fmu.clone());
             tasks.spawn(async move {
                 let t = Instant::now();
-                let prepared = PreparedJob::new(&job, &fmu.description, &fmu.interfaces(), &data);
+                let prepared = PreparedJob::new(&job, &fmu.description, &fmu.interfaces(), std::slice::from_ref(&data));
                 let mut simulations = 0;
                 let result = match prepared {
                     Ok(prepared) => {
@@ -324,7 +329,7 @@ impl Fit<'_> {
         let (optimizer, f_tol) = decision_optimizer(&self.job.spec.optimizer, ssr, n_eff);
         let mut job = self.job.spec.clone();
         job.optimizer = optimizer;
-        let mut result = self.client.calibrate_with(&job, self.data, self.model, |_| {}).await?;
+        let mut result = self.client.calibrate_with(&job, std::slice::from_ref(self.data), self.model, |_| {}).await?;
         *simulations += result.evaluations;
         let x = result.x_opt_in(&self.job.parameter_names);
         let done = |ssr: f64, gain: f64| !stopped_early(gain, f_tol, ssr, n_eff);
@@ -356,7 +361,10 @@ impl Fit<'_> {
         for iteration in 0..GAUSS_NEWTON_ITERATIONS {
             let plan = identifiability::difference_points(self.job, &x);
             *simulations += plan.points.len() as u64;
-            let evaluated = self.client.evaluate(&self.job.spec, plan.points.clone(), self.data, self.model).await?;
+            let evaluated = self
+                .client
+                .evaluate(&self.job.spec, plan.points.clone(), std::slice::from_ref(self.data), self.model)
+                .await?;
             let residuals = match identifiability::residuals_of(&evaluated) {
                 Ok(r) => r,
                 Err(e) => {
@@ -418,7 +426,7 @@ async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &Candida
         let mut nm = with_starts(job.clone(), &names.iter().cloned().zip(x.iter().copied()).collect());
         nm.optimizer.initial_step = Some(polish_step(nm.optimizer.x_tol, nm.optimizer.initial_step));
         nm.optimizer.parallel = false;
-        let r = gn.client.calibrate_with(&nm, &ctx.data, &ctx.model, |_| {}).await?;
+        let r = gn.client.calibrate_with(&nm, std::slice::from_ref(&*ctx.data), &ctx.model, |_| {}).await?;
         simulations += r.evaluations;
         if r.f_opt < ssr {
             let (_, again) = gn.gauss_newton(r.x_opt_in(&names), |_, _| true, &mut simulations).await?;
@@ -444,12 +452,13 @@ async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &Candida
         evaluated: vec![],
         errors: None,
         identifiability: None,
+        experiments: vec![],
     };
     Ok(Fitted { job: job.clone(), result: Ok((result, id)), elapsed, simulations })
 }
 
 fn prepare(ctx: &Context, job: &JobSpec) -> Result<PreparedJob> {
-    Ok(PreparedJob::new(job, &ctx.fmu.description, &ctx.fmu.interfaces(), &ctx.data)?)
+    Ok(PreparedJob::new(job, &ctx.fmu.description, &ctx.fmu.interfaces(), std::slice::from_ref(&ctx.data))?)
 }
 
 /// The sizes the candidates are guessed from: the ports' scales, the simulated signals, and the

@@ -32,7 +32,7 @@ pub struct Look {
 
 /// The fit of `job` at `x` (its parameter order).
 pub fn look(ctx: &Context, job: &Arc<PreparedJob>, x: &[f64]) -> Result<Look> {
-    let (fit, errors) = report::optimized_fit(&ctx.fmu, job, &ctx.data, x)?;
+    let (fit, errors) = report::optimized_fit(&ctx.fmu, job, 0, &ctx.data, x)?;
     let stop = ctx.windows.calibration_stop;
     let rows = fit.time.partition_point(|t| *t <= stop);
     let time = fit.time[..rows].to_vec();
@@ -70,7 +70,7 @@ pub fn signals(ctx: &Context, job: &PreparedJob, x: &[f64], names: &[String]) ->
     if names.is_empty() {
         return Ok(vec![]);
     }
-    let mut spec = job.sim_spec(x);
+    let mut spec = job.single().sim_spec(x);
     spec.outputs = names.to_vec();
     let sim = simulate(&ctx.fmu, &spec).context("simulating the signals of the candidates")?;
     Ok(names.iter().zip(sim.columns).map(|(n, c)| (n.clone(), c)).collect())

@@ -89,6 +89,10 @@ pub fn run(args: Args) -> Result<()> {
         settings.top = top;
         settings.validate()?;
     }
+    anyhow::ensure!(
+        spec.experiments.is_empty(),
+        "experiments: diagnose takes a job with one experiment; give it one of them as its own job"
+    );
     let model = super::calibrate::model_path(&spec)?;
     spec.model.path = Some(model.clone());
     let data_path = spec.data.path.clone().context("the job's [data] needs a path for the CLI")?;

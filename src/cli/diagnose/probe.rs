@@ -76,7 +76,7 @@ pub async fn port_scales(
             points.push(p);
         }
         simulations += points.len() as u64;
-        let evaluated = client.evaluate(&job, points, &ctx.data, &ctx.model).await?;
+        let evaluated = client.evaluate(&job, points, std::slice::from_ref(&*ctx.data), &ctx.model).await?;
         let Some(r0) = evaluated.first().filter(|e| e.value.is_some()).map(|e| &e.residuals) else {
             bail!("the probe of the ports' load scales failed at the base optimum");
         };

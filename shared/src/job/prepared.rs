@@ -1,0 +1,421 @@
+//! A job checked against its model and data once ([`PreparedJob`]), holding what every
+//! evaluation needs: per experiment ([`PreparedExperiment`]), the simulation template, the
+//! averaged targets of its objective, which values of a point it sets, and the effects.
+//!
+//! A point holds every calibrated value of the job ([`JobSpec::calibrated`]); an experiment
+//! picks the model parameters it uses out of it, so one point is evaluated on each fitted
+//! experiment and the job's objective is the sum over them.
+
+use super::JobError;
+use super::choices::ExperimentRole;
+use super::data::MeasurementTable;
+use super::experiments::{ExperimentView, Slot, prefixed};
+use super::objective::{Objective, Target};
+use super::spec::{EffectSpec, JobSpec};
+use crate::diagnose::effects;
+use crate::fmu::schema::{Causality, VarType};
+use crate::fmu::{Interface, ModelDescription};
+use crate::sim::plan::Plan;
+use crate::sim::{InputTable, OutputTimes, PortTerm, SimResult, SimSpec};
+
+/// A job checked against its model and data.
+#[derive(Debug, Clone)]
+pub struct PreparedJob {
+    pub spec: JobSpec,
+    pub interface: Interface,
+    /// Every calibrated name, in point order ([`JobSpec::calibrated`]).
+    pub parameter_names: Vec<String>,
+    /// Every experiment, in the job's order (one for a job without `[[experiments]]`).
+    pub experiments: Vec<PreparedExperiment>,
+    /// The fitted experiments' indices: a point is evaluated on these, in this order.
+    pub fitted: Vec<usize>,
+}
+
+/// One experiment of a prepared job.
+#[derive(Debug, Clone)]
+pub struct PreparedExperiment {
+    /// Empty for a job without `[[experiments]]`.
+    pub name: String,
+    pub role: ExperimentRole,
+    /// This experiment as a single-experiment job (see [`ExperimentView`]).
+    pub spec: JobSpec,
+    pub objective: Objective,
+    /// The simulation of one evaluation, without the calibrated values.
+    pub template: SimSpec,
+    /// The model parameters a point sets: name and index in the point.
+    pub parameters: Vec<(String, usize)>,
+    pub effects: Vec<PreparedEffect>,
+}
+
+impl PreparedJob {
+    /// Checks `spec` against the model description and the data — `data[k]` is the table of
+    /// experiment `k` of [`JobSpec::experiment_views`] — and builds each experiment's objective.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] naming the field (inside `experiments[K].` for an experiment's):
+    /// unknown or unsettable parameters, bounds outside a variable's min/max, unknown output
+    /// variables, missing or malformed data columns, inputs that are not model inputs, a data
+    /// table count that does not match the experiments, and anything the simulation itself
+    /// would reject.
+    pub fn new(
+        spec: &JobSpec,
+        md: &ModelDescription,
+        interfaces: &[Interface],
+        data: &[MeasurementTable],
+    ) -> Result<Self, JobError> {
+        spec.validate()?;
+        let views = spec.experiment_views();
+        if data.len() != views.len() {
+            return Err(JobError::invalid(
+                "data",
+                format!("{} data tables for {} experiments", data.len(), views.len()),
+            ));
+        }
+        let interface = match spec.model.interface {
+            Some(i) => i,
+            None => *interfaces.first().ok_or_else(|| JobError::invalid("model", "the FMU offers no interface"))?,
+        };
+        let calibrated = spec.calibrated();
+        let mut effects = vec![];
+        for (k, e) in spec.effects.iter().enumerate() {
+            let offset = calibrated.iter().position(|c| matches!(c.slot, Slot::Effect { effect, .. } if effect == k));
+            let count = e.ordered_parameters(k)?.len();
+            effects.push(PreparedEffect { spec: e.clone(), offset: offset.unwrap_or(calibrated.len()), count });
+        }
+        let (names, x0, _, _) = spec.parameter_vectors();
+        let mut experiments = vec![];
+        for (k, (view, table)) in views.iter().zip(data).enumerate() {
+            let parameters = spec
+                .parameters
+                .iter()
+                .enumerate()
+                .filter_map(|(index, p)| Some((p.name.clone(), spec.calibrated_index(index, k)?)))
+                .collect();
+            let context = Context { md, interfaces, interface, parameters, effects: effects.clone() };
+            experiments.push(
+                PreparedExperiment::new(view, table, &context, &x0).map_err(|e| prefixed(&view.field_prefix, e))?,
+            );
+        }
+        Ok(PreparedJob {
+            spec: spec.clone(),
+            interface,
+            parameter_names: names,
+            experiments,
+            fitted: spec.fitted_experiments(),
+        })
+    }
+
+    /// The same job, asked to evaluate `points` instead of calibrating.
+    pub fn evaluating_points(&self, points: Vec<Vec<f64>>) -> PreparedJob {
+        PreparedJob { spec: self.spec.evaluating_points(points), ..self.clone() }
+    }
+
+    /// The same job with experiment `k` replaced by `experiment`.
+    pub fn with_experiment(&self, k: usize, experiment: PreparedExperiment) -> PreparedJob {
+        let mut job = self.clone();
+        if let Some(e) = job.experiments.get_mut(k) {
+            *e = experiment;
+        }
+        job
+    }
+
+    /// The only experiment of a job without `[[experiments]]` (the first of one with them):
+    /// for the analyses that take a single experiment.
+    pub fn single(&self) -> &PreparedExperiment {
+        &self.experiments[0]
+    }
+}
+
+/// What every experiment of a job shares while it is prepared.
+struct Context<'a> {
+    md: &'a ModelDescription,
+    interfaces: &'a [Interface],
+    interface: Interface,
+    parameters: Vec<(String, usize)>,
+    effects: Vec<PreparedEffect>,
+}
+
+impl PreparedExperiment {
+    /// Checks experiment `view` against the model and its data and builds its objective.
+    fn new(view: &ExperimentView, data: &MeasurementTable, cx: &Context, x0: &[f64]) -> Result<Self, JobError> {
+        let spec = &view.spec;
+        let md = cx.md;
+        let mut used: Vec<&str> = spec.outputs.iter().map(|o| o.column.as_str()).collect();
+        used.extend(spec.inputs.iter().map(|i| i.column.as_str()));
+        data.validate_measurements(&used)?;
+
+        for (k, p) in spec.parameters.iter().enumerate() {
+            let field = format!("parameters[{k}].name");
+            let v = md
+                .variable(&p.name)
+                .ok_or_else(|| JobError::invalid(&field, format!("unknown variable {:?}", p.name)))?;
+            if v.var_type != VarType::Real {
+                return Err(JobError::invalid(
+                    &field,
+                    format!("{} is {:?}; only Real parameters can be calibrated", p.name, v.var_type),
+                ));
+            }
+            if !v.settable_before_init() {
+                return Err(JobError::invalid(
+                    &field,
+                    format!("{} may not be set (causality {:?})", p.name, v.causality),
+                ));
+            }
+            if let Some(min) = v.min
+                && p.lower < min
+            {
+                return Err(JobError::invalid(
+                    format!("parameters[{k}].lower"),
+                    format!("{} is below {}'s minimum {min}", p.lower, p.name),
+                ));
+            }
+            if let Some(max) = v.max
+                && p.upper > max
+            {
+                return Err(JobError::invalid(
+                    format!("parameters[{k}].upper"),
+                    format!("{} is above {}'s maximum {max}", p.upper, p.name),
+                ));
+            }
+        }
+        for (k, o) in spec.outputs.iter().enumerate() {
+            let v = md.variable(&o.variable).ok_or_else(|| {
+                JobError::invalid(format!("outputs[{k}].variable"), format!("unknown variable {:?}", o.variable))
+            })?;
+            if v.var_type == VarType::String {
+                return Err(JobError::invalid(format!("outputs[{k}].variable"), format!("{} is a String", o.variable)));
+            }
+        }
+        for (k, i) in spec.inputs.iter().enumerate() {
+            let v = md.variable(&i.variable).ok_or_else(|| {
+                JobError::invalid(format!("inputs[{k}].variable"), format!("unknown variable {:?}", i.variable))
+            })?;
+            if v.causality != Causality::Input {
+                return Err(JobError::invalid(
+                    format!("inputs[{k}].variable"),
+                    format!("{} is not an input of the model", i.variable),
+                ));
+            }
+        }
+        let (objective, inputs) = objective_of(spec, data)?;
+        let solver = spec.simulation.solver.unwrap_or_default();
+        let mut outputs: Vec<String> = vec![];
+        for o in &spec.outputs {
+            if !outputs.contains(&o.variable) {
+                outputs.push(o.variable.clone());
+            }
+        }
+        for name in spec.simulation.set.keys() {
+            if spec.parameters.iter().any(|p| &p.name == name) {
+                return Err(JobError::invalid(format!("simulation.set.{name}"), "is also a calibrated parameter"));
+            }
+        }
+        let template = SimSpec {
+            interface: Some(cx.interface),
+            start_time: Some(spec_start(spec, data)),
+            stop_time: Some(spec_stop(spec, data)),
+            output_times: Some(OutputTimes::Times(objective.times.clone())),
+            parameters: spec.simulation.set.iter().map(|(k, v)| (k.clone(), v.to_string())).collect(),
+            inputs,
+            outputs,
+            tolerance: spec.simulation.tolerance,
+            solver,
+            ..Default::default()
+        };
+        let experiment = PreparedExperiment {
+            name: view.name.clone(),
+            role: view.role,
+            spec: spec.clone(),
+            objective,
+            template,
+            parameters: cx
+                .parameters
+                .iter()
+                .filter(|(name, _)| spec.parameters.iter().any(|p| &p.name == name))
+                .cloned()
+                .collect(),
+            effects: cx.effects.clone(),
+        };
+        // Everything the simulation would reject, rejected now, with the start values set:
+        // first each port effect on its own (to name it), then the whole experiment.
+        let check = experiment.sim_spec(x0);
+        for (k, effect) in experiment.effects.iter().enumerate() {
+            if let Some(term) = effect.port_term(x0) {
+                let one = SimSpec { port_terms: vec![term], ..check.clone() };
+                Plan::new(md, cx.interfaces, &one).map_err(|e| {
+                    let why = match e {
+                        crate::sim::SimError::Invalid(why) => why,
+                        other => other.to_string(),
+                    };
+                    JobError::invalid(format!("effects[{k}]"), why)
+                })?;
+            }
+        }
+        Plan::new(md, cx.interfaces, &check).map_err(|e| JobError::invalid("simulation", e.to_string()))?;
+        Ok(experiment)
+    }
+
+    /// This experiment with its simulation settings replaced by `spec`'s (a later stop time,
+    /// fewer fixed values), checked again against the model and `data`; the values a point
+    /// sets stay the same.
+    ///
+    /// # Errors
+    /// As [`PreparedJob::new`].
+    pub fn with_spec(
+        &self,
+        spec: JobSpec,
+        md: &ModelDescription,
+        interfaces: &[Interface],
+        data: &MeasurementTable,
+        x0: &[f64],
+    ) -> Result<PreparedExperiment, JobError> {
+        let interface = self.template.interface.unwrap_or(Interface::ModelExchange);
+        let view = ExperimentView { name: self.name.clone(), role: self.role, field_prefix: String::new(), spec };
+        let cx =
+            Context { md, interfaces, interface, parameters: self.parameters.clone(), effects: self.effects.clone() };
+        PreparedExperiment::new(&view, data, &cx, x0)
+    }
+
+    /// The simulation request of one evaluation at the point `x` (every calibrated value of the
+    /// job, in order): this experiment's model parameters, the port effects, and the actuator
+    /// effects applied to their inputs.
+    pub fn sim_spec(&self, x: &[f64]) -> SimSpec {
+        let mut s = self.template.clone();
+        // `{}` prints the shortest text that parses back to the same f64.
+        s.parameters
+            .extend(self.parameters.iter().filter_map(|(name, i)| Some((name.clone(), format!("{}", x.get(*i)?)))));
+        for e in &self.effects {
+            let p = e.values(x);
+            if let Some(term) = e.port_term(x) {
+                s.port_terms.push(term);
+            } else if let (Some(input), Some(table), Ok(effects::Found::Series(kind))) =
+                (&e.spec.input, s.inputs.as_mut(), effects::find(&e.spec.kind))
+                && p.len() == e.count
+                && let Some((_, column)) = table.columns.iter_mut().find(|(name, _)| name == input)
+            {
+                *column = kind.apply(p, &table.time, column);
+            }
+        }
+        s
+    }
+
+    /// Applies the sensor effects at `x` to the simulated outputs they name.
+    pub fn apply_sensor_effects(&self, x: &[f64], sim: &mut SimResult) {
+        for e in &self.effects {
+            let (Some(output), Ok(effects::Found::Series(kind))) = (&e.spec.output, effects::find(&e.spec.kind)) else {
+                continue;
+            };
+            if let Some(i) = sim.names.iter().position(|n| n == output)
+                && e.values(x).len() == e.count
+            {
+                sim.columns[i] = kind.apply(e.values(x), &sim.time, &sim.columns[i]);
+            }
+        }
+    }
+}
+
+fn spec_start(spec: &JobSpec, data: &MeasurementTable) -> f64 {
+    spec.simulation.start_time.unwrap_or(data.time[0])
+}
+
+fn spec_stop(spec: &JobSpec, data: &MeasurementTable) -> f64 {
+    spec.simulation.stop_time.unwrap_or_else(|| data.time.last().copied().unwrap_or(f64::NAN))
+}
+
+/// The objective of one experiment — its measurement times inside [start, stop] (rows with
+/// one time stamp averaged per column) and the targets — and its input table.
+fn objective_of(spec: &JobSpec, data: &MeasurementTable) -> Result<(Objective, Option<InputTable>), JobError> {
+    let start = spec_start(spec, data);
+    let stop = spec_stop(spec, data);
+    if !(stop > start) {
+        return Err(JobError::invalid("simulation.stop_time", format!("{stop} is not after the start time {start}")));
+    }
+    let tol = 1e-12 * stop.abs().max(start.abs()).max(1.0);
+    let mut times: Vec<f64> = vec![];
+    let mut groups: Vec<(usize, usize)> = vec![];
+    let mut i = 0;
+    while i < data.time.len() {
+        let mut j = i + 1;
+        while j < data.time.len() && data.time[j] == data.time[i] {
+            j += 1;
+        }
+        let t = data.time[i];
+        if t >= start - tol && t <= stop + tol {
+            times.push(t.clamp(start, stop));
+            groups.push((i, j));
+        }
+        i = j;
+    }
+    if times.is_empty() {
+        return Err(JobError::invalid(
+            "data.time",
+            format!("no measurement inside the simulated span [{start}, {stop}]"),
+        ));
+    }
+    let left_out = data.time.len() - groups.iter().map(|(a, b)| b - a).sum::<usize>();
+    if left_out > 0 {
+        tracing::info!(
+            left_out,
+            start,
+            stop,
+            "measurement rows outside the simulated span are left out of the objective"
+        );
+    }
+    let targets: Vec<Target> = spec
+        .outputs
+        .iter()
+        .map(|o| {
+            let col = data.column(&o.column).expect("validated");
+            let values = groups
+                .iter()
+                .map(|&(a, b)| {
+                    let vals: Vec<f64> = col[a..b].iter().copied().filter(|v| !v.is_nan()).collect();
+                    if vals.is_empty() { f64::NAN } else { vals.iter().sum::<f64>() / vals.len() as f64 }
+                })
+                .collect();
+            Target { variable: o.variable.clone(), weight: o.weight, values }
+        })
+        .collect();
+    if targets.iter().all(|t| t.values.iter().all(|v| v.is_nan())) {
+        return Err(JobError::invalid("data", "every measurement of the outputs is missing"));
+    }
+    let inputs = (!spec.inputs.is_empty()).then(|| InputTable {
+        time: data.time.clone(),
+        columns: spec
+            .inputs
+            .iter()
+            .map(|i| (i.variable.clone(), data.column(&i.column).expect("validated").to_vec()))
+            .collect(),
+    });
+    if let Some(t) = &inputs {
+        t.validate_inputs().map_err(|e| JobError::invalid("inputs", e.to_string()))?;
+    }
+    Ok((Objective { times, targets }, inputs))
+}
+
+/// An effect of the job and where its parameters sit in a point.
+#[derive(Debug, Clone)]
+pub struct PreparedEffect {
+    pub spec: EffectSpec,
+    pub offset: usize,
+    pub count: usize,
+}
+
+impl PreparedEffect {
+    /// Its parameter values in the point `x` (none if `x` is too short, which a point from the
+    /// job's optimizer never is; the effect is then left out rather than indexed past the end).
+    fn values<'a>(&self, x: &'a [f64]) -> &'a [f64] {
+        x.get(self.offset..self.offset + self.count).unwrap_or_default()
+    }
+
+    /// The port term at `x`, for an effect on a port.
+    fn port_term(&self, x: &[f64]) -> Option<PortTerm> {
+        let (port, signal) = (self.spec.port.as_ref()?, self.spec.signal.as_ref()?);
+        Some(PortTerm {
+            kind: self.spec.kind.clone(),
+            port: port.clone(),
+            signal: signal.clone(),
+            parameters: self.values(x).to_vec(),
+        })
+    }
+}
