@@ -127,3 +127,32 @@ fn in_process_identifiability_uses_each_difference_points_own_residuals() {
     assert!(analysed.standard_errors[0] > 0.0 && analysed.standard_errors[0].is_finite(), "{analysed:?}");
     assert_eq!(analysed.residuals, prepared.single().objective.times.len() - 1, "one measurement is missing");
 }
+
+/// A rate four decades below the start is found when the optimizer works on log(k): the data
+/// are the closed form x(t) = e^(−0.1 t), the start k = 1e-5 and the bounds [1e-6, 100].
+#[test]
+fn a_log_scaled_parameter_is_recovered_four_decades_from_its_start() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("time,x\n");
+    for i in 0..=80 {
+        let t = 0.5 * f64::from(i);
+        text.push_str(&format!("{t},{}\n", (-0.1 * t).exp()));
+    }
+    let data = dir.path().join("decay.csv");
+    std::fs::write(&data, text).unwrap();
+    let toml = common::job_toml(
+        &common::example("decay"),
+        Some(&data),
+        &[("x", "x")],
+        &[],
+        &[("k", 1e-5, 1e-6, 100.0)],
+        "[simulation]\ntolerance = 1e-10\n[optimizer]\nx_tol = 1e-9\nf_tol = 1e-16\n",
+    )
+    .replace("upper = 100.0", "upper = 100.0\nscale = \"log\"");
+    let spec = JobSpec::from_toml(&toml, dir.path()).unwrap();
+    let (fmu, prepared) = prepare(&spec, dir.path());
+    let result = local::calibrate(fmu, Arc::new(prepared.unwrap()), 2, |_| {}).unwrap();
+    let k = result.x_opt["k"];
+    assert!((k - 0.1).abs() < 1e-5, "recovered k = {k} ({})", result.termination);
+    assert!(result.f_opt < 1e-9, "f_opt = {}", result.f_opt);
+}
