@@ -24,6 +24,8 @@
 //! start = 0.012
 //! lower = 0.0
 //! upper = 0.022
+//! scale = "linear"           # or "log" (positive bounds): the optimizer works on log(x)
+//! per_experiment = false     # true: one value per fitted experiment (see super::experiments)
 //!
 //! [simulation]               # all optional; default: the data's time span, FMU defaults
 //! start_time = 0.0
@@ -47,6 +49,8 @@
 //! count = 2                  # local runs; default: number of cores
 //!
 //! [diagnose]                 # what `fmucal diagnose` may try: see crate::diagnose::spec
+//!
+//! [[experiments]]            # several data sets, one parameter set: see super::experiments
 //! ```
 
 use std::path::{Path, PathBuf};
