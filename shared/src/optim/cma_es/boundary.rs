@@ -82,12 +82,6 @@ impl BoxMap {
             }
         }
     }
-
-    /// Width of free dimension j (its scaled range).
-    pub fn width(&self, j: usize) -> f64 {
-        let (lo, hi) = self.bounds[self.free[j]];
-        hi - lo
-    }
 }
 
 /// A coordinate in units of its interval: 0 at lo, 1 at hi.
