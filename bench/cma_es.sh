@@ -27,7 +27,7 @@ box = {"rosenbrock": "[-2, 2]^10", "rastrigin": "[-5, 5]^10"}
 SOLVED = 1e-8
 def stats(rows):
     v = [r["best"] for r in rows]
-    return statistics.median(v), min(v)
+    return statistics.median(v), min(v), sum(x <= SOLVED for x in v)
 def verdict(a, b):
     if a <= SOLVED and b <= SOLVED:
         return f"both medians <= {SOLVED:g}: tie"
@@ -41,14 +41,15 @@ def verdict(a, b):
     if r <= 2:
         return f"fmucal within a factor 2 of pycma: median {r:.2f} x pycma's"
     return f"fmucal worse: median {r:.2f} x pycma's"
-print("| function (n = 10) | box | budget | seeds | fmucal median | fmucal best | pycma median | pycma best "
-      "| pycma restarting from x0: median | best |")
-print("|---|---|---|---|---|---|---|---|---|---|")
+print(f"| function (n = 10) | box | budget | seeds | fmucal median | fmucal best | fmucal runs <= {SOLVED:g} "
+      f"| pycma median | pycma best | pycma runs <= {SOLVED:g} | pycma restarting from x0: median | best |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|")
 lines = []
 for key, rows in ours.items():
-    (fm, fb), (pm, pb), (xm, xb) = stats(rows), stats(theirs[key]), stats(theirs_x0[key])
+    (fm, fb, fs), (pm, pb, ps), (xm, xb, _) = stats(rows), stats(theirs[key]), stats(theirs_x0[key])
     f, budget = key
-    print(f"| {f} | {box[f]} | {budget} | {len(rows)} | {fm:.3g} | {fb:.3g} | {pm:.3g} | {pb:.3g} | {xm:.3g} | {xb:.3g} |")
+    print(f"| {f} | {box[f]} | {budget} | {len(rows)} | {fm:.3g} | {fb:.3g} | {fs} | {pm:.3g} | {pb:.3g} | {ps} "
+          f"| {xm:.3g} | {xb:.3g} |")
     lines.append(f"- {f}, {budget} evaluations: {verdict(fm, pm)}")
 print()
 print("\n".join(lines))

@@ -54,7 +54,7 @@ impl BoxMap {
 
     /// A search point that maps to the scaled point `z` (in the box): T's inverse on the
     /// central period.
-    pub fn from_box(&self, z: &[f64]) -> Vec<f64> {
+    pub fn preimage(&self, z: &[f64]) -> Vec<f64> {
         self.free
             .iter()
             .map(|&i| {
@@ -68,7 +68,7 @@ impl BoxMap {
     pub fn random_point(&self, rng: &mut Random) -> Vec<f64> {
         let z: Vec<f64> =
             self.bounds.iter().map(|&(lo, hi)| if lo < hi { lo + rng.uniform() * (hi - lo) } else { lo }).collect();
-        self.from_box(&z)
+        self.preimage(&z)
     }
 
     /// Shifts each coordinate of `y` by whole periods of T into the central period
@@ -166,6 +166,6 @@ mod tests {
         assert!(before.iter().zip(&after).all(|(a, b)| (a - b).abs() < 1e-12), "{before:?} {after:?}");
         assert_eq!(after[1], 0.0, "a fixed parameter sits at its value");
         let z = vec![0.0, 0.0, 0.99];
-        assert!(map.to_box(&map.from_box(&z)).iter().zip(&z).all(|(a, b)| (a - b).abs() < 1e-12));
+        assert!(map.to_box(&map.preimage(&z)).iter().zip(&z).all(|(a, b)| (a - b).abs() < 1e-12));
     }
 }

@@ -6,7 +6,8 @@
 //!
 //! C = B D² Bᵀ is decomposed lazily, every λ / ((c_1 + c_μ) k · 10) generations, with
 //! nalgebra's `SymmetricEigen`; sampling and C^{−1/2} use the last decomposition. Matrices are
-//! kept row-major in plain vectors, so the state serializes exactly.
+//! kept row-major in plain vectors, so the state serializes exactly (non-finite values too,
+//! should an update degenerate).
 
 use nalgebra::{DMatrix, SymmetricEigen};
 use serde::{Deserialize, Serialize};
@@ -22,15 +23,22 @@ pub(super) struct Degenerate;
 /// N(m, σ² C) and the evolution paths; see the module docs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub(super) struct Distribution {
+    #[serde(with = "super::super::serde_float::vec")]
     pub mean: Vec<f64>,
+    #[serde(with = "super::super::serde_float")]
     pub sigma: f64,
     /// C, k × k, row-major.
+    #[serde(with = "super::super::serde_float::vec")]
     pub cov: Vec<f64>,
     /// B, k × k, row-major; its columns are C's eigenvectors.
+    #[serde(with = "super::super::serde_float::vec")]
     pub basis: Vec<f64>,
     /// D: the square roots of C's eigenvalues (the column order of B).
+    #[serde(with = "super::super::serde_float::vec")]
     pub scales: Vec<f64>,
+    #[serde(with = "super::super::serde_float::vec")]
     pub path_sigma: Vec<f64>,
+    #[serde(with = "super::super::serde_float::vec")]
     pub path_c: Vec<f64>,
     /// Updates done in this local run.
     pub generation: u64,

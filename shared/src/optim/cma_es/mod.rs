@@ -6,12 +6,12 @@
 //!   σ; the ranked steps move m (weighted recombination of the best μ = ⌊λ/2⌋), adapt σ by
 //!   cumulative step-size adaptation and C by the rank-one (evolution path) and rank-μ updates,
 //!   with the tutorial's default active (negative) weights; C is eigendecomposed lazily
-//!   ([`distribution`]). Parameters follow the tutorial's Table 1 ([`params`]). One generation
+//!   (`distribution.rs`). Parameters follow the tutorial's Table 1 (`params.rs`). One generation
 //!   is one batch of λ points, so a generation is evaluated in parallel.
-//! - **Scaled variables**: the search runs in the unit box of [`Space`](super::Space)'s scaled variables, so
-//!   σ₀ is a fraction of each parameter's range. It needs finite bounds; parameters with
-//!   lower = upper are held fixed and not searched.
-//! - **Bounds** ([`boundary`]): every point is asked at T(m + σ y), with T a periodic, C¹ map of
+//! - **Scaled variables**: the search runs in the unit box of the scaled variables of
+//!   [`Space`](super::Space), so σ₀ is a fraction of each parameter's range. It needs finite
+//!   bounds; parameters with lower = upper are held fixed and not searched.
+//! - **Bounds** (`boundary.rs`): every point is asked at T(m + σ y), with T a periodic, C¹ map of
 //!   each coordinate onto its interval that is the identity away from the bounds. No asked
 //!   point leaves the box, and optima on a bound are reached (the objective stays smooth in the
 //!   search variables there).
@@ -20,8 +20,8 @@
 //! - **Failures**: failed and NaN results rank after every value (then by their order in the
 //!   batch), so they get the smallest (negative) weights; nothing panics on ±∞, NaN or failures.
 //! - **Termination and restarts**: after each generation the local run's criteria are checked
-//!   ([`stop`]: the user's `x_tol` on σ·maxᵢ√Cᵢᵢ and `f_tol` on the range of the generation's and
-//!   the recent generations' best values, then pycma's default internal criteria TolX,
+//!   (`stop.rs`: the user's `x_tol` on σ·maxᵢ√Cᵢᵢ and `f_tol` on the range of the generation's
+//!   values and the recent generations' best values, then pycma's default internal criteria TolX,
 //!   TolFacUpX, TolUpSigma, ConditionCov, NoEffectAxis, NoEffectCoord, TolFun, TolFunHist,
 //!   FlatFitness and TolStagnation). When one holds and restarts remain, the next run starts
 //!   (IPOP): population doubled, mean uniform at random in the box, σ = σ₀, C = I. When none
@@ -131,7 +131,7 @@ impl CmaEs {
         let map = BoxMap::new(&space);
         let mut rng = Random::new(settings.seed);
         let mean = match x0 {
-            Some(x0) => map.from_box(&space.to_scaled(x0)),
+            Some(x0) => map.preimage(&space.to_scaled(x0)),
             None => map.random_point(&mut rng),
         };
         let mut algorithm = CmaEsSteps {

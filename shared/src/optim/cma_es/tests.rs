@@ -146,6 +146,21 @@ fn each_restart_doubles_the_population_and_the_last_run_ends_the_optimization() 
 }
 
 #[test]
+fn a_degenerate_distribution_still_serializes_and_ends_its_local_run() {
+    let s = CmaSettings { population: 6, restarts: 1, ..settings(2, 0, 1000) };
+    let mut es = CmaEs::new(&[-1.0; 2], &[1.0; 2], None, s).unwrap();
+    es.algorithm.distribution.sigma = f64::INFINITY;
+    let json = serde_json::to_string(&es).unwrap();
+    let resumed: CmaEs = serde_json::from_str(&json).unwrap();
+    assert_eq!(resumed.algorithm.distribution.sigma, f64::INFINITY);
+    for c in es.ask() {
+        es.tell(c.id, Outcome::Value(tp::sphere(&c.x))).unwrap();
+    }
+    assert_eq!((es.status(), es.ask().len()), (Status::Running, 12), "the next run starts, population doubled");
+    assert!(es.algorithm.distribution.sigma.is_finite());
+}
+
+#[test]
 fn fixed_parameters_keep_their_value() {
     let mut es = CmaEs::new(&[-1.0, 2.5, -1.0], &[1.0, 2.5, 1.0], None, settings(3, 0, 3000)).unwrap();
     run(&mut es, &|x| Outcome::Value((x[0] - 0.2).powi(2) + (x[2] + 0.4).powi(2)), u64::MAX);
