@@ -13,15 +13,25 @@ pub const N: usize = 10;
 pub const BUDGETS: [u64; 3] = [2_000, 10_000, 50_000];
 pub const SEEDS: std::ops::RangeInclusive<u64> = 1..=11;
 
-/// (name, objective, lower, upper, x0), each bound and x0 the same in every dimension.
-pub const CASES: [(&str, fn(&[f64]) -> f64, f64, f64, f64); 2] =
-    [("rosenbrock", rosenbrock, -2.0, 2.0, 0.0), ("rastrigin", rastrigin, -5.0, 5.0, 3.0)];
+/// A benchmark problem: its objective and, the same in every dimension, its bounds and x0.
+pub struct Case {
+    pub name: &'static str,
+    pub f: fn(&[f64]) -> f64,
+    pub lower: f64,
+    pub upper: f64,
+    pub x0: f64,
+}
+
+pub const CASES: [Case; 2] = [
+    Case { name: "rosenbrock", f: rosenbrock, lower: -2.0, upper: 2.0, x0: 0.0 },
+    Case { name: "rastrigin", f: rastrigin, lower: -5.0, upper: 5.0, x0: 3.0 },
+];
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let json_out = args.iter().position(|a| a == "--json").and_then(|i| args.get(i + 1)).cloned();
     let mut rows = vec![];
-    for (name, f, lo, hi, x0) in CASES {
+    for Case { name, f, lower, upper, x0 } in CASES {
         for budget in BUDGETS {
             for seed in SEEDS {
                 let settings = CmaSettings {
@@ -31,7 +41,7 @@ fn main() {
                     ..CmaSettings::new(N)
                 };
                 let start = std::time::Instant::now();
-                let mut es = CmaEs::new(&[lo; N], &[hi; N], Some(&[x0; N]), settings).expect("settings");
+                let mut es = CmaEs::new(&[lower; N], &[upper; N], Some(&[x0; N]), settings).expect("settings");
                 run(&mut es, &|x| Outcome::Value(f(x)), u64::MAX);
                 let best = es.best().map_or(f64::INFINITY, |b| b.1);
                 let row = serde_json::json!({
