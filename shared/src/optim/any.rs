@@ -14,6 +14,7 @@ pub enum AnyOptimizer {
     DifferentialEvolution(DifferentialEvolution),
     Genetic(GeneticAlgorithm),
     Points(PointBatch),
+    CmaEs(super::CmaEs),
 }
 
 impl AnyOptimizer {
@@ -23,6 +24,7 @@ impl AnyOptimizer {
             AnyOptimizer::DifferentialEvolution(o) => o,
             AnyOptimizer::Genetic(o) => o,
             AnyOptimizer::Points(o) => o,
+            AnyOptimizer::CmaEs(o) => o,
         }
     }
 
@@ -32,6 +34,7 @@ impl AnyOptimizer {
             AnyOptimizer::DifferentialEvolution(o) => o,
             AnyOptimizer::Genetic(o) => o,
             AnyOptimizer::Points(o) => o,
+            AnyOptimizer::CmaEs(o) => o,
         }
     }
 }

@@ -19,11 +19,13 @@
 //!
 //! - [`nelder_mead`]: Nelder–Mead with bounds, parallel (batches of 4) or sequential.
 //! - [`differential_evolution`]: DE rand/1/bin.
+//! - [`cma_es`]: CMA-ES with bounds and IPOP restarts.
 //! - [`genetic`]: a bit-string genetic algorithm, as the paper describes it.
 //! - [`point_batch`]: one batch of given points (for analyses that choose their own points).
 
 pub mod any;
 mod batch;
+pub mod cma_es;
 pub mod differential_evolution;
 pub mod fitness;
 pub mod genetic;
@@ -38,6 +40,7 @@ pub mod test_problems;
 use serde::{Deserialize, Serialize};
 
 pub use any::AnyOptimizer;
+pub use cma_es::{CmaEs, CmaSettings};
 pub use differential_evolution::{DeSettings, DifferentialEvolution};
 pub use fitness::Fitness;
 pub use genetic::{GaSettings, GeneticAlgorithm};
