@@ -88,7 +88,9 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let json_path = args.iter().position(|a| a == "--json").and_then(|i| args.get(i + 1)).cloned();
     let mut rows = vec![];
-    println!("| problem | solver | simulations to NM's f + 1 % | rounds | wall (s) | final f | simulations in all | stop |");
+    println!(
+        "| problem | solver | simulations to NM's f + 1 % | rounds | wall (s) | final f | simulations in all | stop |"
+    );
     println!("|---|---|---|---|---|---|---|---|");
     for (problem, file) in PROBLEMS {
         let (spec, fmu, data) = load(file);

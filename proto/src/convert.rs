@@ -182,6 +182,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 crossover_rate: o.crossover_rate,
                 mutation_rate: o.mutation_rate,
                 elitism: o.elitism.map(|v| v as usize),
+                restarts: o.restarts,
             },
             effects: p.effects.into_iter().map(EffectSpec::from).collect(),
             workers: WorkersSpec::default(),
@@ -300,6 +301,7 @@ pub fn job_to_proto(spec: &JobSpec, data: &[MeasurementTable], model_id: &str) -
             crossover_rate: o.crossover_rate,
             mutation_rate: o.mutation_rate,
             elitism: o.elitism.map(|v| v as u64),
+            restarts: o.restarts,
         }),
         kind: match spec.kind {
             JobKind::Calibration => pb::JobKind::Calibration,

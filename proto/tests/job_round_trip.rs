@@ -163,20 +163,24 @@ fn effect() -> impl Strategy<Value = EffectSpec> {
 }
 
 fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
-    let algorithm =
-        prop_oneof![Just(Algorithm::NelderMead), Just(Algorithm::DifferentialEvolution), Just(Algorithm::Genetic)];
+    let algorithm = prop_oneof![
+        Just(Algorithm::NelderMead),
+        Just(Algorithm::DifferentialEvolution),
+        Just(Algorithm::Genetic),
+        Just(Algorithm::CmaEs)
+    ];
     let opt_f = || prop::option::of(1e-9..1.0f64);
     (
         (algorithm, any::<bool>(), opt_f(), opt_f(), prop::option::of(1..10_000u64), prop::option::of(1..10_000u64)),
         // TOML integers are signed 64-bit.
         (0..=i64::MAX as u64, opt_f(), prop::option::of(4..200usize), opt_f(), opt_f(), prop::option::of(4..32u32)),
-        (opt_f(), opt_f(), prop::option::of(0..4usize)),
+        (opt_f(), opt_f(), prop::option::of(0..4usize), prop::option::of(0..12u32)),
     )
         .prop_map(
             |(
                 (algorithm, parallel, x_tol, f_tol, max_iters, max_fevals),
                 (seed, initial_step, population, weight, crossover, bits),
-                (crossover_rate, mutation_rate, elitism),
+                (crossover_rate, mutation_rate, elitism, restarts),
             )| OptimizerSpec {
                 algorithm,
                 parallel,
@@ -193,6 +197,7 @@ fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
                 crossover_rate,
                 mutation_rate,
                 elitism,
+                restarts,
             },
         )
 }

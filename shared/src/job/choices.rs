@@ -36,13 +36,15 @@ pub enum Algorithm {
     NelderMead,
     DifferentialEvolution,
     Genetic,
+    CmaEs,
 }
 
 impl Algorithm {
-    const NAMES: [(Algorithm, &'static str); 3] = [
+    const NAMES: [(Algorithm, &'static str); 4] = [
         (Algorithm::NelderMead, "nelder-mead"),
         (Algorithm::DifferentialEvolution, "differential-evolution"),
         (Algorithm::Genetic, "genetic"),
+        (Algorithm::CmaEs, "cma-es"),
     ];
 }
 
@@ -60,7 +62,7 @@ impl FromStr for Algorithm {
             .iter()
             .find(|(_, n)| *n == s)
             .map(|(a, _)| *a)
-            .ok_or_else(|| format!("{s:?} is not nelder-mead, differential-evolution or genetic"))
+            .ok_or_else(|| format!("{s:?} is not nelder-mead, differential-evolution, genetic or cma-es"))
     }
 }
 

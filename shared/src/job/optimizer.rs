@@ -5,8 +5,8 @@
 use super::choices::{Algorithm, JobKind};
 use super::spec::JobSpec;
 use crate::optim::{
-    AnyOptimizer, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, NelderMead, NmSettings, OptimError,
-    PointBatch, Stopping,
+    AnyOptimizer, CmaEs, CmaSettings, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, NelderMead,
+    NmSettings, OptimError, PointBatch, Stopping,
 };
 
 /// The optimizer of `spec`, starting at the parameters' start values (for an
@@ -66,6 +66,17 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
                 stopping,
             };
             AnyOptimizer::Genetic(GeneticAlgorithm::new(&lower, &upper, Some(&x0), s)?)
+        }
+        Algorithm::CmaEs => {
+            let d = CmaSettings::new(n);
+            let s = CmaSettings {
+                population: o.population.unwrap_or(d.population),
+                sigma0: o.initial_step.unwrap_or(d.sigma0),
+                restarts: o.restarts.unwrap_or(0),
+                seed: o.seed,
+                stopping,
+            };
+            AnyOptimizer::CmaEs(CmaEs::new(&lower, &upper, Some(&x0), s)?)
         }
         Algorithm::NelderMead => {
             let d = NmSettings::new(n);

@@ -37,7 +37,7 @@
 //! validation_stop_time = 1800.0    # report errors on (stop_time, 1800] too (CLI)
 //!
 //! [optimizer]
-//! algorithm = "nelder-mead"  # nelder-mead | differential-evolution | genetic
+//! algorithm = "nelder-mead"  # nelder-mead | differential-evolution | genetic | cma-es
 //! parallel = true
 //! x_tol = 1e-3
 //! f_tol = 1e-2
@@ -306,7 +306,7 @@ impl std::fmt::Display for SetValue {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OptimizerSpec {
-    /// nelder-mead (default), differential-evolution or genetic.
+    /// nelder-mead (default), differential-evolution, genetic or cma-es.
     #[serde(default, with = "text")]
     pub algorithm: Algorithm,
     /// Nelder–Mead: evaluate the four trial points as one batch. Default: true.
@@ -318,13 +318,18 @@ pub struct OptimizerSpec {
     pub f_tol: Option<f64>,
     pub max_iters: Option<u64>,
     pub max_fevals: Option<u64>,
-    /// Seed of DE and GA. Default: 0.
+    /// Seed of DE, GA and CMA-ES. Default: 0.
     #[serde(default)]
     pub seed: u64,
-    /// Nelder–Mead initial simplex edge (scaled). Default: 0.05.
+    /// Nelder–Mead initial simplex edge, CMA-ES initial step size σ₀ (scaled). Default: 0.05
+    /// (NM), 0.3 (CMA-ES).
     pub initial_step: Option<f64>,
-    /// DE and GA population.
+    /// DE, GA and CMA-ES population (CMA-ES: of its first run).
     pub population: Option<usize>,
+    /// CMA-ES: IPOP restarts, each with twice the population, after a run meets x_tol or f_tol.
+    /// Default: 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub restarts: Option<u32>,
     /// DE weight F.
     pub weight: Option<f64>,
     /// DE crossover probability CR.
