@@ -235,3 +235,42 @@ fn built_in_examples_come_from_the_binary_itself() {
     let out = run(&["simulate", "example:nonesuch", "-o", "/dev/null"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("examples: furuta, bouncing-ball, decay"));
 }
+
+/// Mistakes in a multi-experiment job fail before any process starts, in one line naming the
+/// experiment's field.
+#[test]
+fn bad_experiments_name_their_field() {
+    let tmp = tempfile::tempdir().unwrap();
+    let job = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta_experiments/job.toml");
+    let text = std::fs::read_to_string(&job).unwrap();
+    let dir = job.parent().unwrap();
+    let cases: [(&str, &str, &[&str]); 5] = [
+        ("data = { path = \"steps.csv\" }", "data = { path = \"nope.csv\" }", &["nope.csv"]),
+        (
+            "data = { path = \"steps.csv\" }",
+            "data = { path = \"steps.csv\" }\noutputs = [{ variable = \"armJoint.phi\", column = \"arm\" }]",
+            &["experiments[1].data.columns[arm]: no such column"],
+        ),
+        ("name = \"steps\"", "name = \"sine\"", &["experiments[1].name", "appears twice"]),
+        ("lower = -1.5", "lower = -1.5\nscale = \"log\"", &["parameters[2].lower", "positive lower bound"]),
+        (
+            "starts = { \"pendulumJoint.phi\" = 0.6 }",
+            "starts = { armFriction = 0.6 }",
+            &["experiments[1].starts.armFriction", "per_experiment"],
+        ),
+    ];
+    for (from, to, needles) in cases {
+        assert!(text.contains(from), "{from}");
+        let path = tmp.path().join("job.toml");
+        // Relative data paths resolve against the job file's folder: keep it beside the data.
+        let text = text.replace(from, to).replace("path = \"", &format!("path = \"{}/", dir.display()));
+        let text = text.replace(&format!("path = \"{}/example:", dir.display()), "path = \"example:");
+        std::fs::write(&path, text).unwrap();
+        let run = fmucal(
+            &["calibrate", path.to_str().unwrap(), "--out", tmp.path().join("out").to_str().unwrap()],
+            tmp.path(),
+            &[],
+        );
+        assert_fails(&run, needles);
+    }
+}
