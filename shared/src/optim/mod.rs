@@ -27,6 +27,7 @@ mod batch;
 pub mod differential_evolution;
 pub mod fitness;
 pub mod genetic;
+pub mod least_squares_problems;
 pub mod nelder_mead;
 pub mod point_batch;
 mod random;
