@@ -4,8 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::{
-    Candidate, CandidateId, DifferentialEvolution, GeneticAlgorithm, NelderMead, OptimError, Optimizer, Outcome,
-    PointBatch, Status,
+    Candidate, CandidateId, DifferentialEvolution, GeneticAlgorithm, LeastSquares, NelderMead, OptimError, Optimizer,
+    Outcome, PointBatch, Status,
 };
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -13,6 +13,7 @@ pub enum AnyOptimizer {
     NelderMead(NelderMead),
     DifferentialEvolution(DifferentialEvolution),
     Genetic(GeneticAlgorithm),
+    LeastSquares(LeastSquares),
     Points(PointBatch),
     CmaEs(super::CmaEs),
 }
@@ -23,6 +24,7 @@ impl AnyOptimizer {
             AnyOptimizer::NelderMead(o) => o,
             AnyOptimizer::DifferentialEvolution(o) => o,
             AnyOptimizer::Genetic(o) => o,
+            AnyOptimizer::LeastSquares(o) => o,
             AnyOptimizer::Points(o) => o,
             AnyOptimizer::CmaEs(o) => o,
         }
@@ -33,6 +35,7 @@ impl AnyOptimizer {
             AnyOptimizer::NelderMead(o) => o,
             AnyOptimizer::DifferentialEvolution(o) => o,
             AnyOptimizer::Genetic(o) => o,
+            AnyOptimizer::LeastSquares(o) => o,
             AnyOptimizer::Points(o) => o,
             AnyOptimizer::CmaEs(o) => o,
         }

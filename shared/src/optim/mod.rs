@@ -21,6 +21,8 @@
 //! - [`differential_evolution`]: DE rand/1/bin.
 //! - [`cma_es`]: CMA-ES with bounds and IPOP restarts.
 //! - [`genetic`]: a bit-string genetic algorithm, as the paper describes it.
+//! - [`least_squares`]: a derivative-free trust-region Gauss–Newton solver (after DFO-LS) that
+//!   is told residual vectors; it keeps its own bookkeeping, as it stores residuals.
 //! - [`point_batch`]: one batch of given points (for analyses that choose their own points).
 
 pub mod any;
@@ -29,6 +31,8 @@ pub mod cma_es;
 pub mod differential_evolution;
 pub mod fitness;
 pub mod genetic;
+pub mod least_squares;
+pub mod least_squares_problems;
 pub mod nelder_mead;
 pub mod point_batch;
 mod random;
@@ -44,6 +48,7 @@ pub use cma_es::{CmaEs, CmaSettings};
 pub use differential_evolution::{DeSettings, DifferentialEvolution};
 pub use fitness::Fitness;
 pub use genetic::{GaSettings, GeneticAlgorithm};
+pub use least_squares::{LeastSquares, LsSettings};
 pub use nelder_mead::{NelderMead, NmSettings};
 pub use point_batch::PointBatch;
 pub use run::BatchOptimizer;
