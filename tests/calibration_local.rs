@@ -61,7 +61,7 @@ fn prepare(
 #[test]
 fn recovers_the_rate_that_generated_the_data_with_any_thread_count() {
     let dir = tempfile::tempdir().unwrap();
-    for algorithm in ["nelder-mead", "differential-evolution", "cma-es"] {
+    for algorithm in ["nelder-mead", "differential-evolution", "cma-es", "least-squares"] {
         let spec = job(dir.path(), &format!("algorithm = \"{algorithm}\"\nmax_iters = 200\nseed = 3"));
         let (fmu, prepared) = prepare(&spec, dir.path());
         let prepared = Arc::new(prepared.unwrap());

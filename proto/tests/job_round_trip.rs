@@ -167,7 +167,8 @@ fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
         Just(Algorithm::NelderMead),
         Just(Algorithm::DifferentialEvolution),
         Just(Algorithm::Genetic),
-        Just(Algorithm::CmaEs)
+        Just(Algorithm::CmaEs),
+        Just(Algorithm::LeastSquares)
     ];
     let opt_f = || prop::option::of(1e-9..1.0f64);
     (

@@ -37,14 +37,16 @@ pub enum Algorithm {
     DifferentialEvolution,
     Genetic,
     CmaEs,
+    LeastSquares,
 }
 
 impl Algorithm {
-    const NAMES: [(Algorithm, &'static str); 4] = [
+    const NAMES: [(Algorithm, &'static str); 5] = [
         (Algorithm::NelderMead, "nelder-mead"),
         (Algorithm::DifferentialEvolution, "differential-evolution"),
         (Algorithm::Genetic, "genetic"),
         (Algorithm::CmaEs, "cma-es"),
+        (Algorithm::LeastSquares, "least-squares"),
     ];
 }
 
@@ -58,11 +60,9 @@ impl fmt::Display for Algorithm {
 impl FromStr for Algorithm {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        Self::NAMES
-            .iter()
-            .find(|(_, n)| *n == s)
-            .map(|(a, _)| *a)
-            .ok_or_else(|| format!("{s:?} is not nelder-mead, differential-evolution, genetic or cma-es"))
+        Self::NAMES.iter().find(|(_, n)| *n == s).map(|(a, _)| *a).ok_or_else(|| {
+            format!("{s:?} is not nelder-mead, differential-evolution, genetic, cma-es or least-squares")
+        })
     }
 }
 

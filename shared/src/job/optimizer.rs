@@ -5,8 +5,8 @@
 use super::choices::{Algorithm, JobKind};
 use super::spec::JobSpec;
 use crate::optim::{
-    AnyOptimizer, CmaEs, CmaSettings, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, NelderMead,
-    NmSettings, OptimError, PointBatch, Stopping,
+    AnyOptimizer, CmaEs, CmaSettings, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, LeastSquares,
+    LsSettings, NelderMead, NmSettings, OptimError, PointBatch, Stopping,
 };
 
 /// The optimizer of `spec`, starting at the parameters' start values (for an
@@ -77,6 +77,16 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
                 stopping,
             };
             AnyOptimizer::CmaEs(CmaEs::new(&lower, &upper, Some(&x0), s)?)
+        }
+        Algorithm::LeastSquares => {
+            let d = LsSettings::new(n);
+            // Its own f_tol rule (f below f_tol × f(x0)) is not the spread the job's f_tol means.
+            let s = LsSettings {
+                initial_radius: o.initial_step.unwrap_or(d.initial_radius),
+                stopping: Stopping { f_tol: None, ..stopping },
+                ..d
+            };
+            AnyOptimizer::LeastSquares(LeastSquares::new(&lower, &upper, &x0, s)?)
         }
         Algorithm::NelderMead => {
             let d = NmSettings::new(n);

@@ -37,7 +37,7 @@
 //! validation_stop_time = 1800.0    # report errors on (stop_time, 1800] too (CLI)
 //!
 //! [optimizer]
-//! algorithm = "nelder-mead"  # nelder-mead | differential-evolution | genetic | cma-es
+//! algorithm = "nelder-mead"  # nelder-mead | differential-evolution | genetic | cma-es | least-squares
 //! parallel = true
 //! x_tol = 1e-3
 //! f_tol = 1e-2
@@ -306,7 +306,7 @@ impl std::fmt::Display for SetValue {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OptimizerSpec {
-    /// nelder-mead (default), differential-evolution, genetic or cma-es.
+    /// nelder-mead (default), differential-evolution, genetic, cma-es or least-squares.
     #[serde(default, with = "text")]
     pub algorithm: Algorithm,
     /// Nelder–Mead: evaluate the four trial points as one batch. Default: true.
@@ -314,15 +314,16 @@ pub struct OptimizerSpec {
     pub parallel: bool,
     /// Simplex/population size rule (scaled); 0 disables it. Default: 1e-6.
     pub x_tol: Option<f64>,
-    /// Spread of objective values rule; 0 disables it. Default: 1e-8.
+    /// Spread of objective values rule; 0 disables it. Default: 1e-8. Least squares does not
+    /// use it: it stops on x_tol (its trust radius), slow progress, max_iters and max_fevals.
     pub f_tol: Option<f64>,
     pub max_iters: Option<u64>,
     pub max_fevals: Option<u64>,
     /// Seed of DE, GA and CMA-ES. Default: 0.
     #[serde(default)]
     pub seed: u64,
-    /// Nelder–Mead initial simplex edge, CMA-ES initial step size σ₀ (scaled). Default: 0.05
-    /// (NM), 0.3 (CMA-ES).
+    /// Nelder–Mead initial simplex edge, CMA-ES initial step size σ₀, least-squares initial
+    /// trust radius (scaled). Default: 0.05 (NM), 0.3 (CMA-ES), 0.1 (least squares).
     pub initial_step: Option<f64>,
     /// DE, GA and CMA-ES population (CMA-ES: of its first run).
     pub population: Option<usize>,
