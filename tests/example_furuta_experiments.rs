@@ -9,6 +9,10 @@ use std::process::Command;
 
 fn calibrate(workers: &str, out: &Path) -> (serde_json::Value, String) {
     let job = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta_experiments/job.toml");
+    calibrate_job(&job, workers, out)
+}
+
+fn calibrate_job(job: &Path, workers: &str, out: &Path) -> (serde_json::Value, String) {
     let run = Command::new(env!("CARGO_BIN_EXE_fmucal"))
         .args(["calibrate", job.to_str().unwrap(), "--workers", workers, "--out"])
         .arg(out)
@@ -63,4 +67,28 @@ fn shared_frictions_and_per_experiment_angles_are_recovered_the_same_with_1_and_
     let plot = Command::new(env!("CARGO_BIN_EXE_fmucal")).arg("plot").arg(&folder).output().unwrap();
     assert!(plot.status.success(), "{}", String::from_utf8_lossy(&plot.stderr));
     assert!(folder.join("steps/fit.svg").is_file());
+}
+
+/// Least squares over the same experiments: the workers send back each experiment's residual
+/// vector, the run concatenates them, and the solver reaches Nelder–Mead's optimum with far
+/// fewer points.
+#[test]
+fn least_squares_fits_the_experiments_with_concatenated_residuals() {
+    let dir = tempfile::tempdir().unwrap();
+    let (nm, _) = calibrate("2", &dir.path().join("nm"));
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta_experiments");
+    let text = std::fs::read_to_string(examples.join("job.toml")).unwrap();
+    let text = text
+        .replace("algorithm = \"nelder-mead\"", "algorithm = \"least-squares\"")
+        .replace("path = \"", &format!("path = \"{}/", examples.display()))
+        .replace(&format!("path = \"{}/example:", examples.display()), "path = \"example:");
+    let job = dir.path().join("ls.toml");
+    std::fs::write(&job, text).unwrap();
+    let (ls, _) = calibrate_job(&job, "2", &dir.path().join("ls"));
+    let (f_nm, f_ls) = (nm["f_opt"].as_f64().unwrap(), ls["f_opt"].as_f64().unwrap());
+    assert!(f_ls <= 1.01 * f_nm, "least squares ends at {f_ls}, Nelder–Mead at {f_nm}");
+    let (n_nm, n_ls) = (nm["evaluations"].as_u64().unwrap(), ls["evaluations"].as_u64().unwrap());
+    assert!(3 * n_ls < n_nm, "least squares took {n_ls} points, Nelder–Mead {n_nm}");
+    let angle = ls["x_opt"]["pendulumJoint.phi@steps"].as_f64().unwrap();
+    assert!((angle - 0.5).abs() < 0.002, "{angle}");
 }
