@@ -76,9 +76,11 @@ pub enum Outcome {
 /// Why an optimizer stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Termination {
-    /// The simplex or population is smaller than `x_tol` in scaled variables.
+    /// The simplex or population is smaller than `x_tol` in scaled variables (least squares:
+    /// the trust radius would go below `x_tol`).
     XTol,
-    /// The spread of objective values is below `f_tol`.
+    /// The spread of objective values is below `f_tol` (least squares: the objective fell to
+    /// `f_tol` × its start value, or progress stalled; see [`least_squares`]).
     FTol,
     /// `max_iters` iterations (generations for DE and GA) were done.
     MaxIters,
@@ -109,11 +111,13 @@ pub enum Status {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Stopping {
     /// Size of the simplex (NM) or population (DE, GA) in scaled variables: the largest
-    /// infinity-norm distance from the best point. Default: 1e-6.
+    /// infinity-norm distance from the best point; for least squares, the smallest trust
+    /// radius. Default: 1e-6.
     pub x_tol: Option<f64>,
-    /// Spread of objective values over the simplex or population (max − min). Default: 1e-8.
+    /// Spread of objective values over the simplex or population (max − min); for least
+    /// squares, the objective relative to its value at x0. Default: 1e-8.
     pub f_tol: Option<f64>,
-    /// Iterations (NM) or generations (DE, GA). Default: 1000 × dimension.
+    /// Iterations (NM, least squares) or generations (DE, GA). Default: 1000 × dimension.
     pub max_iters: Option<u64>,
     /// Objective evaluations. Default: none.
     pub max_fevals: Option<u64>,
@@ -222,7 +226,8 @@ pub trait Optimizer {
     /// Objective evaluations told so far.
     fn evaluations(&self) -> u64;
 
-    /// Iterations (NM) or generations (DE, GA) completed.
+    /// Iterations (NM), trust-region iterations (least squares) or generations (DE, GA)
+    /// completed.
     fn iterations(&self) -> u64;
 
     /// Batches handed out so far.

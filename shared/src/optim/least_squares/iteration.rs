@@ -77,6 +77,17 @@ impl LeastSquares {
     /// Hands out the scaled points (projected onto the box) as the next batch, no more than
     /// `max_fevals` allows (the first points have priority); stops if none is allowed.
     fn start_batch(&mut self, mut points: Vec<Vec<f64>>) {
+        // Never ask a non-finite point (the subproblems do not produce one; this is a guard).
+        let finite: Vec<bool> = points.iter().map(|z| z.iter().all(|v| v.is_finite())).collect();
+        if finite.contains(&false) {
+            tracing::warn!("least squares: dropping a non-finite candidate");
+            if let Phase::Round { roles } = &mut self.phase {
+                let mut keep = finite.iter();
+                roles.retain(|_| keep.next().copied().unwrap_or(false));
+            }
+            let mut keep = finite.iter();
+            points.retain(|_| keep.next().copied().unwrap_or(false));
+        }
         if let Some(max) = self.settings.stopping.max_fevals {
             let left = max.saturating_sub(self.evaluations);
             points.truncate(usize::try_from(left).unwrap_or(usize::MAX));

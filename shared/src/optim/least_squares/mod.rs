@@ -8,11 +8,12 @@
 //! - The first batch is x0 plus n coordinate steps of length Δ₀ (`initial_radius`; backwards
 //!   where a forward step leaves the box): n + 1 points evaluated in parallel.
 //! - The n + 1 points of the interpolation set give the model r(x_k + d) ≈ r(x_k) + J d
-//!   ([`model`]), centred on the best point x_k.
+//!   (module `model`), centred on the best point x_k.
 //! - Each round takes a trust-region step: the minimiser d of ‖r + J d‖² subject to ‖d‖ ≤ Δ
 //!   and lower ≤ x_k + d ≤ upper, found exactly as a bounded-variable Levenberg–Marquardt
-//!   problem ([`subproblem`]: an active-set solve per damping, the damping by bisection). Bounds
-//!   hold by construction, and every asked point is also projected onto the box.
+//!   problem (module `subproblem`: an active-set solve per damping, the damping by
+//!   bisection). Bounds hold by construction, and every asked point is also projected onto
+//!   the box.
 //! - The step is accepted or not by the ratio of actual to predicted decrease, and Δ updated
 //!   as in DFO-LS (η₁ 0.1, η₂ 0.7: ×½ or down to ‖d‖ on failure, ×2 and at least 4‖d‖ on
 //!   success, at most 10¹⁰). Every evaluated point enters the set, replacing the point chosen

@@ -47,6 +47,9 @@ pub(super) fn trust_region_step(j: &DMatrix<f64>, r: &DVector<f64>, bx: &StepBox
         return zero;
     }
     let d0 = box_least_squares(j, r, 0.0, bx);
+    if !d0.norm().is_finite() {
+        return zero;
+    }
     if d0.norm() <= delta {
         return d0;
     }
@@ -71,7 +74,13 @@ pub(super) fn trust_region_step(j: &DMatrix<f64>, r: &DVector<f64>, bx: &StepBox
         }
     }
     let norm = best.norm();
-    if norm <= delta { best } else { best * (delta / norm) }
+    if !norm.is_finite() {
+        zero
+    } else if norm <= delta {
+        best
+    } else {
+        best * (delta / norm)
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -189,44 +198,49 @@ pub(super) fn geometry_step(c: &DVector<f64>, bx: &StepBox, delta: f64) -> DVect
 }
 
 /// argmax cᵀd over box ∩ ball: clamp(t c) for the largest t ≥ 0 with ‖clamp(t c)‖ ≤ Δ.
+/// Components of c below 1e-12 of the largest count as zero (they would otherwise reach
+/// their bounds only at absurd t).
 fn farthest_along(c: &DVector<f64>, bx: &StepBox, delta: f64) -> DVector<f64> {
     let n = bx.dim();
-    // Where each component reaches its bound (∞ if never).
-    let mut hits: Vec<(f64, usize)> = (0..n)
-        .map(|i| {
-            let t = if c[i] > 0.0 {
-                bx.hi[i] / c[i]
-            } else if c[i] < 0.0 {
-                bx.lo[i] / c[i]
-            } else {
-                f64::INFINITY
-            };
-            (t.max(0.0), i)
-        })
-        .collect();
-    hits.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let zero = DVector::zeros(n);
+    let c_max = c.amax();
+    if !(c_max > 0.0 && c_max.is_finite()) {
+        return zero;
+    }
+    let c = c.map(|v| if v.abs() <= 1e-12 * c_max { 0.0 } else { v });
     let bound_of = |i: usize| if c[i] > 0.0 { bx.hi[i] } else { bx.lo[i] };
+    // Where each component reaches its bound (∞ if never), in order.
+    let mut hits: Vec<(f64, usize)> =
+        (0..n).filter(|&i| c[i] != 0.0).map(|i| ((bound_of(i) / c[i]).max(0.0), i)).collect();
+    hits.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let mut fixed_sq = 0.0;
-    let mut free_sq: f64 = c.iter().map(|v| v * v).sum();
     let mut t = f64::INFINITY;
-    for &(ti, i) in &hits {
-        if c[i] == 0.0 {
-            continue;
-        }
-        if free_sq > 0.0 && fixed_sq + ti * ti * free_sq >= delta * delta {
+    for (k, &(ti, i)) in hits.iter().enumerate() {
+        let free_sq: f64 = hits[k..].iter().map(|&(_, j)| c[j] * c[j]).sum();
+        if fixed_sq + ti * ti * free_sq >= delta * delta {
             t = ((delta * delta - fixed_sq).max(0.0) / free_sq).sqrt();
             break;
         }
         fixed_sq += bound_of(i).powi(2);
-        free_sq -= c[i] * c[i];
-        if free_sq <= 0.0 {
-            free_sq = 0.0;
-        }
     }
-    let d =
-        DVector::from_iterator(n, (0..n).map(|i| if c[i] == 0.0 { 0.0 } else { (t * c[i]).clamp(bx.lo[i], bx.hi[i]) }));
+    // With t = ∞ every component has reached a (finite) bound: the box's corner.
+    let d = DVector::from_fn(n, |i, _| {
+        if c[i] == 0.0 {
+            0.0
+        } else if t.is_infinite() {
+            bound_of(i)
+        } else {
+            (t * c[i]).clamp(bx.lo[i], bx.hi[i])
+        }
+    });
     let norm = d.norm();
-    if norm > delta && norm > 0.0 { d * (delta / norm) } else { d }
+    if !norm.is_finite() {
+        zero
+    } else if norm > delta {
+        d * (delta / norm)
+    } else {
+        d
+    }
 }
 
 #[cfg(test)]
@@ -291,6 +305,11 @@ mod tests {
         let bx = StepBox { lo: vec![-1.0, -0.5], hi: vec![1.0, 0.5] };
         let d = geometry_step(&c, &bx, 1.0);
         assert!((d[1].abs() - 0.5).abs() < 1e-12 && (d[0].abs() - 0.75f64.sqrt()).abs() < 1e-12, "{d}");
+        // Components far below the largest are ignored, even against infinite bounds.
+        let tiny = DVector::from_vec(vec![1e-19, 1.0, -1e-18]);
+        let bx = StepBox { lo: vec![-1.0, -0.9, f64::NEG_INFINITY], hi: vec![0.1, 0.0, 0.8] };
+        let d = geometry_step(&tiny, &bx, 0.1);
+        assert!(d.iter().all(|v| v.is_finite()) && (d[1] + 0.1).abs() < 1e-12, "{d}");
         // Only the negative direction has room.
         let bx = StepBox { lo: vec![-1.0, -1.0], hi: vec![0.0, 0.0] };
         let d = geometry_step(&c, &bx, 1.0);
