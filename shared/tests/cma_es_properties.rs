@@ -4,6 +4,8 @@
 //! panics, and `max_fevals` is never exceeded. Cases include fixed parameters (lower = upper),
 //! small and large σ₀, and a loose x_tol so that the IPOP restarts happen within the rounds run.
 
+mod support;
+
 use fmucal_shared::optim::{Candidate, CmaEs, CmaSettings, Optimizer, Outcome, Status, Termination};
 use proptest::prelude::*;
 
@@ -55,31 +57,10 @@ fn build(c: &Case) -> CmaEs {
     CmaEs::new(&c.lower, &c.upper, Some(&c.x0), c.settings.clone()).unwrap()
 }
 
-/// Runs `rounds` batches, telling each batch in the order given by `order_seed` (0 = as asked),
-/// and returns every batch asked.
+/// Runs `rounds` batches, telling each in the order given by `order_seed`, and returns every
+/// batch asked.
 fn drive(opt: &mut dyn Optimizer, rounds: usize, order_seed: u64) -> Vec<Vec<Candidate>> {
-    let mut asked = vec![];
-    for r in 0..rounds {
-        let mut batch = opt.ask();
-        if batch.is_empty() {
-            break;
-        }
-        asked.push(batch.clone());
-        if order_seed != 0 {
-            // A reproducible shuffle of the batch.
-            let mut s = order_seed ^ (r as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            for i in (1..batch.len()).rev() {
-                s ^= s << 13;
-                s ^= s >> 7;
-                s ^= s << 17;
-                batch.swap(i, (s % (i as u64 + 1)) as usize);
-            }
-        }
-        for c in batch {
-            opt.tell(c.id, objective(&c.x)).unwrap();
-        }
-    }
-    asked
+    support::drive(opt, rounds, order_seed, |opt, c| opt.tell(c.id, objective(&c.x)).unwrap())
 }
 
 proptest! {

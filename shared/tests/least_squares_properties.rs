@@ -3,6 +3,8 @@
 //! the order of tells within a batch does not change the trajectory, failed, NaN and infinite
 //! residuals never cause panics, and no run asks more than `max_fevals` evaluations.
 
+mod support;
+
 use fmucal_shared::optim::{Candidate, LeastSquares, LsSettings, Optimizer, Status, Stopping};
 use proptest::prelude::*;
 
@@ -59,35 +61,12 @@ fn build(c: &Case, max_fevals: Option<u64>) -> LeastSquares {
     LeastSquares::new(&c.lower, &c.upper, &c.x0, settings).expect("valid settings")
 }
 
-/// A reproducible shuffle of a batch (`seed` 0: as asked).
-fn shuffled(mut batch: Vec<Candidate>, seed: u64, round: usize) -> Vec<Candidate> {
-    if seed != 0 {
-        let mut s = seed ^ (round as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        for i in (1..batch.len()).rev() {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            batch.swap(i, (s % (i as u64 + 1)) as usize);
-        }
-    }
-    batch
-}
-
 /// Runs `rounds` batches, telling each in the order given by `order_seed`, and returns every
 /// batch asked.
 fn drive(opt: &mut dyn Optimizer, rounds: usize, order_seed: u64) -> Vec<Vec<Candidate>> {
-    let mut asked = vec![];
-    for round in 0..rounds {
-        let batch = opt.ask();
-        if batch.is_empty() {
-            break;
-        }
-        asked.push(batch.clone());
-        for c in shuffled(batch, order_seed, round) {
-            opt.tell_residuals(c.id, residuals(&c.x).as_deref()).expect("tell an asked candidate");
-        }
-    }
-    asked
+    support::drive(opt, rounds, order_seed, |opt, c| {
+        opt.tell_residuals(c.id, residuals(&c.x).as_deref()).expect("tell an asked candidate")
+    })
 }
 
 proptest! {

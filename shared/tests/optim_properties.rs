@@ -2,6 +2,8 @@
 //! serialize/resume equals never stopping, the order of tells does not change the trajectory,
 //! and failed or NaN results never cause panics.
 
+mod support;
+
 use fmucal_shared::optim::{
     Candidate, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, NelderMead, NmSettings, Optimizer,
     Outcome,
@@ -68,31 +70,10 @@ fn nm_settings(n: usize, parallel: bool) -> NmSettings {
     NmSettings { parallel, ..NmSettings::new(n) }
 }
 
-/// Runs `rounds` batches, telling each batch in the order given by `order_seed` (0 = as asked),
-/// and returns every batch asked.
+/// Runs `rounds` batches, telling each in the order given by `order_seed`, and returns every
+/// batch asked.
 fn drive(opt: &mut dyn Optimizer, rounds: usize, order_seed: u64) -> Vec<Vec<Candidate>> {
-    let mut asked = vec![];
-    for r in 0..rounds {
-        let mut batch = opt.ask();
-        if batch.is_empty() {
-            break;
-        }
-        asked.push(batch.clone());
-        if order_seed != 0 {
-            // A reproducible shuffle of the batch.
-            let mut s = order_seed ^ (r as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            for i in (1..batch.len()).rev() {
-                s ^= s << 13;
-                s ^= s >> 7;
-                s ^= s << 17;
-                batch.swap(i, (s % (i as u64 + 1)) as usize);
-            }
-        }
-        for c in batch {
-            opt.tell(c.id, objective(&c.x)).unwrap();
-        }
-    }
-    asked
+    support::drive(opt, rounds, order_seed, |opt, c| opt.tell(c.id, objective(&c.x)).unwrap())
 }
 
 fn build(c: &Case) -> Box<dyn Optimizer> {
