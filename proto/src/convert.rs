@@ -407,6 +407,27 @@ mod tests {
     }
 
     #[test]
+    fn experiments_need_data_and_known_roles_and_scales() {
+        let experiment = pb::Experiment { name: "a".into(), ..Default::default() };
+        let p = pb::JobSpec { model_id: "m".into(), experiments: vec![experiment.clone()], ..Default::default() };
+        assert_eq!(SubmittedJob::try_from(p).unwrap_err(), ConvertError::Missing("spec.data"));
+        let own = pb::Experiment { data: Some(Default::default()), role: "check".into(), ..experiment };
+        let p = pb::JobSpec { model_id: "m".into(), experiments: vec![own.clone()], ..Default::default() };
+        let e = SubmittedJob::try_from(p).unwrap_err().to_string();
+        assert_eq!(e, "spec.experiments[0].role: \"check\" is not fit or validation");
+        let parameter = pb::ParameterSpec { name: "k".into(), scale: "ln".into(), ..Default::default() };
+        let own = pb::Experiment { role: String::new(), ..own };
+        let p = pb::JobSpec {
+            model_id: "m".into(),
+            experiments: vec![own],
+            parameters: vec![parameter],
+            ..Default::default()
+        };
+        let e = SubmittedJob::try_from(p).unwrap_err().to_string();
+        assert_eq!(e, "spec.parameters[0].scale: \"ln\" is not linear or log");
+    }
+
+    #[test]
     fn round_trip_keeps_the_job() {
         let spec = JobSpec::from_toml(
             "[model]\nid = \"m\"\n[data]\n[[outputs]]\nvariable = \"y\"\ncolumn = \"y\"\nweight = 2.0\n[[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n[optimizer]\nx_tol = 1e-3\n",
