@@ -1,20 +1,28 @@
 //! One batch of candidates between `ask` and `tell`, shared by the optimizers (through
-//! [`super::run::RunState`]): ids, scaled and user points, and the results told so far.
+//! [`super::run::RunState`], and by least squares with its residual vectors as results): ids,
+//! scaled and user points, and the results told so far.
 
 use serde::{Deserialize, Serialize};
 
 use super::space::Space;
 use super::{Candidate, CandidateId, Fitness, OptimError, Outcome};
 
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
-pub(crate) struct Batch {
+/// A batch whose results are `R`: an objective value ([`Fitness`]) by default.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct Batch<R = Fitness> {
     /// Scaled points, in the order they were created.
     pub z: Vec<Vec<f64>>,
     pub candidates: Vec<Candidate>,
-    pub results: Vec<Option<Fitness>>,
+    pub results: Vec<Option<R>>,
 }
 
-impl Batch {
+impl<R> Default for Batch<R> {
+    fn default() -> Self {
+        Batch { z: vec![], candidates: vec![], results: vec![] }
+    }
+}
+
+impl<R: Clone> Batch<R> {
     /// A batch of scaled points; ids continue from `next_id`.
     pub fn new(points: Vec<Vec<f64>>, space: &Space, next_id: &mut CandidateId) -> Self {
         let candidates = points
@@ -35,20 +43,34 @@ impl Batch {
         self.candidates.iter().zip(&self.results).filter(|(_, r)| r.is_none()).map(|(c, _)| c.clone()).collect()
     }
 
-    /// Records a result; returns true when the batch is complete.
+    /// The position of candidate `id` if it awaits a result.
     #[inline] // called from the generic `Optimizer` impl, which is instantiated in other crates
-    pub fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<bool, OptimError> {
+    pub fn awaiting(&self, id: CandidateId) -> Result<usize, OptimError> {
         // `Batch::new` numbers a batch consecutively, so `id` is normally at its offset from the
         // first id; any other layout (a hand-edited state) is searched.
         let first = self.candidates.first().map_or(0, |c| c.id);
-        let i = usize::try_from(id.wrapping_sub(first))
+        usize::try_from(id.wrapping_sub(first))
             .ok()
             .filter(|&i| self.candidates.get(i).is_some_and(|c| c.id == id))
             .or_else(|| self.candidates.iter().position(|c| c.id == id))
             .filter(|&i| self.results[i].is_none())
-            .ok_or(OptimError::UnknownCandidate(id))?;
-        self.results[i] = Some(outcome.into());
+            .ok_or(OptimError::UnknownCandidate(id))
+    }
+
+    /// Records candidate `id`'s result; returns true when the batch is complete.
+    #[inline] // called from the generic `Optimizer` impl, which is instantiated in other crates
+    pub fn record(&mut self, id: CandidateId, result: R) -> Result<bool, OptimError> {
+        let i = self.awaiting(id)?;
+        self.results[i] = Some(result);
         Ok(self.results.iter().all(Option::is_some))
+    }
+}
+
+impl Batch {
+    /// Records an objective value; returns true when the batch is complete.
+    #[inline] // called from the generic `Optimizer` impl, which is instantiated in other crates
+    pub fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<bool, OptimError> {
+        self.record(id, outcome.into())
     }
 
     /// The results, in creation order (only valid once complete).

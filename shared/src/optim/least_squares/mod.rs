@@ -267,7 +267,7 @@ impl Optimizer for LeastSquares {
         if matches!(self.phase, Phase::Done(_)) {
             return Err(OptimError::UnknownCandidate(id));
         }
-        if self.batch.tell(id, Told::from_residuals(residuals))? {
+        if self.batch.record(id, Told::from_residuals(residuals))? {
             self.advance();
         }
         Ok(())
