@@ -331,20 +331,10 @@ mod tests {
 
     use super::*;
 
-    const JOB: &str = r#"
-[model]
-path = "m.fmu"
-[data]
-path = "d.csv"
-[[outputs]]
-variable = "y"
-column = "y"
-[[parameters]]
-name = "k"
-start = 1.0
-lower = 0.0
-upper = 2.0
-[[parameters]]
+    /// The minimal job with a per-experiment parameter and three experiments.
+    static JOB: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
+        crate::job::spec::tests::JOB.to_owned()
+            + r#"[[parameters]]
 name = "y0"
 per_experiment = true
 start = 0.0
@@ -362,11 +352,12 @@ set = { g = 1.0 }
 name = "c"
 role = "validation"
 starts = { y0 = -0.25 }
-"#;
+"#
+    });
 
     #[test]
     fn per_experiment_parameters_expand_for_fitted_experiments_only() {
-        let spec = JobSpec::from_toml(JOB, Path::new("/jobs")).unwrap();
+        let spec = JobSpec::from_toml(&JOB, Path::new("/jobs")).unwrap();
         spec.validate().unwrap();
         let names: Vec<String> = spec.calibrated().into_iter().map(|c| c.name).collect();
         assert_eq!(names, ["k", "y0@a", "y0@b"]);
@@ -380,7 +371,7 @@ starts = { y0 = -0.25 }
 
     #[test]
     fn views_inherit_the_job_and_override_their_own_fields() {
-        let spec = JobSpec::from_toml(JOB, Path::new("/jobs")).unwrap();
+        let spec = JobSpec::from_toml(&JOB, Path::new("/jobs")).unwrap();
         let views = spec.experiment_views();
         assert_eq!(views.len(), 3);
         assert_eq!(views[0].spec.data.path.as_deref(), Some(Path::new("/jobs/d.csv")));

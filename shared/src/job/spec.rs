@@ -557,10 +557,11 @@ impl JobSpec {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    const JOB: &str = r#"
+    /// A minimal valid job: one output, one parameter `k` in [0, 2] from 1.
+    pub(crate) const JOB: &str = r#"
 [model]
 path = "m.fmu"
 [data]
