@@ -113,9 +113,9 @@ impl Evaluator {
         let start = Instant::now();
         let outcome = self.simulate(x, experiment);
         let wall = start.elapsed();
-        let objective = &self.job.experiments[experiment.min(self.job.experiments.len() - 1)].objective;
         match outcome {
-            Ok(sim) => match objective.residuals(&sim) {
+            // `simulate` succeeds only for an experiment the job has.
+            Ok(sim) => match self.job.experiments[experiment].objective.residuals(&sim) {
                 Some(r) => Evaluation {
                     value: Some(Objective::value(&r)),
                     residuals: want_residuals.then_some(r),
