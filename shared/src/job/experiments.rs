@@ -123,6 +123,15 @@ pub struct Calibrated {
     pub slot: Slot,
 }
 
+/// The index in `calibrated` ([`JobSpec::calibrated`]) of the value experiment `experiment`
+/// uses for `[[parameters]]` entry `index`.
+pub fn position_for(calibrated: &[Calibrated], index: usize, experiment: usize) -> Option<usize> {
+    calibrated.iter().position(|c| match c.slot {
+        Slot::Parameter { index: i, experiment: e } => i == index && e.is_none_or(|e| e == experiment),
+        Slot::Effect { .. } => false,
+    })
+}
+
 /// Checks an experiment name: it names a folder of the CLI's output.
 fn valid_name(name: &str) -> bool {
     !name.is_empty() && name.len() <= 64 && name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-'))
@@ -240,10 +249,7 @@ impl JobSpec {
     /// The index in [`Self::calibrated`] of the value experiment `experiment` uses for
     /// `[[parameters]]` entry `index`.
     pub fn calibrated_index(&self, index: usize, experiment: usize) -> Option<usize> {
-        self.calibrated().iter().position(|c| match c.slot {
-            Slot::Parameter { index: i, experiment: e } => i == index && e.is_none_or(|e| e == experiment),
-            Slot::Effect { .. } => false,
-        })
+        position_for(&self.calibrated(), index, experiment)
     }
 
     /// Checks the `[[experiments]]` and the per-experiment and log-scaled parameters.

@@ -9,7 +9,7 @@
 use super::JobError;
 use super::choices::ExperimentRole;
 use super::data::MeasurementTable;
-use super::experiments::{ExperimentView, Slot, prefixed};
+use super::experiments::{ExperimentView, Slot, position_for, prefixed};
 use super::objective::{Objective, Target};
 use super::spec::{EffectSpec, JobSpec};
 use crate::diagnose::effects;
@@ -82,14 +82,15 @@ impl PreparedJob {
             let count = e.ordered_parameters(k)?.len();
             effects.push(PreparedEffect { spec: e.clone(), offset: offset.unwrap_or(calibrated.len()), count });
         }
-        let (names, x0, _, _) = spec.parameter_vectors();
+        let names: Vec<String> = calibrated.iter().map(|c| c.name.clone()).collect();
+        let x0: Vec<f64> = calibrated.iter().map(|c| c.bounds.start).collect();
         let mut experiments = vec![];
         for (k, (view, table)) in views.iter().zip(data).enumerate() {
             let parameters = spec
                 .parameters
                 .iter()
                 .enumerate()
-                .filter_map(|(index, p)| Some((p.name.clone(), spec.calibrated_index(index, k)?)))
+                .filter_map(|(index, p)| Some((p.name.clone(), position_for(&calibrated, index, k)?)))
                 .collect();
             let context = Context { md, interfaces, interface, parameters, effects: effects.clone() };
             experiments.push(
