@@ -87,7 +87,7 @@ async fn run(spec: &JobSpec, data: &MeasurementTable, workers: usize, sample_at:
     tokio::time::sleep(Duration::from_millis(2000)).await; // let every worker register
     let t0 = Instant::now();
     let id = c
-        .submit_job(pb::SubmitJobRequest { spec: Some(job_to_proto(spec, data, &model)) })
+        .submit_job(pb::SubmitJobRequest { spec: Some(job_to_proto(spec, std::slice::from_ref(data), &model)) })
         .await
         .unwrap()
         .into_inner()
@@ -118,11 +118,12 @@ async fn run(spec: &JobSpec, data: &MeasurementTable, workers: usize, sample_at:
 
 fn in_process_seconds_per_eval(spec: &JobSpec, data: &MeasurementTable, n: usize) -> f64 {
     let fmu = Arc::new(Fmu::load(spec.model.path.as_ref().unwrap()).unwrap());
-    let job = Arc::new(PreparedJob::new(spec, &fmu.description, &fmu.interfaces(), data).unwrap());
+    let job =
+        Arc::new(PreparedJob::new(spec, &fmu.description, &fmu.interfaces(), std::slice::from_ref(data)).unwrap());
     let mut ev = Evaluator::new(&fmu, job).unwrap();
     let t = Instant::now();
     for i in 0..n {
-        ev.evaluate(&[0.1 + 4.9 * (i as f64 / n as f64)], false);
+        ev.evaluate(&[0.1 + 4.9 * (i as f64 / n as f64)], 0, false);
     }
     t.elapsed().as_secs_f64() / n as f64
 }
