@@ -7,7 +7,8 @@
 //! ask/tell loop the coordinator drives), so the figures compare the solvers and not the
 //! network. Each solver keeps the example's `x_tol` and `f_tol` and gets a budget of 3000
 //! simulations. The wall time to the target is the sum of the batch wall times up to the
-//! round that reached it. Prints a Markdown table, and JSON with `--json FILE`.
+//! round that reached it. Prints a Markdown table, and JSON with `--json FILE`; `--problem
+//! NAME` runs one problem only, and `--history` prints each round's best f after the table.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -87,17 +88,28 @@ fn run(spec: &JobSpec, fmu: &Arc<Fmu>, data: &[fmucal_shared::job::MeasurementTa
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let json_path = args.iter().position(|a| a == "--json").and_then(|i| args.get(i + 1)).cloned();
+    let only = args.iter().position(|a| a == "--problem").and_then(|i| args.get(i + 1)).cloned();
+    let history = args.iter().any(|a| a == "--history");
     let mut rows = vec![];
+    let mut trace = vec![];
     println!(
         "| problem | solver | simulations to NM's f + 1 % | rounds | wall (s) | final f | simulations in all | stop |"
     );
     println!("|---|---|---|---|---|---|---|---|");
-    for (problem, file) in PROBLEMS {
+    for (problem, file) in PROBLEMS.into_iter().filter(|(p, _)| only.as_deref().is_none_or(|o| o == *p)) {
         let (spec, fmu, data) = load(file);
         let runs: Vec<(&str, Run)> = ALGORITHMS.iter().map(|a| (*a, run(&spec, &fmu, &data, a))).collect();
         let target = 1.01 * runs[0].1.f_opt;
         for (algorithm, r) in &runs {
             let reached = r.reach(target);
+            if history {
+                for h in &r.history {
+                    trace.push(format!(
+                        "{problem} {algorithm}: round {} simulations {} best f {:.6e}",
+                        h.round, h.evaluations, h.best_f
+                    ));
+                }
+            }
             let cell = |v: Option<String>| v.unwrap_or_else(|| "not reached".into());
             println!(
                 "| {problem} | {algorithm} | {} | {} | {} | {:.6e} | {} | {} |",
@@ -115,6 +127,9 @@ fn main() {
                 "rounds": r.rounds, "wall_s": r.wall_s, "termination": r.termination,
             }));
         }
+    }
+    if !trace.is_empty() {
+        println!("\n{}", trace.join("\n"));
     }
     if let Some(path) = json_path {
         std::fs::write(&path, serde_json::to_string_pretty(&rows).expect("JSON")).expect("write the JSON");
