@@ -73,6 +73,10 @@ fn recovers_the_rate_that_generated_the_data_with_any_thread_count() {
         assert!((k - 1.7).abs() < 1e-4, "{algorithm}: recovered k = {k}");
         assert!(one.f_opt < 1e-8, "{algorithm}: f_opt = {}", one.f_opt);
         assert!(!one.history.is_empty() && one.history.windows(2).all(|w| w[1].best_f <= w[0].best_f));
+        // One history point per completed round, numbered from 1, the last one the final count.
+        let rounds: Vec<u64> = one.history.iter().map(|h| h.round).collect();
+        assert_eq!(rounds, (1..=one.rounds).collect::<Vec<_>>(), "{algorithm}: history rounds");
+        assert_eq!(one.history.last().map(|h| h.evaluations), Some(one.evaluations));
     }
 }
 

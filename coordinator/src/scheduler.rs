@@ -620,6 +620,6 @@ fn progress(job: &Job, batch_wall_s: f64) -> pb::WatchJobResponse {
         best_x: best.map(|b| b.0).unwrap_or_default(),
         batch_wall_s,
         status: wire(job.state.status),
-        rounds: o.rounds(),
+        rounds: job.state.run.completed_rounds(),
     }
 }

@@ -13,6 +13,7 @@ fn null_as_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
 /// Best value after each completed round.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct HistoryPoint {
+    /// The round (batch) completed, counted from 1.
     pub round: u64,
     pub evaluations: u64,
     /// Infinite until a point succeeded (written as "inf": JSON has no such number).

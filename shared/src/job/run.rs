@@ -185,14 +185,21 @@ impl JobRun {
         if self.optimizer.rounds() == rounds_before && !self.is_done() {
             return Ok(None);
         }
+        // The round completed is the one out before this tell (the optimizer may have handed
+        // out the next one since).
         let round = HistoryPoint {
-            round: self.optimizer.rounds(),
+            round: rounds_before,
             evaluations: self.optimizer.evaluations(),
             best_f: self.best_f(),
             batch_wall_s: round_wall_s,
         };
         self.history.push(round.clone());
         Ok(Some(round))
+    }
+
+    /// Rounds completed so far (the optimizer's count also holds the round still out).
+    pub fn completed_rounds(&self) -> u64 {
+        self.history.last().map_or(0, |h| h.round)
     }
 
     /// Whether the optimizer has stopped.
