@@ -36,6 +36,8 @@ const SLOW_THRESHOLD: f64 = 1e-4;
 const SLOW_HISTORY: usize = 5;
 /// (fmucal) The further step along the Levenberg–Marquardt path is at most this many Δ.
 const FURTHER: f64 = 4.0;
+/// (fmucal) A round that would hold the trial step alone also asks this fraction of it.
+const BACKTRACK: f64 = 0.5;
 /// (fmucal) The set is renewed around a step when its farthest point is more than this many
 /// step lengths from the centre.
 const STALE_STEPS: f64 = 3.0;
@@ -438,6 +440,17 @@ impl LeastSquares {
                     points.push(z);
                     roles.push(role);
                 }
+            }
+            if useful && points.len() == 1 && norm > self.rho {
+                // The step alone: its half rides along (a backtracking step that costs no round
+                // time), so that a step the model overshoots still makes progress this round.
+                let half = &step * BACKTRACK;
+                points.push(self.at_centre(&half));
+                roles.push(Role::Trial {
+                    radius: BACKTRACK * norm,
+                    norm: BACKTRACK * norm,
+                    predicted: predicted(&half),
+                });
             }
             if points.is_empty() {
                 // Nothing to learn at this resolution.
