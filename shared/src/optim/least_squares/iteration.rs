@@ -176,7 +176,7 @@ impl LeastSquares {
         // The trial step that decides the radius: the best one if it improves, else the first.
         let mut decisive: Option<(f64, f64, f64, f64)> = None; // (f, ratio, length, radius)
         for (role, sample) in roles.iter().zip(&samples) {
-            if let Role::Trial { radius, norm, predicted } = role {
+            if let Role::Trial { radius, norm, predicted, .. } = role {
                 let f = sample.as_ref().map_or(f64::INFINITY, |s| s.f);
                 if decisive.is_none_or(|(best, ..)| f < best && f < f_k) {
                     decisive = Some((f, (f_k - f) / predicted, *norm, *radius));
@@ -244,7 +244,7 @@ impl LeastSquares {
 
     /// Puts the round's trial and refresh points into the set. A complete refresh renews the
     /// whole set: the old centre, the trial point and the points next to it; otherwise each
-    /// usable point is inserted (trial points best first).
+    /// usable point is inserted (trial points best first; of a step and its half, the better).
     fn update_set(&mut self, roles: &[Role], samples: &mut [Option<Sample>]) {
         let refresh: Vec<usize> = (0..roles.len()).filter(|&i| matches!(roles[i], Role::Refresh)).collect();
         let trials: Vec<usize> = (0..roles.len()).filter(|&i| matches!(roles[i], Role::Trial { .. })).collect();
@@ -260,6 +260,10 @@ impl LeastSquares {
             let f = |i: usize| samples[i].as_ref().map_or(f64::INFINITY, |s| s.f);
             f(a).total_cmp(&f(b)).then(a.cmp(&b))
         });
+        if roles.iter().any(|r| matches!(r, Role::Trial { backtrack: true, .. })) {
+            // A step and its half: on one line with the centre, so only the better enters.
+            order.truncate(1);
+        }
         for i in order.into_iter().chain(refresh) {
             if let Some(y) = samples[i].take() {
                 self.set.insert(y, self.delta);
@@ -398,7 +402,7 @@ impl LeastSquares {
             let mut roles = vec![];
             if useful {
                 points.push(self.at_centre(&step));
-                roles.push(Role::Trial { radius: self.delta, norm, predicted: pred });
+                roles.push(Role::Trial { radius: self.delta, norm, predicted: pred, backtrack: false });
             }
             if !model.missing.is_empty() {
                 // An incomplete set (after failed evaluations): fill the missing directions.
@@ -417,7 +421,7 @@ impl LeastSquares {
                     let (norm2, pred2) = (step2.norm(), predicted(&step2));
                     if pred2 > 0.0 && (norm2 - norm).abs() > 0.1 * norm {
                         points.push(self.at_centre(&step2));
-                        roles.push(Role::Trial { radius: further, norm: norm2, predicted: pred2 });
+                        roles.push(Role::Trial { radius: further, norm: norm2, predicted: pred2, backtrack: false });
                     }
                 } else if step.len() > 1 && far > STALE_STEPS * norm.max(self.rho) {
                     // The model's points are far compared with the step: renew them around it.
@@ -435,7 +439,7 @@ impl LeastSquares {
                 if let Some((z, role)) = self.geometry_for_farthest() {
                     if pred > 0.0 && norm > 0.0 {
                         points.push(self.at_centre(&step));
-                        roles.push(Role::Trial { radius: norm.max(self.rho), norm, predicted: pred });
+                        roles.push(Role::Trial { radius: norm.max(self.rho), norm, predicted: pred, backtrack: false });
                     }
                     points.push(z);
                     roles.push(role);
@@ -450,6 +454,7 @@ impl LeastSquares {
                     radius: BACKTRACK * norm,
                     norm: BACKTRACK * norm,
                     predicted: predicted(&half),
+                    backtrack: true,
                 });
             }
             if points.is_empty() {

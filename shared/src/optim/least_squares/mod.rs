@@ -122,8 +122,15 @@ enum Phase {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 enum Role {
     /// A trust-region step: the radius it was computed for, its length and the decrease of f
-    /// the model predicts.
-    Trial { radius: f64, norm: f64, predicted: f64 },
+    /// the model predicts; `backtrack` for the half step asked beside the step (the two lie on
+    /// one line with the centre, so only the better enters the set).
+    Trial {
+        radius: f64,
+        norm: f64,
+        predicted: f64,
+        #[serde(default)]
+        backtrack: bool,
+    },
     /// A geometry step: the point that replaces the set's point at `replaces` (scaled
     /// position), or fills a missing direction (`None`).
     Geometry { replaces: Option<Vec<f64>> },

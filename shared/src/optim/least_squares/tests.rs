@@ -236,13 +236,14 @@ fn termination_reports_the_rule_that_fired() {
     let ls = with(Stopping { f_tol: Some(1e-4), ..none }, None);
     assert_eq!(ls.status(), Status::Done(Termination::FTol));
     assert!(ls.best().is_some_and(|(_, f)| f <= 1e-4 * 24.2));
-    // Slow progress: Beale from (10, 10) creeps along its valley towards x → −∞.
+    // Slow progress: Beale from (−10, 10) creeps along its valley towards x → −∞.
     let beale = problem("Beale");
     let (lower, upper) = unbounded(2);
     let settings = LsSettings { stopping: none, max_slow_iterations: Some(3), ..LsSettings::new(2) };
-    let mut ls = LeastSquares::new(&lower, &upper, &[10.0, 10.0], settings).expect("settings");
+    let mut ls = LeastSquares::new(&lower, &upper, &[-10.0, 10.0], settings).expect("settings");
     run(&mut ls, &|x| Some((beale.residuals)(x)), &lower, &upper);
     assert_eq!(ls.status(), Status::Done(Termination::FTol));
+    assert!(ls.best().is_some_and(|(x, _)| x[0] < -100.0), "it crept along the valley");
 }
 
 #[test]
