@@ -77,6 +77,14 @@ pub trait PortEffect: Kind + Guesses {
     fn kinks(&self, _p: &[f64]) -> Vec<f64> {
         vec![]
     }
+
+    /// Whether the term is zero for every signal value with parameters `p`. The simulator then
+    /// neither reads its signal nor adds its kinks (a diagnosis's screening holds every
+    /// candidate at once, all but one at zero strength). The default: the first parameter is
+    /// the strength, and the term vanishes when it is 0.
+    fn vanishes(&self, p: &[f64]) -> bool {
+        p.first() == Some(&0.0)
+    }
 }
 
 /// A change to a measured series (`time` increasing, `values` aligned with it).
@@ -170,6 +178,11 @@ impl PortEffect for CoulombFriction {
 }
 
 impl PortEffect for StribeckFriction {
+    /// Both levels are strengths.
+    fn vanishes(&self, p: &[f64]) -> bool {
+        p[0] == 0.0 && p[1] == 0.0
+    }
+
     fn term(&self, p: &[f64], v: f64) -> f64 {
         let (fc, fs, vs) = (p[0], p[1], p[2]);
         let level = if vs > 0.0 { fc + (fs - fc) * (-(v / vs).powi(2)).exp() } else { fc };
@@ -458,6 +471,29 @@ mod tests {
         let r = port("radiation").term(&[0.5, 300.0], 400.0);
         assert!((r - 0.5 * SIGMA * (300.0f64.powi(4) - 400.0f64.powi(4))).abs() < 1e-9);
         assert_eq!(port("heat_loss").term(&[7.0], 1.0), -7.0);
+    }
+
+    #[test]
+    fn a_term_said_to_vanish_is_zero_for_every_signal_and_a_strong_one_is_not() {
+        let signals = [-300.0, -2.0, -1e-3, 0.0, 1e-3, 0.7, 2.0, 400.0];
+        let others: [f64; 5] = [-2.0, 0.0, 0.3, 2.0, 350.0];
+        for k in port_kinds() {
+            let n = k.parameters().len();
+            // Every combination of the other parameters with each strength at 0 or 1.
+            for strength in [0.0, 1.0] {
+                for i in 0..others.len() {
+                    let mut p: Vec<f64> = (0..n).map(|j| others[(i + j) % others.len()]).collect();
+                    p[0] = strength;
+                    if k.name() == "stribeck_friction" {
+                        p[1] = strength;
+                    }
+                    let zero = signals.iter().all(|&s| k.term(&p, s) == 0.0);
+                    assert_eq!(k.vanishes(&p), zero, "{} at {p:?}", k.name());
+                }
+            }
+        }
+        let s = port("stribeck_friction");
+        assert!(!s.vanishes(&[0.0, 1.0, 0.1]) && s.term(&[0.0, 1.0, 0.1], 0.01) != 0.0);
     }
 
     #[test]

@@ -48,6 +48,13 @@ pub struct PlannedTerm {
     pub base: PortBase,
 }
 
+impl PlannedTerm {
+    /// The term's kinks, none where it vanishes.
+    fn kinks(&self) -> Vec<f64> {
+        if self.effect.vanishes(&self.parameters) { vec![] } else { self.effect.kinks(&self.parameters) }
+    }
+}
+
 impl std::fmt::Debug for PlannedTerm {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}({:?}) of vr {} into vr {}", self.effect.name(), self.parameters, self.signal_vr, self.port_vr)
@@ -314,9 +321,13 @@ impl Plan {
     pub fn apply_port_terms(&self, inst: &mut Instance, t: f64, side: Side) -> Result<(), FmuError> {
         let mut ports: Vec<(u32, f64)> = vec![];
         for term in &self.port_terms {
-            let mut s = [0.0];
-            inst.call("fmi2GetReal", |c| c.get_real(&[term.signal_vr], &mut s))?;
-            let add = term.effect.term(&term.parameters, s[0]);
+            let add = if term.effect.vanishes(&term.parameters) {
+                0.0
+            } else {
+                let mut s = [0.0];
+                inst.call("fmi2GetReal", |c| c.get_real(&[term.signal_vr], &mut s))?;
+                term.effect.term(&term.parameters, s[0])
+            };
             match ports.iter_mut().find(|(vr, _)| *vr == term.port_vr) {
                 Some((_, v)) => *v += add,
                 None => {
@@ -335,9 +346,10 @@ impl Plan {
         Ok(())
     }
 
-    /// Event indicators of the port terms: one per kink of each term ([`PortEffect::kinks`]).
+    /// Event indicators of the port terms: one per kink of each term ([`PortEffect::kinks`])
+    /// that does not vanish ([`PortEffect::vanishes`]).
     pub fn term_indicator_count(&self) -> usize {
-        self.port_terms.iter().map(|t| t.effect.kinks(&t.parameters).len()).sum()
+        self.port_terms.iter().map(|t| t.kinks().len()).sum()
     }
 
     /// The port terms' event indicators, signal − kink, into `z` (of
@@ -348,7 +360,7 @@ impl Plan {
     pub fn term_indicators(&self, inst: &mut Instance, z: &mut [f64]) -> Result<(), FmuError> {
         let mut k = 0;
         for term in &self.port_terms {
-            let kinks = term.effect.kinks(&term.parameters);
+            let kinks = term.kinks();
             if kinks.is_empty() {
                 continue;
             }
