@@ -6,6 +6,7 @@
 use std::collections::BTreeMap;
 
 use super::candidates::Candidate;
+use crate::job::choices::Algorithm;
 use crate::job::identifiability::DifferencePlan;
 use crate::job::spec::{EffectSpec, JobSpec, OptimizerSpec, SetValue};
 
@@ -21,12 +22,16 @@ pub fn decision_f_tol(ssr: f64, n_eff: f64) -> f64 {
     IC_ACCURACY * ssr.max(0.0) / n_eff.max(1.0)
 }
 
-/// The optimizer settings of a candidate's fit expected to end near `ssr`: the job's own, with
-/// f_tol loosened to [`decision_f_tol`] where that is looser (a job's tolerance is meant for
-/// its final fit, and the decision needs far less; the chosen candidate is polished to the
-/// job's own tolerances afterwards). Returns the settings and the f_tol they use.
+/// The optimizer settings of a candidate's fit expected to end near `ssr`: the least-squares
+/// solver (a fit starts where the screening's Gauss–Newton step points, and from there the
+/// residual vector takes it to the optimum in a few rounds of parallel points, where
+/// Nelder–Mead walks point by point), with the job's own x_tol and budgets, and f_tol
+/// loosened to [`decision_f_tol`] where that is looser (a job's tolerance is meant for its
+/// final fit, and the decision needs far less; the chosen candidate is polished to the job's
+/// own tolerances afterwards). Returns the settings and the f_tol the decision uses.
 pub fn decision_optimizer(own: &OptimizerSpec, ssr: f64, n_eff: f64) -> (OptimizerSpec, f64) {
     let mut o = own.clone();
+    o.algorithm = Algorithm::LeastSquares;
     let needed = decision_f_tol(ssr, n_eff);
     let f_tol = match own.f_tol {
         // 0 disables the rule in the job; the decision still stops at what it needs.
@@ -242,6 +247,7 @@ top = 3
         let (o, f_tol) = decision_optimizer(&own, 2000.0, 1000.0);
         assert_eq!((o.f_tol, f_tol), (Some(0.2), 0.2));
         assert_eq!(o.x_tol, Some(1e-5), "x_tol is the job's");
+        assert_eq!(o.algorithm, Algorithm::LeastSquares, "the fit uses the residual vector");
         let loose = OptimizerSpec { f_tol: Some(1.0), ..Default::default() };
         assert_eq!(decision_optimizer(&loose, 2000.0, 1000.0).0.f_tol, Some(1.0));
         let off = OptimizerSpec { f_tol: Some(0.0), ..Default::default() };

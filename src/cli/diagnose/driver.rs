@@ -182,12 +182,6 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             // A candidate that does not help can leave the optimizer wandering on a flat
             // objective: bound its work by the base fit's.
             job.optimizer.max_fevals = job.optimizer.max_fevals.or(Some((5 * result.evaluations).max(500)));
-            // The K fits running side by side keep the workers busy: each Nelder–Mead fit asks
-            // for the one point it needs next rather than its four trial points at once,
-            // which takes as many iterations and fewer simulations.
-            if top.len() > 1 {
-                job.optimizer.parallel = false;
-            }
             let (mut client, data, model, fmu) = (client.clone(), ctx.data.clone(), ctx.model.clone(), ctx.fmu.clone());
             tasks.spawn(async move {
                 let t = Instant::now();
