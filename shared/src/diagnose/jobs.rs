@@ -68,9 +68,10 @@ pub fn stopped_early(decrease: f64, f_tol: f64, ssr: f64, n_eff: f64) -> bool {
     decrease > 10.0 * f_tol.max(decision_f_tol(ssr, n_eff))
 }
 
-/// Nelder–Mead's initial step (scaled) for the polish of a fit that has stopped near its
-/// optimum: a simplex 20 times the job's `x_tol`, at most the job's own initial step. It
-/// shrinks to x_tol in a few halvings; a start that is further off is walked by expansions.
+/// The initial step (scaled; the least-squares solver's initial radius) for the polish of a fit
+/// that has stopped near its optimum: 20 times the job's `x_tol`, at most the job's own initial
+/// step. It shrinks to x_tol in a few reductions; a start that is further off is walked by
+/// growing the radius.
 pub fn polish_step(x_tol: Option<f64>, initial_step: Option<f64>) -> f64 {
     let default = initial_step.unwrap_or(0.05);
     let x_tol = x_tol.filter(|x| *x > 0.0).unwrap_or(1e-6);
@@ -293,7 +294,7 @@ top = 3
     }
 
     #[test]
-    fn a_polish_starts_with_a_simplex_of_twenty_x_tol() {
+    fn a_polish_starts_with_a_radius_of_twenty_x_tol() {
         assert!((polish_step(Some(1e-4), None) - 2e-3).abs() < 1e-15);
         assert_eq!(polish_step(Some(1e-2), Some(0.05)), 0.05, "at most the job's own step");
         assert!((polish_step(None, None) - 2e-5).abs() < 1e-18);

@@ -80,9 +80,11 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
         }
         Algorithm::LeastSquares => {
             let d = LsSettings::new(n);
-            // Its own f_tol rule (f below f_tol × f(x0)) is not the spread the job's f_tol means.
+            // Its own f_tol rule (f below f_tol × f(x0)) is not the spread the job's f_tol means;
+            // the job's f_tol is the gain below which a step is not worth a round.
             let s = LsSettings {
                 initial_radius: o.initial_step.unwrap_or(d.initial_radius),
+                min_predicted_gain: stopping.f_tol,
                 stopping: Stopping { f_tol: None, ..stopping },
                 ..d
             };

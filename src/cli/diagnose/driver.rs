@@ -22,6 +22,7 @@ use fmucal_shared::diagnose::localise::localise;
 use fmucal_shared::diagnose::report::{
     CandidateFit, Diagnosis, NamedEffect, PhaseTime, RankedCandidate, Round, value_with_interval,
 };
+use fmucal_shared::job::choices::Algorithm;
 use fmucal_shared::job::identifiability::{self, Identifiability};
 use fmucal_shared::job::{CalibrationResult, JobSpec, MeasurementTable, PreparedJob};
 
@@ -402,8 +403,9 @@ const GAUSS_NEWTON_ITERATIONS: usize = 4;
 /// ([`Fit::gauss_newton`], each step 2n + 1 simulations side by side) until a step is predicted
 /// to gain less than the job's f_tol. Where the model is too nonlinear for that (the last
 /// step's predicted gain is still above the decision's accuracy, [`decision_f_tol`] at
-/// `n_eff`), Nelder–Mead goes on from there with the job's own settings, one point at a time
-/// from a small simplex ([`polish_step`]). Evaluations and wall time include the decision's
+/// `n_eff`), the least-squares solver goes on from there with the job's own x_tol, from a
+/// small trust region ([`polish_step`]; its interpolation model follows the curvature the
+/// difference steps miss). Evaluations and wall time include the decision's
 /// fit; `simulations` only the polish's.
 async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &CandidateFit, n_eff: f64) -> Result<Fitted> {
     let t = Instant::now();
@@ -417,15 +419,15 @@ async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &Candida
     let (mut ssr, mut x, gain) = refined.context("the polish's first point failed")?;
     let mut termination = "Gauss–Newton polish";
     if gain > decision_f_tol(ssr, n_eff) {
-        let mut nm = with_starts(job.clone(), &names.iter().cloned().zip(x.iter().copied()).collect());
-        nm.optimizer.initial_step = Some(polish_step(nm.optimizer.x_tol, nm.optimizer.initial_step));
-        nm.optimizer.parallel = false;
-        let r = gn.client.calibrate_with(&nm, std::slice::from_ref(&*ctx.data), &ctx.model, |_| {}).await?;
+        let mut ls = with_starts(job.clone(), &names.iter().cloned().zip(x.iter().copied()).collect());
+        ls.optimizer.algorithm = Algorithm::LeastSquares;
+        ls.optimizer.initial_step = Some(polish_step(ls.optimizer.x_tol, ls.optimizer.initial_step));
+        let r = gn.client.calibrate_with(&ls, std::slice::from_ref(&*ctx.data), &ctx.model, |_| {}).await?;
         simulations += r.evaluations;
         if r.f_opt < ssr {
             let (_, again) = gn.gauss_newton(r.x_opt_in(&names), |_, _| true, &mut simulations).await?;
             (ssr, x, id) = (r.f_opt, r.x_opt_in(&names), again);
-            termination = "Gauss–Newton and Nelder–Mead polish";
+            termination = "Gauss–Newton and least-squares polish";
         }
     }
     tracing::debug!(

@@ -395,6 +395,14 @@ impl LeastSquares {
             let bx = self.step_box();
             let f_k = self.set.centre().f;
             let predicted = |d: &DVector<f64>| f_k - (&model.r + &model.jacobian * d).norm_squared();
+            if let Some(gain) = self.settings.min_predicted_gain
+                && model.missing.is_empty()
+                && self.set.farthest().is_none_or(|(_, d)| d <= FAR_RHO * self.rho)
+                && predicted(&trust_region_step(&model.jacobian, &model.r, &bx, f64::INFINITY)) < gain
+            {
+                self.stop(Termination::FTol);
+                return;
+            }
             let step = trust_region_step(&model.jacobian, &model.r, &bx, self.delta);
             let (norm, pred) = (step.norm(), predicted(&step));
             let useful = norm >= SAFETY * self.rho && pred > 0.0;

@@ -55,6 +55,9 @@
 //! - slow progress: `max_slow_iterations` consecutive improving rounds in which log f fell by
 //!   less than 10⁻⁴ per round, averaged over the last 5 (DFO-LS's `slow.*` rule) →
 //!   [`Termination::FTol`].
+//! - predicted gain (`min_predicted_gain`, a job's `f_tol`): the model, built from points no
+//!   farther than 10ρ from x_k, predicts that the Gauss–Newton step in the box lowers f by
+//!   less than it → [`Termination::FTol`]. f is then known to about that accuracy.
 //! - `max_iters` trust-region iterations (rounds after the first) → [`Termination::MaxIters`];
 //!   `max_fevals` evaluations → [`Termination::MaxFevals`]; a batch never asks beyond it (the
 //!   trial step has priority).
@@ -89,6 +92,10 @@ pub struct LsSettings {
     /// Consecutive slow successful iterations before stopping (see the module docs); `None`
     /// disables the rule. Default: 20·n, as DFO-LS.
     pub max_slow_iterations: Option<u64>,
+    /// Stop once the model, on a set no farther than 10ρ from the centre, predicts that the
+    /// best step in the box lowers f by less than this (absolute; a job's `f_tol`). `None`
+    /// disables the rule. Default: `None`.
+    pub min_predicted_gain: Option<f64>,
     /// Scale of parameters without two finite bounds. Default: |x0| (0.005 where x0 is 0).
     pub nominal: Option<Vec<f64>>,
 }
@@ -100,6 +107,7 @@ impl LsSettings {
             initial_radius: 0.1,
             stopping: Stopping::default_for(n),
             max_slow_iterations: Some(20 * n.max(1) as u64),
+            min_predicted_gain: None,
             nominal: None,
         }
     }
@@ -187,6 +195,9 @@ impl LeastSquares {
                 "initial_radius",
                 format!("must be positive, got {}", settings.initial_radius),
             ));
+        }
+        if settings.min_predicted_gain.is_some_and(|g| !(g >= 0.0 && g.is_finite())) {
+            return Err(OptimError::setting("f_tol", "must be finite and not negative"));
         }
         if settings.max_slow_iterations == Some(0) {
             return Err(OptimError::setting("max_slow_iterations", "must be at least 1"));
