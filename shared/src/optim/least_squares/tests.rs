@@ -236,6 +236,17 @@ fn termination_reports_the_rule_that_fired() {
     let ls = with(Stopping { f_tol: Some(1e-4), ..none }, None);
     assert_eq!(ls.status(), Status::Done(Termination::FTol));
     assert!(ls.best().is_some_and(|(_, f)| f <= 1e-4 * 24.2));
+    // The predicted gain: it stops with f within about the gain of the minimum 0, long before
+    // the radius would reach its floor, and no later for a larger gain.
+    let gain = |g: f64| solve(p, LsSettings { stopping: none, min_predicted_gain: Some(g), ..LsSettings::new(2) });
+    let (loose, tight) = (gain(1e-3), gain(1e-12));
+    for ls in [&loose, &tight] {
+        assert_eq!(ls.status(), Status::Done(Termination::FTol));
+    }
+    assert!(loose.best().is_some_and(|(_, f)| f < 1e-2), "{:?}", loose.best());
+    assert!(tight.best().is_some_and(|(_, f)| f < 1e-10), "{:?}", tight.best());
+    let without = with(none, None);
+    assert!(loose.evaluations() <= tight.evaluations() && tight.evaluations() < without.evaluations());
     // Slow progress: Beale from (−10, 10) creeps along its valley towards x → −∞.
     let beale = problem("Beale");
     let (lower, upper) = unbounded(2);
