@@ -15,7 +15,7 @@ use crate::job::spec::{EffectSpec, JobSpec, OptimizerSpec, SetValue};
 /// test, 2 for equal support).
 pub const IC_ACCURACY: f64 = 0.1;
 
-/// The spread of objective values (Nelder–Mead's f_tol, absolute) at which a fit knows an SSR
+/// The objective accuracy (a job's f_tol, absolute) at which a fit knows an SSR
 /// near `ssr` well enough for the decision: an error δ in SSR₁ moves ΔIC by n_eff·δ/SSR₁, so
 /// δ = [`IC_ACCURACY`]·SSR₁/n_eff, with `n_eff` the effective samples the decision uses.
 pub fn decision_f_tol(ssr: f64, n_eff: f64) -> f64 {
@@ -61,7 +61,7 @@ pub fn noise_ssr(r: &[f64]) -> f64 {
 }
 
 /// A candidate fit whose Gauss–Newton step would still gain `decrease` stopped early (its
-/// simplex small on a slope, not at an optimum) when that gain would move its ΔIC by more
+/// solver ended on a slope, not at an optimum) when that gain would move its ΔIC by more
 /// than 10 × [`IC_ACCURACY`], half the [`EQUAL_SUPPORT`](super::decision::EQUAL_SUPPORT)
 /// band: Gauss–Newton steps go on. `f_tol` is the tolerance it stopped at (a gain below it is noise).
 pub fn stopped_early(decrease: f64, f_tol: f64, ssr: f64, n_eff: f64) -> bool {

@@ -312,7 +312,7 @@ impl Fit<'_> {
     /// The fit of a candidate to the accuracy the decision needs ([`decision_optimizer`] at
     /// `ssr`, the lower of the start's SSR and the noise's), then its identifiability from the
     /// difference points at its optimum. Those also say what a Gauss–Newton step would still
-    /// gain ([`gauss_newton`]): more than [`stopped_early`] allows means the simplex stopped on
+    /// gain ([`gauss_newton`]): more than [`stopped_early`] allows means the fit stopped on
     /// a slope, and Gauss–Newton steps go on ([`Fit::gauss_newton`]). The result counts the
     /// evaluations of the fit and `simulations` adds the difference points.
     async fn for_decision(
