@@ -80,7 +80,8 @@ pub enum Termination {
     /// the trust radius would go below `x_tol`).
     XTol,
     /// The spread of objective values is below `f_tol` (least squares: the objective fell to
-    /// `f_tol` × its start value, or progress stalled; see [`least_squares`]).
+    /// `f_tol` × its start value, its model predicts less gain than `min_predicted_gain` (a
+    /// job's `f_tol`), or progress stalled; see [`least_squares`]).
     FTol,
     /// `max_iters` iterations (generations for DE and GA) were done.
     MaxIters,
@@ -115,7 +116,8 @@ pub struct Stopping {
     /// radius. Default: 1e-6.
     pub x_tol: Option<f64>,
     /// Spread of objective values over the simplex or population (max − min); for least
-    /// squares, the objective relative to its value at x0. Default: 1e-8.
+    /// squares, the objective relative to its value at x0 (a job passes its `f_tol` to least
+    /// squares as `LsSettings::min_predicted_gain` instead). Default: 1e-8.
     pub f_tol: Option<f64>,
     /// Iterations (NM, least squares) or generations (DE, GA). Default: 1000 × dimension.
     pub max_iters: Option<u64>,
