@@ -67,7 +67,9 @@ async fn run(spec: &JobSpec, data: &MeasurementTable, workers: usize, sample_at:
     let config = fmucal_coordinator::Config {
         data_dir: dir.path().join("c"),
         token: Some(TOKEN.into()),
+        worker_token: None,
         timing: Default::default(),
+        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
         diagnose_program: None,
     };
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();

@@ -7,6 +7,10 @@
 //! - `convergence`: best f against evaluations, one marker per completed batch.
 //!
 //! `fmucal plot DIR` reads an existing result folder and calls [`draw_all`].
+//!
+//! Values a plot cannot place (non-finite, or beyond ±[`PLOT_LIMIT`], whose axis arithmetic
+//! would overflow) are left out, and drawing is given [`DRAW_TIME_LIMIT`]: a plot never keeps a
+//! run from ending.
 
 use std::path::Path;
 use std::sync::Once;
@@ -29,9 +33,22 @@ struct Series {
     optimized: Vec<(f64, f64)>,
 }
 
-/// The points of `values` at `time` that are finite.
+/// Largest magnitude drawn: an axis spanning more overflows (its padding, its log-scale
+/// ticks), and no measurement is that large.
+pub(crate) const PLOT_LIMIT: f64 = 1e150;
+
+/// How long [`draw_all`] may take before it gives up on the plots.
+pub const DRAW_TIME_LIMIT: std::time::Duration = std::time::Duration::from_secs(120);
+
+/// Whether a plot can place `v`.
+pub(crate) fn plottable(v: f64) -> bool {
+    v.is_finite() && v.abs() <= PLOT_LIMIT
+}
+
+/// The points of `values` at `time` that a plot can place.
 fn finite(time: &[f64], values: impl IntoIterator<Item = Option<f64>>) -> Vec<(f64, f64)> {
-    time.iter().zip(values).filter_map(|(t, v)| v.filter(|v| v.is_finite()).map(|v| (*t, v))).collect()
+    let points = time.iter().zip(values).filter(|(t, _)| plottable(**t));
+    points.filter_map(|(t, v)| v.filter(|v| plottable(*v)).map(|v| (*t, v))).collect()
 }
 
 /// One panel per output; consecutive outputs of the same variable share a panel.
@@ -58,7 +75,7 @@ pub(crate) fn register_font() {
 
 pub(crate) fn range(points: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) =
-        points.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+        points.filter(|v| plottable(*v)).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
     if !lo.is_finite() {
         return (0.0, 1.0);
     }
@@ -185,7 +202,7 @@ where
 {
     root.fill(&WHITE)?;
     let (e0, e1) = range(points.iter().map(|p| p.0));
-    let fs = points.iter().map(|p| p.1).filter(|v| v.is_finite() && *v > 0.0);
+    let fs = points.iter().map(|p| p.1).filter(|v| plottable(*v) && *v > 0.0);
     let (lo, hi) = fs.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
     let (lo, hi) = if lo.is_finite() { (lo * 0.5, hi * 2.0) } else { (1e-6, 1.0) };
     let mut chart = ChartBuilder::on(&root)
@@ -201,7 +218,7 @@ where
         .y_label_formatter(&|v| format!("{v:.0e}"))
         .label_style(("sans-serif", 12))
         .draw()?;
-    let positive: Vec<(f64, f64)> = points.iter().copied().filter(|p| p.1 > 0.0 && p.1.is_finite()).collect();
+    let positive: Vec<(f64, f64)> = points.iter().copied().filter(|p| p.1 > 0.0 && plottable(p.1)).collect();
     chart.draw_series(LineSeries::new(positive.iter().copied(), RED.stroke_width(1)))?;
     chart.draw_series(positive.iter().map(|p| Circle::new(*p, 3, RED.filled())))?;
     root.present()?;
@@ -212,7 +229,8 @@ where
 /// calibration/validation split of `errors` if it has a validation window.
 ///
 /// # Errors
-/// [`ReportError`] if a plot cannot be written.
+/// [`ReportError`] if a plot cannot be written, or if drawing takes longer than
+/// [`DRAW_TIME_LIMIT`] (the drawing threads are then left to end with the process).
 pub fn draw_all(
     dir: &Path,
     fit: &FitTable,
@@ -220,9 +238,10 @@ pub fn draw_all(
     errors: Option<&ErrorReport>,
 ) -> Result<(), ReportError> {
     register_font();
-    let series = series(fit);
-    let conv: Vec<(f64, f64)> = history.iter().map(|h| (h.evaluations as f64, h.best_f)).collect();
-    let split = errors.and_then(ErrorReport::validation_split);
+    let series = std::sync::Arc::new(series(fit));
+    let conv: std::sync::Arc<Vec<(f64, f64)>> =
+        std::sync::Arc::new(history.iter().map(|h| (h.evaluations as f64, h.best_f)).collect());
+    let split = errors.and_then(ErrorReport::validation_split).filter(|t| plottable(*t));
     let height = 300 * series.len().max(1) as u32;
     let fail = |name: &str, message: String| ReportError::Draw { path: dir.join(name).display().to_string(), message };
     // Six independent files: draw them on parallel threads.
@@ -234,32 +253,79 @@ pub fn draw_all(
         ("convergence", "svg"),
         ("convergence", "png"),
     ];
-    let results: Vec<Result<(), ReportError>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = files
-            .iter()
-            .map(|&(name, ext)| {
-                let (series, conv) = (&series, &conv);
-                scope.spawn(move || {
-                    let file = format!("{name}.{ext}");
-                    let path = dir.join(&file);
-                    let size = if name == "convergence" { (900, 500) } else { (1000, height) };
-                    let r = match (name, ext) {
-                        ("fit", "svg") => draw_fit(SVGBackend::new(&path, size).into_drawing_area(), series),
-                        ("fit", _) => draw_fit(BitMapBackend::new(&path, size).into_drawing_area(), series),
-                        ("error", "svg") => draw_error(SVGBackend::new(&path, size).into_drawing_area(), series, split),
-                        ("error", _) => draw_error(BitMapBackend::new(&path, size).into_drawing_area(), series, split),
-                        (_, "svg") => draw_convergence(SVGBackend::new(&path, size).into_drawing_area(), conv),
-                        _ => draw_convergence(BitMapBackend::new(&path, size).into_drawing_area(), conv),
-                    };
-                    r.map_err(|e| fail(&file, e.to_string()))
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|_| Err(fail("plots", "a drawing thread panicked".into()))))
-            .collect()
-    });
-    results.into_iter().collect::<Result<Vec<()>, _>>()?;
+    let (tx, rx) = std::sync::mpsc::channel();
+    for (name, ext) in files {
+        let (series, conv, tx) = (series.clone(), conv.clone(), tx.clone());
+        let file = format!("{name}.{ext}");
+        let path = dir.join(&file);
+        std::thread::spawn(move || {
+            let size = if name == "convergence" { (900, 500) } else { (1000, height) };
+            let drawn = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match (name, ext) {
+                ("fit", "svg") => draw_fit(SVGBackend::new(&path, size).into_drawing_area(), &series),
+                ("fit", _) => draw_fit(BitMapBackend::new(&path, size).into_drawing_area(), &series),
+                ("error", "svg") => draw_error(SVGBackend::new(&path, size).into_drawing_area(), &series, split),
+                ("error", _) => draw_error(BitMapBackend::new(&path, size).into_drawing_area(), &series, split),
+                (_, "svg") => draw_convergence(SVGBackend::new(&path, size).into_drawing_area(), &conv),
+                _ => draw_convergence(BitMapBackend::new(&path, size).into_drawing_area(), &conv),
+            }));
+            let message = match drawn {
+                Ok(Ok(())) => None,
+                Ok(Err(e)) => Some(e.to_string()),
+                Err(_) => Some("the drawing thread panicked".to_owned()),
+            };
+            let _ = tx.send((file, message));
+        });
+    }
+    drop(tx);
+    let deadline = std::time::Instant::now() + DRAW_TIME_LIMIT;
+    for _ in 0..files.len() {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        match rx.recv_timeout(left) {
+            Ok((_, None)) => {}
+            Ok((file, Some(message))) => return Err(fail(&file, message)),
+            Err(_) => {
+                let limit = DRAW_TIME_LIMIT.as_secs();
+                return Err(fail("plots", format!("drawing took longer than {limit} s; the plots are incomplete")));
+            }
+        }
+    }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use fmucal_shared::job::report::FitColumns;
+
+    use super::*;
+
+    #[test]
+    fn extreme_and_non_finite_values_are_left_out_of_the_plots() {
+        let dir = tempfile::tempdir().unwrap();
+        let time = vec![0.0, 1.0, 2.0, 3.0];
+        let fit = FitTable {
+            time: time.clone(),
+            outputs: vec![FitColumns {
+                variable: "y".into(),
+                measured: vec![1e308, f64::INFINITY, 1.0, -1e308],
+                nominal: vec![Some(0.5), Some(f64::NAN), Some(-1e300), None],
+                optimized: vec![Some(1.0); 4],
+            }],
+        };
+        let history = [1e308, f64::INFINITY, 1.0]
+            .iter()
+            .enumerate()
+            .map(|(k, &f)| HistoryPoint {
+                round: k as u64 + 1,
+                evaluations: 4 * k as u64,
+                best_f: f,
+                batch_wall_s: 0.1,
+            })
+            .collect::<Vec<_>>();
+        draw_all(dir.path(), &fit, &history, None).unwrap();
+        for file in ["fit.svg", "fit.png", "error.svg", "error.png", "convergence.svg", "convergence.png"] {
+            assert!(std::fs::metadata(dir.path().join(file)).unwrap().len() > 0, "{file}");
+        }
+        let s = series(&fit);
+        assert_eq!((s[0].measured.as_slice(), s[0].nominal.as_slice()), (&[(2.0, 1.0)][..], &[(0.0, 0.5)][..]));
+    }
 }

@@ -135,3 +135,60 @@ fn an_output_with_weight_zero_leaves_the_result_unchanged() {
     assert_eq!(a["f_opt"], b["f_opt"]);
     assert_eq!(a["x_opt"], b["x_opt"]);
 }
+
+/// The command lines of the processes running now that mention `text`.
+fn processes_mentioning(text: &str) -> Vec<String> {
+    let mut found = vec![];
+    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+        if let Ok(cmdline) = std::fs::read(entry.path().join("cmdline")) {
+            let cmdline = String::from_utf8_lossy(&cmdline).replace('\0', " ");
+            if cmdline.contains(text) {
+                found.push(cmdline);
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn ctrl_c_keeps_the_best_point_and_leaves_no_worker_or_temporary_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    // Each simulation sleeps 0.3 s, and the tolerances cannot be met in 500 rounds: the run
+    // is still going when it is interrupted.
+    let job = write_job(dir.path(), "max_iters = 500\n");
+    let text = std::fs::read_to_string(&job).unwrap().replace("[optimizer]", "set = { delay = 0.3 }\n[optimizer]");
+    std::fs::write(&job, text).unwrap();
+    // A private temporary folder, to see what the run leaves there.
+    let tmp = dir.path().join("tmp");
+    std::fs::create_dir_all(&tmp).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(["calibrate", job.to_str().unwrap(), "--workers", "2", "--out", "out"])
+        .current_dir(dir.path())
+        .env("FMUCAL_CACHE_DIR", dir.path().join("cache"))
+        .env("TMPDIR", &tmp)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait until both workers run, then for a few rounds.
+    let marker = tmp.to_string_lossy().into_owned();
+    let started = std::time::Instant::now();
+    while processes_mentioning(&marker).iter().filter(|c| c.contains(" worker ")).count() < 2 {
+        assert!(started.elapsed().as_secs() < 60, "the workers did not start");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    let _ = Command::new("kill").args(["-INT", &child.id().to_string()]).status();
+    let status = child.wait().unwrap();
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("interrupted: wrote the best point so far"), "{stderr}");
+    let r = result(&dir.path().join("out"));
+    assert_eq!(r["termination"], "interrupted", "{r}");
+    assert!(r["evaluations"].as_u64().unwrap() >= 2 && r["f_opt"].as_f64().unwrap().is_finite(), "{r}");
+    // The workers are gone at once, and so is the run's temporary folder.
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    assert!(processes_mentioning(&marker).is_empty(), "{:?}", processes_mentioning(&marker));
+    let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().flatten().map(|e| e.path()).collect();
+    assert!(left.is_empty(), "left in the temporary folder: {left:?}");
+}

@@ -83,7 +83,9 @@ async fn start_coordinator(data_dir: &Path) -> Coordinator {
     let config = fmucal_coordinator::Config {
         data_dir: data_dir.to_owned(),
         token: Some(TOKEN.into()),
+        worker_token: None,
         timing,
+        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
         diagnose_program: None,
     };
     let task = tokio::spawn(fmucal_coordinator::run(config, listener, async {

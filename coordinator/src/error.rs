@@ -11,10 +11,16 @@ pub enum CoordinatorError {
     NotFound(String),
     #[error("{0}")]
     FailedPrecondition(String),
+    /// A cap (the model store's size) would be passed.
+    #[error("{0}")]
+    ResourceExhausted(String),
     #[error("storage: {0}")]
     Storage(String),
     #[error("{0}")]
     Config(String),
+    /// The coordinator cannot go on (its scheduler died); the process should exit non-zero.
+    #[error("fatal: {0}")]
+    Fatal(String),
     #[error("transport: {0}")]
     Transport(#[from] tonic::transport::Error),
     #[error("I/O: {0}")]
@@ -61,6 +67,7 @@ impl From<CoordinatorError> for tonic::Status {
             CoordinatorError::InvalidArgument(m) => tonic::Status::invalid_argument(m),
             CoordinatorError::NotFound(m) => tonic::Status::not_found(format!("{m} not found")),
             CoordinatorError::FailedPrecondition(m) => tonic::Status::failed_precondition(m),
+            CoordinatorError::ResourceExhausted(m) => tonic::Status::resource_exhausted(m),
             other => tonic::Status::internal(other.to_string()),
         }
     }

@@ -13,7 +13,6 @@ pub mod services;
 pub mod store;
 
 use std::future::Future;
-use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -31,9 +30,15 @@ pub use scheduler::Timing;
 pub struct Config {
     /// Where models and job state are kept.
     pub data_dir: PathBuf,
-    /// Shared token every RPC must carry; required unless listening on loopback only.
+    /// The token clients (the `Calibration` service) must carry. Required: without one,
+    /// [`run`] refuses to start.
     pub token: Option<String>,
+    /// The token workers (the `WorkerPool` service) must carry; `None` accepts the client
+    /// token there too (one token for both, as for a local run).
+    pub worker_token: Option<String>,
     pub timing: Timing,
+    /// Cap on the model store (archives and unpacked files), bytes.
+    pub max_store_bytes: u64,
     /// The fmucal binary a `Diagnose` request runs as a child process ([`diagnoses`]);
     /// `None` refuses diagnoses.
     pub diagnose_program: Option<PathBuf>,
@@ -49,18 +54,56 @@ impl Default for Timing {
     }
 }
 
-/// Refuses a non-loopback address without a token.
+/// Refuses to serve without a client token, and a worker token equal to the client token
+/// (which would let every client act as a worker). Workers run native code from the FMUs they
+/// are sent, so even a loopback listener needs a token: any local user can reach it.
 ///
 /// # Errors
 /// [`CoordinatorError::Config`] with the reason.
-pub fn check_exposure(addr: SocketAddr, token: Option<&str>) -> Result<(), CoordinatorError> {
-    if !addr.ip().is_loopback() && token.is_none_or(str::is_empty) {
-        return Err(CoordinatorError::Config(format!(
-            "refusing to listen on {addr} without a token: workers run native code from the FMUs they are sent; \
-             set FMUCAL_TOKEN (or --token-file), or listen on 127.0.0.1"
-        )));
+pub fn check_tokens(token: Option<&str>, worker_token: Option<&str>) -> Result<(), CoordinatorError> {
+    if token.is_none_or(|t| t.trim().is_empty()) {
+        return Err(CoordinatorError::Config(
+            "refusing to serve without a token: workers run native code from the FMUs they are sent; \
+             set FMUCAL_TOKEN (or --token-file)"
+                .into(),
+        ));
     }
-    Ok(())
+    match worker_token {
+        Some(w) if w.trim().is_empty() => Err(CoordinatorError::Config("the worker token is empty".into())),
+        Some(w) if Some(w) == token => Err(CoordinatorError::Config(
+            "the worker token must differ from the client token (or leave it unset to use one token)".into(),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Waits for the scheduler task to end. It ends only when the server has stopped (and
+/// aborted it) or when it panicked: then the coordinator can no longer answer any job
+/// request, so health goes NOT_SERVING and the reason is returned, for [`run`] to stop the
+/// server and fail (a supervisor restarts the process; the store makes that safe).
+async fn supervise_scheduler(
+    task: tokio::task::JoinHandle<()>,
+    health: &tonic_health::server::HealthReporter,
+) -> Option<String> {
+    let why = match task.await {
+        Err(e) if e.is_cancelled() => return None,
+        Err(e) => match e.try_into_panic() {
+            Ok(panic) => {
+                let text = panic
+                    .downcast_ref::<&str>()
+                    .map(|s| (*s).to_owned())
+                    .or_else(|| panic.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "no message".into());
+                format!("the scheduler panicked: {text}")
+            }
+            Err(e) => format!("the scheduler failed: {e}"),
+        },
+        Ok(()) => "the scheduler stopped".to_owned(),
+    };
+    tracing::error!("{why}; the coordinator stops");
+    health.set_not_serving::<pb::calibration_server::CalibrationServer<services::Handlers>>().await;
+    health.set_service_status("", tonic_health::ServingStatus::NotServing).await;
+    Some(why)
 }
 
 /// Serves until `shutdown` resolves.
@@ -74,8 +117,8 @@ pub async fn run(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), CoordinatorError> {
     let addr = listener.local_addr()?;
-    check_exposure(addr, config.token.as_deref())?;
-    let models = Arc::new(Mutex::new(models::ModelStore::open(&config.data_dir)?));
+    check_tokens(config.token.as_deref(), config.worker_token.as_deref())?;
+    let models = Arc::new(Mutex::new(models::ModelStore::open(&config.data_dir, config.max_store_bytes)?));
     let data_dir = config.data_dir.clone();
     let (store, models2, timing) =
         (tokio::task::spawn_blocking(move || store::Store::open(&data_dir)), models.clone(), config.timing.clone());
@@ -88,25 +131,85 @@ pub async fn run(
     let diagnoses =
         diagnoses::Diagnoses::new(config.diagnose_program.clone(), addr, config.token.clone(), &config.data_dir)?;
     let handlers = services::Handlers { commands: tx, models, diagnoses: Arc::new(diagnoses) };
-    let auth = fmucal_proto::auth::BearerAuth::new(config.token.as_deref());
-    let (a1, a2) = (auth.clone(), auth);
+    let client_token = config.token.as_deref().unwrap_or_default();
+    let client_auth = fmucal_proto::auth::BearerAuth::new(&[client_token]);
+    let worker_auth = fmucal_proto::auth::BearerAuth::new(&[config.worker_token.as_deref().unwrap_or(client_token)]);
     let (health_reporter, health_service) = tonic_health::server::health_reporter();
     health_reporter.set_serving::<pb::calibration_server::CalibrationServer<services::Handlers>>().await;
+    let fatal = Arc::new(Mutex::new(None));
+    let (fatal_tx, fatal_rx) = tokio::sync::oneshot::channel::<()>();
+    let (fatal2, reporter) = (fatal.clone(), health_reporter.clone());
+    let abort_scheduler = scheduler_task.abort_handle();
+    tokio::spawn(async move {
+        if let Some(why) = supervise_scheduler(scheduler_task, &reporter).await {
+            *fatal2.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(why);
+            let _ = fatal_tx.send(());
+        }
+    });
+    let stop = async move {
+        tokio::select! {
+            () = shutdown => {}
+            _ = fatal_rx => {}
+        }
+    };
     tracing::info!(%addr, "coordinator listening");
-    tonic::transport::Server::builder()
+    let served = tonic::transport::Server::builder()
         .add_service(health_service)
         .add_service(InterceptedService::new(
             pb::calibration_server::CalibrationServer::new(handlers.clone())
                 .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES),
-            move |r| a1.check(r),
+            move |r| client_auth.check(r),
         ))
         .add_service(InterceptedService::new(
             pb::worker_pool_server::WorkerPoolServer::new(handlers)
                 .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES),
-            move |r| a2.check(r),
+            move |r| worker_auth.check(r),
         ))
-        .serve_with_incoming_shutdown(TcpIncoming::from(listener).with_nodelay(Some(true)), shutdown)
-        .await?;
-    scheduler_task.abort();
+        .serve_with_incoming_shutdown(TcpIncoming::from(listener).with_nodelay(Some(true)), stop)
+        .await;
+    abort_scheduler.abort();
+    if let Some(why) = fatal.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take() {
+        return Err(CoordinatorError::Fatal(why));
+    }
+    served?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tonic_health::pb::health_server::Health;
+
+    #[test]
+    fn a_coordinator_needs_a_token_and_a_distinct_worker_token() {
+        assert!(check_tokens(None, None).unwrap_err().to_string().contains("without a token"));
+        assert!(check_tokens(Some(" "), None).is_err());
+        check_tokens(Some("client"), None).unwrap();
+        check_tokens(Some("client"), Some("worker")).unwrap();
+        assert!(check_tokens(Some("client"), Some("client")).unwrap_err().to_string().contains("must differ"));
+    }
+
+    #[tokio::test]
+    async fn a_panicking_scheduler_turns_health_to_not_serving() {
+        let (reporter, _) = tonic_health::server::health_reporter();
+        reporter.set_serving::<pb::calibration_server::CalibrationServer<services::Handlers>>().await;
+        let health = tonic_health::server::HealthService::from_health_reporter(reporter.clone());
+        let status = async |service: &str| {
+            let req = tonic::Request::new(tonic_health::pb::HealthCheckRequest { service: service.into() });
+            health.check(req).await.unwrap().into_inner().status
+        };
+        let name = "fmucal.v1.Calibration";
+        assert_eq!(status(name).await, tonic_health::pb::health_check_response::ServingStatus::Serving as i32);
+        let task = tokio::spawn(async { panic!("capacity overflow") });
+        let why = supervise_scheduler(task, &reporter).await.unwrap();
+        assert_eq!(why, "the scheduler panicked: capacity overflow");
+        for service in [name, ""] {
+            let s = status(service).await;
+            assert_eq!(s, tonic_health::pb::health_check_response::ServingStatus::NotServing as i32, "{service:?}");
+        }
+        // An abort at shutdown is not a failure.
+        let task = tokio::spawn(std::future::pending::<()>());
+        task.abort();
+        assert!(supervise_scheduler(task, &reporter).await.is_none());
+    }
 }

@@ -1,50 +1,154 @@
-//! Uploaded models, stored under `<data-dir>/models/<sha256>.fmu`. An upload is checked by
-//! unpacking it and parsing its model description; the coordinator never loads FMU binaries.
+//! Uploaded models, stored under `<data-dir>/models/<sha256>.fmu`. An upload is streamed to a
+//! temporary file, checked by unpacking it (into `<data-dir>/unpacked/<sha256>`) and parsing
+//! its model description, and moved into place only when accepted: a rejected upload leaves
+//! nothing behind. The store's total size (archives and unpacked files) is capped; opening the
+//! store removes what an interrupted upload left. The coordinator never loads FMU binaries.
 
 use std::collections::HashMap;
-use std::path::PathBuf;
+use std::io::Read;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 
-use fmucal_shared::fmu::{self, Described, LoadOptions, archive};
+use fmucal_shared::fmu::{self, Described, LoadOptions};
+use sha2::{Digest, Sha256};
 
 use crate::error::CoordinatorError;
+
+/// Default cap on the model store's total size: 20 GiB.
+pub const DEFAULT_MAX_STORE_BYTES: u64 = 20 << 30;
 
 pub struct ModelStore {
     dir: PathBuf,
     opts: LoadOptions,
     described: HashMap<String, Described>,
+    /// Cap on archives plus unpacked files, in bytes.
+    max_bytes: u64,
+    /// What they take now.
+    used: u64,
+}
+
+/// A temporary upload file, removed when dropped unless it was moved into the store.
+pub struct UploadFile {
+    path: PathBuf,
+}
+
+impl UploadFile {
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for UploadFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+    }
 }
 
 impl ModelStore {
-    pub fn open(data_dir: &std::path::Path) -> Result<Self, CoordinatorError> {
+    /// Opens (creating) the store under `data_dir`, capped at `max_bytes`, and removes what
+    /// interrupted uploads left: temporary files, half-unpacked folders, and unpacked folders
+    /// of models that were never accepted.
+    ///
+    /// # Errors
+    /// I/O errors creating or reading the folders.
+    pub fn open(data_dir: &Path, max_bytes: u64) -> Result<Self, CoordinatorError> {
         let dir = data_dir.join("models");
         std::fs::create_dir_all(&dir)?;
         let opts = LoadOptions { cache_dir: data_dir.join("unpacked"), ..Default::default() };
-        Ok(ModelStore { dir, opts, described: HashMap::new() })
+        std::fs::create_dir_all(&opts.cache_dir)?;
+        let mut store = ModelStore { dir, opts, described: HashMap::new(), max_bytes, used: 0 };
+        store.remove_leftovers()?;
+        store.used = tree_size(&store.dir) + tree_size(&store.opts.cache_dir);
+        tracing::debug!(used = store.used, max = max_bytes, "model store opened");
+        Ok(store)
+    }
+
+    fn remove_leftovers(&self) -> Result<(), CoordinatorError> {
+        for entry in std::fs::read_dir(&self.dir)?.flatten() {
+            if entry.file_name().to_string_lossy().starts_with('.') {
+                tracing::info!(path = %entry.path().display(), "removing an interrupted upload");
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+        for entry in std::fs::read_dir(&self.opts.cache_dir)?.flatten() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            let orphan = name.starts_with('.') || (is_model_id(&name) && !self.path(&name).is_file());
+            if orphan {
+                tracing::info!(path = %entry.path().display(), "removing an unpacked model that was never accepted");
+                let _ = std::fs::remove_dir_all(entry.path());
+            }
+        }
+        Ok(())
     }
 
     fn path(&self, id: &str) -> PathBuf {
         self.dir.join(format!("{id}.fmu"))
     }
 
+    /// Bytes the store may still take.
+    pub fn room(&self) -> u64 {
+        self.max_bytes.saturating_sub(self.used)
+    }
+
+    /// A new temporary file to stream an upload into (inside the store, so accepting it is a
+    /// rename).
+    pub fn upload_file(&self) -> UploadFile {
+        static COUNTER: AtomicU64 = AtomicU64::new(0);
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        UploadFile { path: self.dir.join(format!(".upload-{}-{n}", std::process::id())) }
+    }
+
     /// Stores the bytes (a no-op if already stored) and returns (id, model name).
+    ///
+    /// # Errors
+    /// As [`ModelStore::put_file`].
     pub fn put(&mut self, bytes: &[u8]) -> Result<(String, String), CoordinatorError> {
-        let id = archive::sha256_hex(bytes);
+        let file = self.upload_file();
+        std::fs::write(file.path(), bytes)?;
+        self.put_file(file)
+    }
+
+    /// Checks an uploaded file and moves it into the store (a no-op if already stored);
+    /// returns (id, model name). A rejected file, and what was unpacked from it, is removed.
+    ///
+    /// # Errors
+    /// INVALID_ARGUMENT if the file is not a usable FMU; RESOURCE_EXHAUSTED if it would take
+    /// the store past its cap.
+    pub fn put_file(&mut self, file: UploadFile) -> Result<(String, String), CoordinatorError> {
+        let id = file_sha256(file.path())?;
         if !self.path(&id).is_file() {
-            let tmp = self.dir.join(format!(".{id}.upload"));
-            std::fs::write(&tmp, bytes)?;
-            match fmu::describe(&tmp, &self.opts) {
-                Ok(_) => std::fs::rename(&tmp, self.path(&id))?,
+            let size = std::fs::metadata(file.path())?.len();
+            self.check_room(size)?;
+            let unpacked = self.opts.cache_dir.join(&id);
+            let checked = fmu::describe(file.path(), &self.opts);
+            let unpacked_size = tree_size(&unpacked);
+            let refusal = match checked {
                 Err(e) => {
-                    let _ = std::fs::remove_file(&tmp);
-                    return Err(CoordinatorError::InvalidArgument(format!(
-                        "the uploaded bytes are not a usable FMU: {e}"
-                    )));
+                    Some(CoordinatorError::InvalidArgument(format!("the uploaded bytes are not a usable FMU: {e}")))
                 }
+                Ok(_) => self.check_room(size + unpacked_size).err(),
+            };
+            if let Some(e) = refusal {
+                let _ = std::fs::remove_dir_all(&unpacked);
+                return Err(e);
             }
+            std::fs::rename(file.path(), self.path(&id))?;
+            self.used += size + unpacked_size;
         }
         let name = self.describe(&id)?.description.model_name.clone();
         Ok((id, name))
+    }
+
+    fn check_room(&self, bytes: u64) -> Result<(), CoordinatorError> {
+        if bytes > self.room() {
+            return Err(CoordinatorError::ResourceExhausted(format!(
+                "the model store is full: {} of its {} bytes are used and this model needs {bytes} \
+                 (raise the coordinator's --max-store-bytes)",
+                self.used, self.max_bytes
+            )));
+        }
+        Ok(())
     }
 
     /// The description of a stored model.
@@ -81,4 +185,107 @@ impl ModelStore {
 
 fn is_model_id(id: &str) -> bool {
     id.len() == 64 && id.bytes().all(|b| b.is_ascii_hexdigit())
+}
+
+/// The SHA-256 of a file, read in blocks.
+fn file_sha256(path: &Path) -> Result<String, CoordinatorError> {
+    let mut file = std::fs::File::open(path)?;
+    let mut hasher = Sha256::new();
+    let mut block = vec![0u8; 1 << 16];
+    loop {
+        let n = file.read(&mut block)?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&block[..n]);
+    }
+    Ok(hasher.finalize().iter().map(|b| format!("{b:02x}")).collect())
+}
+
+/// Bytes of the regular files under `path` (0 if it does not exist); symbolic links are not
+/// followed.
+fn tree_size(path: &Path) -> u64 {
+    let Ok(meta) = std::fs::symlink_metadata(path) else { return 0 };
+    if !meta.is_dir() {
+        return meta.len();
+    }
+    std::fs::read_dir(path).map_or(0, |entries| entries.flatten().map(|e| tree_size(&e.path())).sum())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::Write;
+
+    use super::*;
+
+    /// A zip of `entries`, stored uncompressed unless `deflate`.
+    fn zip(entries: &[(&str, Vec<u8>)], deflate: bool) -> Vec<u8> {
+        let mut out = std::io::Cursor::new(vec![]);
+        let mut w = zip::ZipWriter::new(&mut out);
+        let method = if deflate { zip::CompressionMethod::Deflated } else { zip::CompressionMethod::Stored };
+        for (name, bytes) in entries {
+            w.start_file(*name, zip::write::SimpleFileOptions::default().compression_method(method)).unwrap();
+            w.write_all(bytes).unwrap();
+        }
+        w.finish().unwrap();
+        out.into_inner()
+    }
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> =
+            std::fs::read_dir(dir).unwrap().flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn a_rejected_upload_leaves_nothing_behind() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut store = ModelStore::open(dir.path(), DEFAULT_MAX_STORE_BYTES).unwrap();
+        // 20 MB of zeros that deflate to a few kB, next to a broken model description.
+        let bomb =
+            zip(&[("modelDescription.xml", b"<fmiModelDescription".to_vec()), ("big.bin", vec![0; 20 << 20])], true);
+        assert!(bomb.len() < 1 << 20);
+        let e = store.put(&bomb).unwrap_err().to_string();
+        assert!(e.contains("not a usable FMU"), "{e}");
+        assert!(names(&dir.path().join("unpacked")).is_empty(), "{:?}", names(&dir.path().join("unpacked")));
+        assert!(names(&dir.path().join("models")).is_empty());
+        assert_eq!(store.used, 0);
+    }
+
+    #[test]
+    fn opening_the_store_removes_interrupted_uploads_and_unaccepted_unpacked_models() {
+        let dir = tempfile::tempdir().unwrap();
+        let (models, unpacked) = (dir.path().join("models"), dir.path().join("unpacked"));
+        for d in [&models, &unpacked] {
+            std::fs::create_dir_all(d).unwrap();
+        }
+        let kept = "a".repeat(64);
+        std::fs::write(models.join(format!("{kept}.fmu")), b"zip").unwrap();
+        std::fs::create_dir_all(unpacked.join(&kept)).unwrap();
+        std::fs::write(unpacked.join(&kept).join("modelDescription.xml"), b"<x/>").unwrap();
+        std::fs::write(models.join(".upload-7-0"), vec![1; 1000]).unwrap();
+        std::fs::create_dir_all(unpacked.join(format!(".{kept}.partial-7-0"))).unwrap();
+        std::fs::create_dir_all(unpacked.join("b".repeat(64)).join("binaries")).unwrap();
+        let store = ModelStore::open(dir.path(), DEFAULT_MAX_STORE_BYTES).unwrap();
+        assert_eq!(names(&models), vec![format!("{kept}.fmu")]);
+        assert_eq!(names(&unpacked), vec![kept]);
+        assert_eq!(store.used, 3 + 4);
+    }
+
+    #[test]
+    fn the_store_refuses_a_model_past_its_cap() {
+        let dir = tempfile::tempdir().unwrap();
+        let bytes = std::fs::read(fmucal_models::example("decay").unwrap()).unwrap();
+        let mut store = ModelStore::open(dir.path(), bytes.len() as u64 + 10).unwrap();
+        let e = store.put(&bytes).unwrap_err();
+        assert!(matches!(e, CoordinatorError::ResourceExhausted(_)), "{e}");
+        assert!(e.to_string().contains("the model store is full"), "{e}");
+        assert!(names(&dir.path().join("unpacked")).is_empty() && names(&dir.path().join("models")).is_empty());
+        let mut store = ModelStore::open(dir.path(), DEFAULT_MAX_STORE_BYTES).unwrap();
+        let (id, name) = store.put(&bytes).unwrap();
+        assert_eq!(name, "Decay");
+        assert!(store.used > bytes.len() as u64, "the unpacked files count too");
+        assert_eq!(store.put(&bytes).unwrap().0, id, "a second upload is a no-op");
+    }
 }

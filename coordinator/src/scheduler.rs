@@ -8,6 +8,8 @@
 //! pool grow by simply starting more workers that point at the coordinator, through NAT or a
 //! Kubernetes service, with no connection from the coordinator to the workers.
 //!
+//! A worker's result is taken only for a point leased to it and not taken back since.
+//!
 //! Failures: a point whose worker expires (no heartbeat) or passes the evaluation timeout is
 //! re-queued, preferably for another worker; a point that failed on two different workers (or
 //! three times in all) is told to the optimizer as failed and the job goes on. The optimizer is
@@ -22,7 +24,7 @@ use std::time::Duration;
 use tokio::time::Instant;
 
 use fmucal_proto::v1 as pb;
-use fmucal_shared::job::{Evaluation, JobRun, JobStatus, PreparedJob};
+use fmucal_shared::job::{Evaluation, JobRun, JobSpec, JobStatus, PreparedJob};
 use fmucal_shared::optim::Optimizer;
 use prost::Message;
 use tokio::sync::{mpsc, oneshot};
@@ -37,15 +39,46 @@ pub type WatchSender = mpsc::Sender<Result<pb::WatchJobResponse, tonic::Status>>
 
 /// Requests to the scheduler.
 pub enum Command {
-    Submit { spec: pb::JobSpec, reply: Reply<String> },
-    Get { job_id: String, reply: Reply<pb::GetJobResponse> },
-    List { reply: Reply<pb::ListJobsResponse> },
-    Cancel { job_id: String, reply: Reply<i32> },
-    Watch { job_id: String, tx: WatchSender, reply: Reply<()> },
-    Register { req: pb::RegisterRequest, reply: Reply<pb::RegisterResponse> },
-    Heartbeat { worker_id: String, reply: Reply<bool> },
-    FetchJob { job_id: String, reply: Reply<pb::JobSpec> },
-    Poll { req: pb::PollWorkRequest, reply: oneshot::Sender<pb::PollWorkResponse> },
+    /// A job checked and its run built by the handler ([`prepare`]), off this task: as sent,
+    /// as read, and its run.
+    Submit {
+        spec: pb::JobSpec,
+        job: Box<JobSpec>,
+        run: Box<JobRun>,
+        reply: Reply<String>,
+    },
+    Get {
+        job_id: String,
+        reply: Reply<pb::GetJobResponse>,
+    },
+    List {
+        reply: Reply<pb::ListJobsResponse>,
+    },
+    Cancel {
+        job_id: String,
+        reply: Reply<i32>,
+    },
+    Watch {
+        job_id: String,
+        tx: WatchSender,
+        reply: Reply<()>,
+    },
+    Register {
+        req: pb::RegisterRequest,
+        reply: Reply<pb::RegisterResponse>,
+    },
+    Heartbeat {
+        worker_id: String,
+        reply: Reply<bool>,
+    },
+    FetchJob {
+        job_id: String,
+        reply: Reply<pb::JobSpec>,
+    },
+    Poll {
+        req: pb::PollWorkRequest,
+        reply: oneshot::Sender<pb::PollWorkResponse>,
+    },
 }
 
 /// Timing of the pool.
@@ -71,7 +104,8 @@ struct Point {
 
 struct Job {
     spec: pb::JobSpec,
-    prepared: Arc<PreparedJob>,
+    /// The job as submitted: its parameter names and start, readable without the model.
+    job: JobSpec,
     state: JobState,
     open: BTreeMap<u64, Point>,
     queue: VecDeque<u64>,
@@ -82,11 +116,11 @@ struct Job {
 
 impl Job {
     /// A job with nothing queued yet; its clocks start now.
-    fn new(spec: pb::JobSpec, prepared: Arc<PreparedJob>, state: JobState) -> Self {
+    fn new(spec: pb::JobSpec, job: JobSpec, state: JobState) -> Self {
         let now = Instant::now();
         Job {
             spec,
-            prepared,
+            job,
             state,
             open: BTreeMap::new(),
             queue: VecDeque::new(),
@@ -159,19 +193,35 @@ impl Scheduler {
         for (id, spec_bytes, mut state) in s.store.load_all()? {
             s.next_seq = s.next_seq.max(state.seq + 1);
             let spec = pb::JobSpec::decode(spec_bytes.as_slice()).unwrap_or_default();
-            let prepared = match s.prepare(&spec) {
-                Ok(p) => p,
+            let job_spec = match SubmittedJob::try_from(spec.clone()) {
+                Ok(j) => j.spec,
                 Err(e) => {
-                    if is_running(state.status) {
-                        state.status = JobStatus::Failed;
-                        state.error = Some(format!("cannot resume: {e}"));
-                        s.save(&id, &state);
-                    }
+                    tracing::error!(job = %id, "the stored job cannot be read, so it is not listed: {e}");
                     continue;
                 }
             };
+            // The model must still be there and accept the job for it to go on.
+            match prepare(&s.models, &spec) {
+                Ok(_) => {}
+                Err(e) => {
+                    // Its model is gone (or no longer accepted): the job and its result stay
+                    // listed; a running one cannot go on.
+                    tracing::warn!(job = %id, model = %spec.model_id, "the job's model cannot be used: {e}");
+                    let note = format!("the job's model {} cannot be used: {e}", spec.model_id);
+                    if is_running(state.status) {
+                        state.status = JobStatus::Failed;
+                        state.result = Some(state.run.result(&job_spec, state.elapsed_s, Some("cannot resume")));
+                        state.error = Some(format!("cannot resume: {note}"));
+                        s.save(&id, &state);
+                    } else if state.error.is_none() {
+                        state.error = Some(note);
+                    }
+                    s.jobs.insert(id.clone(), Job::new(spec, job_spec, state));
+                    continue;
+                }
+            }
             let running = is_running(state.status);
-            let job = Job::new(spec, prepared, state);
+            let job = Job::new(spec, job_spec, state);
             s.jobs.insert(id.clone(), job);
             if running {
                 // Tell the logged results of the open batch instead of evaluating them again.
@@ -187,18 +237,6 @@ impl Scheduler {
             }
         }
         Ok(s)
-    }
-
-    fn prepare(&self, spec: &pb::JobSpec) -> Result<Arc<PreparedJob>, CoordinatorError> {
-        let submitted = SubmittedJob::try_from(spec.clone())?;
-        let described = self
-            .models
-            .lock()
-            .map_err(|_| CoordinatorError::Storage("model store poisoned".into()))?
-            .describe(&spec.model_id)?;
-        let prepared =
-            PreparedJob::new(&submitted.spec, &described.description, &described.interfaces, &submitted.data)?;
-        Ok(Arc::new(prepared))
     }
 
     /// Runs until the command channel closes.
@@ -222,8 +260,8 @@ impl Scheduler {
 
     fn handle(&mut self, cmd: Command) {
         match cmd {
-            Command::Submit { spec, reply } => {
-                let _ = reply.send(self.submit(spec));
+            Command::Submit { spec, job, run, reply } => {
+                let _ = reply.send(self.submit(spec, *job, *run));
             }
             Command::Get { job_id, reply } => {
                 let _ = reply.send(self.get(&job_id));
@@ -316,15 +354,13 @@ impl Scheduler {
         }
     }
 
-    fn submit(&mut self, spec: pb::JobSpec) -> Result<String, CoordinatorError> {
-        let prepared = self.prepare(&spec)?;
-        let run = JobRun::new(&prepared).map_err(|e| CoordinatorError::InvalidArgument(e.to_string()))?;
+    fn submit(&mut self, spec: pb::JobSpec, job: JobSpec, run: JobRun) -> Result<String, CoordinatorError> {
         let seq = self.next_seq;
         self.next_seq += 1;
         let id = format!("job-{seq:06}");
         let state = JobState { seq, status: JobStatus::Running, run, elapsed_s: 0.0, result: None, error: None };
         self.store.create(&id, &spec.encode_to_vec(), &state)?;
-        self.jobs.insert(id.clone(), Job::new(spec, prepared, state));
+        self.jobs.insert(id.clone(), Job::new(spec, job, state));
         tracing::info!(job = %id, "job submitted");
         self.refill(&id)?;
         Ok(id)
@@ -335,7 +371,7 @@ impl Scheduler {
         Ok(pb::GetJobResponse {
             job_id: job_id.to_owned(),
             status: wire(j.state.status),
-            result: j.state.result.as_ref().map(|r| result_to_proto(r, &j.prepared.parameter_names)),
+            result: j.state.result.as_ref().map(|r| result_to_proto(r, &j.job.parameter_vectors().0)),
             error: j.state.error.clone().unwrap_or_default(),
         })
     }
@@ -373,7 +409,10 @@ impl Scheduler {
         let elapsed = job.state.elapsed_s + job.started.elapsed().as_secs_f64();
         job.state.status = status;
         job.state.elapsed_s = elapsed;
-        job.state.result = Some(job.state.run.result(&job.prepared, elapsed, why));
+        if status == JobStatus::Failed {
+            job.state.error = why.map(str::to_owned);
+        }
+        job.state.result = Some(job.state.run.result(&job.job, elapsed, why));
         job.open.clear();
         job.queue.clear();
         let state_json = serde_json::to_string(&job.state)?;
@@ -398,6 +437,13 @@ impl Scheduler {
         job.queue.retain(|q| *q != point);
         let told = job.state.run.tell(point, &p.x, &evaluation, job.batch_started.elapsed().as_secs_f64());
         self.unlogged.push((id.to_owned(), point, evaluation));
+        if let Some(why) = job.state.run.fatal_error() {
+            tracing::warn!(job = %id, "{why}");
+            if let Err(e) = self.finish(id, JobStatus::Failed, Some(&why)) {
+                tracing::error!(job = %id, "cannot save the result: {e}");
+            }
+            return;
+        }
         let round = match told {
             Ok(Some(round)) => round,
             Ok(None) => return,
@@ -460,8 +506,12 @@ impl Scheduler {
             Some(w) => w.last_seen = Instant::now(),
         }
         for r in req.results {
-            if let Some(w) = self.workers.get_mut(&wid) {
-                w.inflight.remove(&(r.job_id.clone(), r.point_id));
+            // Only a point leased to this worker (and not taken back since) may be answered:
+            // a token holder cannot report values for points it was never given.
+            let leased = self.workers.get_mut(&wid).is_some_and(|w| w.inflight.remove(&(r.job_id.clone(), r.point_id)));
+            if !leased {
+                tracing::warn!(job = %r.job_id, point = r.point_id, worker = %wid, "result for a point not leased to this worker ignored");
+                continue;
             }
             let evaluation = evaluation_from_proto(&r);
             if evaluation.value.is_some() {
@@ -608,6 +658,22 @@ impl Scheduler {
         self.parked = still;
         self.wake_parked();
     }
+}
+
+/// Checks a submitted job against its model and data: blocking work, linear in the size of the
+/// job (whose sizes [`fmucal_shared::job::limits`] caps). The handlers call it before a job
+/// reaches the scheduler task, so a large or bad request never holds that task up.
+///
+/// # Errors
+/// INVALID_ARGUMENT naming the field; NOT_FOUND-like INVALID_ARGUMENT for an unknown model.
+pub fn prepare(models: &Mutex<ModelStore>, spec: &pb::JobSpec) -> Result<Arc<PreparedJob>, CoordinatorError> {
+    let submitted = SubmittedJob::try_from(spec.clone())?;
+    let described = models
+        .lock()
+        .map_err(|_| CoordinatorError::Storage("model store poisoned".into()))?
+        .describe(&spec.model_id)?;
+    let prepared = PreparedJob::new(&submitted.spec, &described.description, &described.interfaces, &submitted.data)?;
+    Ok(Arc::new(prepared))
 }
 
 fn progress(job: &Job, batch_wall_s: f64) -> pb::WatchJobResponse {

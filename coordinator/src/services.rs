@@ -6,7 +6,8 @@ use std::sync::{Arc, Mutex};
 use fmucal_proto::convert::SubmittedJob;
 use fmucal_proto::v1 as pb;
 use fmucal_shared::diagnose::spec::DiagnoseSpec;
-use fmucal_shared::job::JobKind;
+use fmucal_shared::job::{JobKind, JobRun};
+use tokio::io::AsyncWriteExt;
 use tokio::sync::{mpsc, oneshot};
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Request, Response, Status, Streaming};
@@ -52,19 +53,35 @@ impl pb::calibration_server::Calibration for Handlers {
         &self,
         req: Request<Streaming<pb::UploadModelRequest>>,
     ) -> Result<Response<pb::UploadModelResponse>, Status> {
+        // Streamed to a temporary file in the store (removed unless accepted), so an upload
+        // costs no memory, and cut off at the per-model cap or the store's room.
         let mut stream = req.into_inner();
-        let mut bytes = vec![];
+        let (file, room) = {
+            let m = self.models.lock().map_err(|_| Status::internal("model store poisoned"))?;
+            (m.upload_file(), m.room())
+        };
+        let limit = (MAX_MODEL_BYTES as u64).min(room);
+        let mut out = tokio::fs::File::create(file.path()).await.map_err(|e| Status::internal(e.to_string()))?;
+        let mut written = 0u64;
         while let Some(m) = stream.message().await? {
-            bytes.extend_from_slice(&m.chunk);
-            if bytes.len() > MAX_MODEL_BYTES {
-                return Err(Status::invalid_argument(format!("chunk: the model exceeds {MAX_MODEL_BYTES} bytes")));
+            written += m.chunk.len() as u64;
+            if written > limit {
+                let what = if limit < MAX_MODEL_BYTES as u64 {
+                    Status::resource_exhausted(format!("chunk: the model store has room for {room} more bytes only"))
+                } else {
+                    Status::invalid_argument(format!("chunk: the model exceeds {MAX_MODEL_BYTES} bytes"))
+                };
+                return Err(what);
             }
+            out.write_all(&m.chunk).await.map_err(|e| Status::internal(format!("cannot store the upload: {e}")))?;
         }
-        if bytes.is_empty() {
+        out.flush().await.map_err(|e| Status::internal(format!("cannot store the upload: {e}")))?;
+        drop(out);
+        if written == 0 {
             return Err(Status::invalid_argument("chunk: no bytes were uploaded"));
         }
         let models = self.models.clone();
-        let (model_id, model_name) = tokio::task::spawn_blocking(move || with_models(&models, |m| m.put(&bytes)))
+        let (model_id, model_name) = tokio::task::spawn_blocking(move || with_models(&models, |m| m.put_file(file)))
             .await
             .map_err(|e| Status::internal(e.to_string()))??;
         Ok(Response::new(pb::UploadModelResponse { model_id, model_name }))
@@ -72,13 +89,17 @@ impl pb::calibration_server::Calibration for Handlers {
 
     async fn submit_job(&self, req: Request<pb::SubmitJobRequest>) -> Result<Response<pb::SubmitJobResponse>, Status> {
         let spec = req.into_inner().spec.ok_or_else(|| Status::invalid_argument("spec is required"))?;
-        // Describing a new model may unpack it: keep that off the scheduler task.
+        // Checking the job (and unpacking a new model) is blocking work: keep it off the
+        // scheduler task, which every other request waits on.
         let models = self.models.clone();
-        let id = spec.model_id.clone();
-        tokio::task::spawn_blocking(move || with_models(&models, |m| m.describe(&id).map(|_| ())))
-            .await
-            .map_err(|e| Status::internal(e.to_string()))??;
-        let job_id = self.ask(|reply| Command::Submit { spec, reply }).await?;
+        let (spec, job, run) = tokio::task::spawn_blocking(move || {
+            let prepared = crate::scheduler::prepare(&models, &spec)?;
+            let run = JobRun::new(&prepared).map_err(|e| CoordinatorError::InvalidArgument(e.to_string()))?;
+            Ok::<_, CoordinatorError>((spec, Box::new(prepared.spec.clone()), Box::new(run)))
+        })
+        .await
+        .map_err(|e| Status::internal(e.to_string()))??;
+        let job_id = self.ask(|reply| Command::Submit { spec, job, run, reply }).await?;
         Ok(Response::new(pb::SubmitJobResponse { job_id }))
     }
 

@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use fmucal_coordinator::CoordinatorError;
-use fmucal_coordinator::models::ModelStore;
+use fmucal_coordinator::models::{DEFAULT_MAX_STORE_BYTES, ModelStore};
 use fmucal_coordinator::scheduler::{Command, Scheduler, Timing};
 use fmucal_coordinator::store::Store;
 use fmucal_proto::convert::job_to_proto;
@@ -66,7 +66,7 @@ fn by_id(assignments: &[pb::Assignment]) -> BTreeMap<u64, Vec<f64>> {
 /// model is stored in `dir`'s model store, as an upload would.
 fn job(dir: &Path, optimizer: &str) -> pb::JobSpec {
     let bytes = std::fs::read(fmucal_models::example("decay").expect("the decay example")).unwrap();
-    let (model_id, _) = ModelStore::open(dir).unwrap().put(&bytes).unwrap();
+    let (model_id, _) = ModelStore::open(dir, DEFAULT_MAX_STORE_BYTES).unwrap().put(&bytes).unwrap();
     let toml = format!(
         "[model]\n[data]\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n\
          [[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.5\nupper = 3.0\n[optimizer]\n{optimizer}\n"
@@ -96,17 +96,18 @@ fn points_job(dir: &Path, n: usize) -> pb::JobSpec {
 struct Sched {
     tx: mpsc::Sender<Command>,
     task: tokio::task::JoinHandle<()>,
+    models: Arc<Mutex<ModelStore>>,
 }
 
 impl Sched {
     /// Opens the store and models in `dir` (resuming what runs there) and starts the task.
     fn start(dir: &Path) -> Sched {
         let store = Store::open(dir).unwrap();
-        let models = Arc::new(Mutex::new(ModelStore::open(dir).unwrap()));
+        let models = Arc::new(Mutex::new(ModelStore::open(dir, DEFAULT_MAX_STORE_BYTES).unwrap()));
         let timing = Timing { heartbeat_interval: HEARTBEAT, worker_expiry: EXPIRY, evaluation_timeout: TIMEOUT };
         let (tx, rx) = mpsc::channel(64);
-        let task = tokio::spawn(Scheduler::new(store, models, timing).unwrap().run(rx));
-        Sched { tx, task }
+        let task = tokio::spawn(Scheduler::new(store, models.clone(), timing).unwrap().run(rx));
+        Sched { tx, task, models }
     }
 
     /// Stops the task as a crash would: mid-loop, without the orderly shutdown, so told points
@@ -153,7 +154,11 @@ impl Sched {
     }
 
     async fn submit(&self, spec: pb::JobSpec) -> String {
-        self.call(|reply| Command::Submit { spec, reply }).await.unwrap()
+        // As the SubmitJob handler does: checked and built off the scheduler task.
+        let prepared = fmucal_coordinator::scheduler::prepare(&self.models, &spec).unwrap();
+        let run = Box::new(fmucal_shared::job::JobRun::new(&prepared).unwrap());
+        let job = Box::new(prepared.spec.clone());
+        self.call(|reply| Command::Submit { spec, job, run, reply }).await.unwrap()
     }
 
     async fn get(&self, job_id: &str) -> pb::GetJobResponse {
@@ -296,9 +301,13 @@ async fn a_late_failure_does_not_requeue_a_point_held_by_another_worker() {
     assert!(dup.is_empty(), "handed out while b holds it: {dup:?}");
 }
 
+/// The point [`first_point_failing`] fails: the initial population's second member (the first
+/// is the start point, whose failure fails the job).
+const FAILING_POINT: u64 = 1;
+
 /// Drives a differential-evolution job to its end on `workers` (1 slot each); `fails(attempt)`
-/// says whether the `attempt`-th hand-out (from 1) of the job's first point fails. Returns the
-/// result and the workers the first point was handed to, in order.
+/// says whether the `attempt`-th hand-out (from 1) of [`FAILING_POINT`] fails. Returns the
+/// result and the workers that point was handed to, in order.
 async fn first_point_failing(workers: &[&str], fails: impl Fn(usize) -> bool) -> (pb::JobResult, Vec<String>) {
     let dir = tempfile::tempdir().unwrap();
     let s = Sched::start(dir.path());
@@ -311,7 +320,7 @@ async fn first_point_failing(workers: &[&str], fails: impl Fn(usize) -> bool) ->
     let wr: Vec<&str> = ws.iter().map(String::as_str).collect();
     let (r, handed) = s
         .drive(&job, &wr, |_, p| {
-            if p.point_id != 0 {
+            if p.point_id != FAILING_POINT {
                 return ok(p);
             }
             attempts += 1;
@@ -319,7 +328,7 @@ async fn first_point_failing(workers: &[&str], fails: impl Fn(usize) -> bool) ->
         })
         .await;
     assert_eq!(r.status, SUCCEEDED, "{r:?}");
-    let to = handed.into_iter().filter(|(_, p)| p.point_id == 0).map(|(w, _)| w).collect();
+    let to = handed.into_iter().filter(|(_, p)| p.point_id == FAILING_POINT).map(|(w, _)| w).collect();
     (result(&r), to)
 }
 

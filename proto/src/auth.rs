@@ -1,26 +1,32 @@
-//! Shared-token authentication: every RPC must carry `authorization: Bearer <token>`. The
-//! comparison takes the same time whatever the mismatch, so the token cannot be guessed byte
-//! by byte.
+//! Token authentication: every RPC must carry `authorization: Bearer <token>`, one of the
+//! tokens its service accepts (the coordinator gives clients and workers different tokens).
+//! The comparison takes the same time whatever the mismatch, so a token cannot be guessed
+//! byte by byte.
 
 use tonic::{Request, Status};
 
-/// A tonic interceptor that checks the bearer token (or lets everything through if `None`).
+/// A tonic interceptor that lets through requests carrying one of its tokens.
 #[derive(Clone)]
 pub struct BearerAuth {
-    expected: Option<Vec<u8>>,
+    expected: Vec<Vec<u8>>,
 }
 
 impl BearerAuth {
-    pub fn new(token: Option<&str>) -> Self {
-        BearerAuth { expected: token.map(|t| format!("Bearer {t}").into_bytes()) }
+    /// Accepts any of `tokens` (none: refuses every request).
+    pub fn new(tokens: &[&str]) -> Self {
+        BearerAuth { expected: tokens.iter().map(|t| format!("Bearer {t}").into_bytes()).collect() }
     }
 
     pub fn check<T>(&self, req: Request<T>) -> Result<Request<T>, Status> {
-        let Some(expected) = &self.expected else { return Ok(req) };
         let got = req.metadata().get("authorization").map(|v| v.as_bytes()).unwrap_or_default();
-        let same = got.len() == expected.len() && got.iter().zip(expected).fold(0u8, |acc, (a, b)| acc | (a ^ b)) == 0;
-        if same { Ok(req) } else { Err(Status::unauthenticated("missing or wrong bearer token")) }
+        // Compare with every token, so the time does not tell which one came close.
+        let matches = self.expected.iter().fold(false, |any, e| constant_time_eq(got, e) | any);
+        if matches { Ok(req) } else { Err(Status::unauthenticated("missing or wrong bearer token")) }
     }
+}
+
+fn constant_time_eq(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
 /// Adds the bearer token to outgoing requests (clients and workers).
@@ -46,5 +52,29 @@ impl tonic::service::Interceptor for AttachToken {
             req.metadata_mut().insert("authorization", h.clone());
         }
         Ok(req)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn with(header: Option<&str>) -> Request<()> {
+        let mut r = Request::new(());
+        if let Some(h) = header {
+            r.metadata_mut().insert("authorization", h.parse().unwrap());
+        }
+        r
+    }
+
+    #[test]
+    fn only_the_listed_tokens_pass() {
+        let auth = BearerAuth::new(&["client-token", "other-token"]);
+        assert!(auth.check(with(Some("Bearer client-token"))).is_ok());
+        assert!(auth.check(with(Some("Bearer other-token"))).is_ok());
+        for h in [None, Some("Bearer client-toke"), Some("client-token"), Some("Bearer worker-token")] {
+            assert_eq!(auth.check(with(h)).unwrap_err().code(), tonic::Code::Unauthenticated, "{h:?}");
+        }
+        assert!(BearerAuth::new(&[]).check(with(Some("Bearer "))).is_err());
     }
 }

@@ -175,7 +175,7 @@ fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
         (algorithm, any::<bool>(), opt_f(), opt_f(), prop::option::of(1..10_000u64), prop::option::of(1..10_000u64)),
         // TOML integers are signed 64-bit.
         (0..=i64::MAX as u64, opt_f(), prop::option::of(4..200usize), opt_f(), opt_f(), prop::option::of(4..32u32)),
-        (opt_f(), opt_f(), prop::option::of(0..4usize), prop::option::of(0..12u32)),
+        (opt_f(), opt_f(), prop::option::of(0..4usize), prop::option::of(0..8u32)),
     )
         .prop_map(
             |(

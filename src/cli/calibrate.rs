@@ -4,7 +4,9 @@
 //! models with the measurements and writes `result.json`, `convergence.csv` and `fit.csv`
 //! ([`super::outputs`]) and the plots (`fit`, `error`, `convergence`, as SVG and PNG) to `--out`.
 //! A job with `[[experiments]]` gets one folder `--out/NAME` per experiment for its `fit.csv`
-//! and plots, and its RMS errors per experiment in `result.json`.
+//! and plots, and its RMS errors per experiment in `result.json`. Ctrl-C (or SIGTERM) cancels
+//! the job, writes its best point so far to `result.json` with termination `interrupted`, and
+//! exits with code 130.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -58,19 +60,39 @@ pub fn run(args: Args) -> Result<()> {
 
     let threads = super::local_cluster::worker_count(args.workers, &spec);
     let rt = tokio::runtime::Runtime::new()?;
-    let (mut result, identified) = rt.block_on(async {
+    // Ctrl-C or SIGTERM cancels the job and keeps its best point so far; a local cluster's
+    // workers and temporary folder go with it.
+    let work = async |mut client: Client| {
+        let mut stopper = client.clone();
+        tokio::select! {
+            r = client.calibrate_and_identify(&prepared, &data, &model) => r.map(Ok),
+            () = super::servers::terminate_signal() => Ok(Err(stopper.interrupt().await?)),
+        }
+    };
+    let outcome = rt.block_on(async {
         match &args.coordinator {
             Some(url) => {
                 let token = super::token::load(args.token_file.as_deref())?;
-                let mut client = Client::connect(url, token.as_deref()).await?;
-                client.calibrate_and_identify(&prepared, &data, &model).await
+                work(Client::connect(url, token.as_deref()).await?).await
             }
-            None => {
-                let work = async |mut client: Client| client.calibrate_and_identify(&prepared, &data, &model).await;
-                super::local_cluster::run(threads, work).await
-            }
+            None => super::local_cluster::run(threads, work).await,
         }
     })?;
+    let (mut result, identified) = match outcome {
+        Ok(done) => done,
+        Err(partial) => {
+            if let Some(result) = partial {
+                super::outputs::write_result(&args.out, &result)?;
+                eprintln!(
+                    "interrupted: wrote the best point so far (f = {:.6e} after {} evaluations) to {}",
+                    result.f_opt,
+                    result.evaluations,
+                    args.out.join("result.json").display()
+                );
+            }
+            return Err(super::Interrupted.into());
+        }
+    };
     match identified {
         Ok(id) => result.identifiability = Some(id),
         Err(e) => tracing::warn!("no identifiability analysis: {e:#}"),

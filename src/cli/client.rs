@@ -192,6 +192,17 @@ impl Client {
         Ok(job_id)
     }
 
+    /// Stops the calibration this client (or a clone) submitted first, as Ctrl-C does: cancels
+    /// every job it submitted and returns the calibration's best point so far (`None` if none
+    /// was submitted yet), with termination `interrupted`.
+    pub async fn interrupt(&mut self) -> Result<Option<CalibrationResult>> {
+        let first = self.submitted.lock().expect("not poisoned").first().cloned();
+        self.cancel_submitted().await;
+        let Some(job_id) = first else { return Ok(None) };
+        let r = self.inner.get_job(pb::GetJobRequest { job_id }).await?.into_inner();
+        Ok(r.result.map(|r| CalibrationResult { termination: "interrupted".into(), ..result_from_proto(r, vec![]) }))
+    }
+
     /// Cancels every job this client or a clone submitted that has not ended; returns how many
     /// it stopped. For a client that gives up (a diagnosis stopped midway), so its jobs do not
     /// keep the workers busy. Cancelling a job that has ended changes nothing and answers its

@@ -1,5 +1,5 @@
 //! A cluster for one local run (`fmucal calibrate` without `--coordinator`): an in-process
-//! coordinator on 127.0.0.1 (a free port) with a freshly generated token and its state in a
+//! coordinator on 127.0.0.1 (a free port) with freshly generated client and worker tokens and its state in a
 //! temporary folder, and N `fmucal worker` processes of this executable, each replaced when it
 //! dies (an FMU may crash it). [`run`] hands a connected [`Client`] to the work and stops
 //! everything when the work ends.
@@ -21,7 +21,7 @@ pub fn worker_count(flag: Option<usize>, spec: &fmucal_shared::job::JobSpec) -> 
 /// Starts the coordinator and `workers` worker processes, runs `work` on a client connected to
 /// them while supervising the workers, then stops them all and returns the work's result.
 pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>) -> Result<T> {
-    let token = super::token::generate()?;
+    let (token, worker_token) = (super::token::generate()?, super::token::generate()?);
     let state = tempfile::tempdir()?;
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let url = format!("http://{}", listener.local_addr()?);
@@ -29,7 +29,9 @@ pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>)
     let config = fmucal_coordinator::Config {
         data_dir: state.path().join("coordinator"),
         token: Some(token.clone()),
+        worker_token: Some(worker_token.clone()),
         timing: Default::default(),
+        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
         diagnose_program: None,
     };
     let server = tokio::spawn(fmucal_coordinator::run(config, listener, async {
@@ -41,7 +43,8 @@ pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>)
         tokio::process::Command::new(&exe)
             .args(["worker", "--coordinator", &url, "--cache-dir"])
             .arg(&cache)
-            .env("FMUCAL_TOKEN", &token)
+            .env("FMUCAL_WORKER_TOKEN", &worker_token)
+            .env_remove("FMUCAL_TOKEN")
             .env("HOSTNAME", format!("local{k}"))
             .stdin(std::process::Stdio::null())
             .stdout(std::process::Stdio::null())

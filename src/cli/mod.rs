@@ -1,5 +1,6 @@
 //! Command-line parsing (clap) and dispatch. Each subcommand lives in its own module; errors
-//! are printed as one line and give exit code 1 (clap's usage errors give 2).
+//! are printed as one line and give exit code 1 (clap's usage errors give 2, an interrupted
+//! calibration 130).
 
 mod calibrate;
 mod client;
@@ -48,6 +49,11 @@ enum Command {
     },
 }
 
+/// A run stopped by Ctrl-C or SIGTERM (exit code 130, as a shell reports SIGINT).
+#[derive(Debug, thiserror::Error)]
+#[error("interrupted")]
+pub(crate) struct Interrupted;
+
 /// Runs the CLI with the process arguments.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -79,6 +85,10 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is::<Interrupted>() => {
+            eprintln!("interrupted");
+            ExitCode::from(130)
+        }
         Err(e) => {
             eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
             ExitCode::FAILURE

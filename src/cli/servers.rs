@@ -14,15 +14,23 @@ pub struct CoordinatorArgs {
     /// Where models and job state are kept (created if missing).
     #[arg(long)]
     data_dir: PathBuf,
-    /// File holding the shared token (else FMUCAL_TOKEN). Required off loopback.
+    /// File holding the client token (else FMUCAL_TOKEN). Required.
     #[arg(long)]
     token_file: Option<PathBuf>,
+    /// File holding the token workers must present (else FMUCAL_WORKER_TOKEN); unset, workers
+    /// present the client token.
+    #[arg(long)]
+    worker_token_file: Option<PathBuf>,
     /// Drop a worker after this many seconds without a heartbeat.
     #[arg(long, default_value_t = 5.0)]
     worker_expiry: f64,
     /// Re-send a point after this many seconds without a result.
     #[arg(long, default_value_t = 600.0)]
     evaluation_timeout: f64,
+    /// Cap on the stored models (archives and their unpacked files), bytes; an upload past it
+    /// is refused with RESOURCE_EXHAUSTED.
+    #[arg(long, default_value_t = fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES)]
+    max_store_bytes: u64,
 }
 
 #[derive(clap::Args)]
@@ -33,7 +41,7 @@ pub struct WorkerArgs {
     /// Concurrent evaluations (FMU instances on their own threads).
     #[arg(long, default_value_t = 1)]
     slots: usize,
-    /// File holding the shared token (else FMUCAL_TOKEN).
+    /// File holding the token to present (else FMUCAL_WORKER_TOKEN, else FMUCAL_TOKEN).
     #[arg(long)]
     token_file: Option<PathBuf>,
     /// Serve gRPC health here (NOT_SERVING until registered).
@@ -61,7 +69,8 @@ pub async fn terminate_signal() {
 
 pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
     let token = super::token::load(args.token_file.as_deref())?;
-    fmucal_coordinator::check_exposure(args.listen, token.as_deref())?;
+    let worker_token = super::token::load_worker_token(args.worker_token_file.as_deref())?;
+    fmucal_coordinator::check_tokens(token.as_deref(), worker_token.as_deref())?;
     let rt = tokio::runtime::Runtime::new()?;
     rt.block_on(async move {
         let listener = tokio::net::TcpListener::bind(args.listen)
@@ -75,14 +84,21 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
         };
         // A Diagnose request runs this binary as `fmucal diagnose --coordinator <here>`.
         let diagnose_program = std::env::current_exe().ok();
-        let config = fmucal_coordinator::Config { data_dir: args.data_dir, token, timing, diagnose_program };
+        let config = fmucal_coordinator::Config {
+            data_dir: args.data_dir,
+            token,
+            worker_token,
+            timing,
+            max_store_bytes: args.max_store_bytes,
+            diagnose_program,
+        };
         fmucal_coordinator::run(config, listener, terminate_signal()).await?;
         Ok(())
     })
 }
 
 pub fn worker(args: WorkerArgs) -> Result<()> {
-    let token = super::token::load(args.token_file.as_deref())?;
+    let token = super::token::load_for_worker(args.token_file.as_deref())?;
     let cache_dir = args.cache_dir.unwrap_or_else(fmucal_shared::fmu::archive::default_cache_dir);
     let name = format!("{}-{}", std::env::var("HOSTNAME").unwrap_or_else(|_| "worker".into()), std::process::id());
     let config = fmucal_worker::Config {

@@ -1,4 +1,5 @@
-//! The shared token: from `FMUCAL_TOKEN`, a `--token-file`, or freshly generated for local runs.
+//! The tokens: the client token (`FMUCAL_TOKEN` or `--token-file`) and the optional worker
+//! token (`FMUCAL_WORKER_TOKEN` or `--worker-token-file`), or freshly generated for local runs.
 
 use std::path::Path;
 
@@ -6,13 +7,30 @@ use anyhow::{Context, Result};
 
 /// `--token-file` if given, else `FMUCAL_TOKEN`, else none.
 pub fn load(file: Option<&Path>) -> Result<Option<String>> {
+    from_file_or_env(file, &["FMUCAL_TOKEN"])
+}
+
+/// The coordinator's worker token: `--worker-token-file` if given, else `FMUCAL_WORKER_TOKEN`,
+/// else none (workers then use the client token).
+pub fn load_worker_token(file: Option<&Path>) -> Result<Option<String>> {
+    from_file_or_env(file, &["FMUCAL_WORKER_TOKEN"])
+}
+
+/// The token a worker presents: `--token-file` if given, else `FMUCAL_WORKER_TOKEN`, else
+/// `FMUCAL_TOKEN`.
+pub fn load_for_worker(file: Option<&Path>) -> Result<Option<String>> {
+    from_file_or_env(file, &["FMUCAL_WORKER_TOKEN", "FMUCAL_TOKEN"])
+}
+
+/// The trimmed contents of `file`, else of the first of `vars` that is set and not blank.
+fn from_file_or_env(file: Option<&Path>, vars: &[&str]) -> Result<Option<String>> {
     if let Some(f) = file {
         let t = std::fs::read_to_string(f).with_context(|| format!("cannot read token file {}", f.display()))?;
         let t = t.trim().to_owned();
         anyhow::ensure!(!t.is_empty(), "token file {} is empty", f.display());
         return Ok(Some(t));
     }
-    Ok(std::env::var("FMUCAL_TOKEN").ok().map(|t| t.trim().to_owned()).filter(|t| !t.is_empty()))
+    Ok(vars.iter().find_map(|v| std::env::var(v).ok().map(|t| t.trim().to_owned()).filter(|t| !t.is_empty())))
 }
 
 /// 32 random hex characters from the operating system.

@@ -22,12 +22,14 @@ impl TimeSeries {
         series::read(path, &layout).map_err(read_error)
     }
 
-    /// Checks the time column and the named columns: rows present, finite non-decreasing time,
-    /// lengths matching.
+    /// Checks the time column and the named columns: no more than the caps
+    /// ([`super::limits::check_table`]), rows present, finite non-decreasing time, lengths
+    /// matching, and every value finite or missing (NaN).
     ///
     /// # Errors
     /// [`JobError::Invalid`] with field `data`, `data.time` or `data.columns[NAME]`.
     pub fn validate_measurements(&self, used: &[&str]) -> Result<(), JobError> {
+        super::limits::check_table("data", self.time.len(), self.columns.len())?;
         self.check_time().map_err(|fault| match fault {
             TimeFault::NoRows => JobError::invalid("data", "no rows"),
             _ => JobError::invalid("data.time", fault.to_string()),
@@ -40,6 +42,15 @@ impl TimeSeries {
                 return Err(JobError::invalid(
                     format!("data.columns[{name}]"),
                     format!("{} values for {} time stamps", col.len(), self.time.len()),
+                ));
+            }
+            if let Some(row) = col.iter().position(|v| v.is_infinite()) {
+                return Err(JobError::invalid(
+                    format!("data.columns[{name}]"),
+                    format!(
+                        "the value at time {} is {}: a measurement must be finite (leave the cell empty for a missing one)",
+                        self.time[row], col[row]
+                    ),
                 ));
             }
         }
@@ -118,5 +129,8 @@ mod tests {
         let t = MeasurementTable { time: vec![0.0, 1.0], columns: vec![("y".into(), vec![0.0; 3])] };
         assert!(t.validate_measurements(&["y"]).unwrap_err().to_string().contains("3 values for 2 time stamps"));
         assert!(MeasurementTable::default().validate_measurements(&[]).unwrap_err().to_string().contains("no rows"));
+        let t = MeasurementTable { time: vec![0.0, 1.0], columns: vec![("y".into(), vec![0.0, f64::INFINITY])] };
+        let e = t.validate_measurements(&["y"]).unwrap_err().to_string();
+        assert!(e.starts_with("data.columns[y]: the value at time 1 is inf"), "{e}");
     }
 }

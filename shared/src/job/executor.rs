@@ -28,7 +28,8 @@ pub trait Backend {
 ///
 /// # Errors
 /// [`JobError::Invalid`] (field `executor`) if the backend answers a different number of points
-/// than asked; [`JobError::Optim`] if the run refuses a result.
+/// than asked; [`JobError::Optim`] if the run refuses a result; [`JobError::Failed`] if the run
+/// cannot give a result ([`JobRun::fatal_error`]).
 pub fn execute(
     run: &mut JobRun,
     backend: &mut dyn Backend,
@@ -51,6 +52,9 @@ pub fn execute(
         for (c, e) in round.iter().zip(&evaluations) {
             if let Some(done) = run.tell(c.id, &c.x, e, wall)? {
                 on_round(&done);
+            }
+            if let Some(why) = run.fatal_error() {
+                return Err(JobError::Failed(why));
             }
         }
     }

@@ -3,7 +3,8 @@
 //!   several experiments in one job ([`experiments`]) and the enums a job names ([`choices`]);
 //! - measurement data ([`data`]: CSV or MATLAB v5) and the quadratic error objective
 //!   ([`objective`], the paper's `quad_err`);
-//! - the job checked against its model and data ([`prepared`]);
+//! - the job checked against its model and data ([`prepared`]), and the caps on its size
+//!   ([`limits`]);
 //! - one evaluation of a parameter point on one experiment, on a warm FMU instance
 //!   ([`evaluator`]), and a pool of threads keeping such instances warm ([`pool`]);
 //! - the optimizer built from the spec ([`optimizer`]), one job's run and its bookkeeping
@@ -19,6 +20,7 @@ pub mod evaluator;
 pub mod executor;
 pub mod experiments;
 pub mod identifiability;
+pub mod limits;
 pub mod local;
 pub mod objective;
 pub mod optimizer;
@@ -58,6 +60,9 @@ pub enum JobError {
     Sim(#[from] SimError),
     #[error(transparent)]
     Optim(#[from] OptimError),
+    /// The run cannot give a result: its start point failed, or no evaluation succeeded.
+    #[error("{0}")]
+    Failed(String),
 }
 
 impl JobError {

@@ -26,6 +26,7 @@ use super::evaluator::Evaluation;
 use super::optimizer;
 use super::prepared::PreparedJob;
 use super::result::{CalibrationResult, EvaluatedPoint, HistoryPoint};
+use super::spec::JobSpec;
 use crate::optim::{AnyOptimizer, CandidateId, OptimError, Optimizer, Outcome, Status};
 
 /// One simulation to run: a candidate point (user units) on one experiment.
@@ -59,6 +60,15 @@ pub struct JobRun {
     /// Which values the optimizer sees as their logarithm (empty: none).
     #[serde(default)]
     log: Vec<bool>,
+    /// The start point (user units) of a calibration; empty for a points job.
+    #[serde(default)]
+    start: Vec<f64>,
+    /// Why the first failed evaluation failed.
+    #[serde(default)]
+    first_error: Option<String>,
+    /// Why the start point failed, if it did.
+    #[serde(default)]
+    start_error: Option<String>,
 }
 
 fn one_experiment() -> Vec<usize> {
@@ -83,6 +93,9 @@ impl JobRun {
             experiment_names: job.fitted.iter().map(|&k| job.experiments[k].name.clone()).collect(),
             partial: BTreeMap::new(),
             log: if log.contains(&true) { log } else { vec![] },
+            start: if job.spec.kind.wants_residuals() { vec![] } else { job.spec.parameter_vectors().1 },
+            first_error: None,
+            start_error: None,
         })
     }
 
@@ -178,6 +191,11 @@ impl JobRun {
         if evaluation.value.is_none() {
             self.failed_evaluations += 1;
             tracing::debug!(?x, error = ?evaluation.error, "evaluation failed");
+            let why = evaluation.error.clone().unwrap_or_else(|| "the simulation failed".into());
+            if self.start_error.is_none() && is_same_point(x, &self.start) {
+                self.start_error = Some(why.clone());
+            }
+            self.first_error.get_or_insert(why);
         }
         if self.keep_points {
             self.evaluated.insert(id, EvaluatedPoint::new(x, evaluation));
@@ -202,6 +220,20 @@ impl JobRun {
         self.history.last().map_or(0, |h| h.round)
     }
 
+    /// Why the run must stop without a result: a calibration whose start point failed (the
+    /// job cannot be what the user meant), or whose optimizer stopped before any evaluation
+    /// succeeded. A points job reports each point's failure in its result instead.
+    pub fn fatal_error(&self) -> Option<String> {
+        if let Some(why) = &self.start_error {
+            return Some(format!("the start point failed: {why}"));
+        }
+        if self.start.is_empty() || !self.is_done() || self.optimizer.best().is_some() {
+            return None;
+        }
+        let first = self.first_error.as_deref().unwrap_or("none was evaluated");
+        Some(format!("no evaluation succeeded; the first error: {first}"))
+    }
+
     /// Whether the optimizer has stopped.
     pub fn is_done(&self) -> bool {
         matches!(self.optimizer.status(), Status::Done(_))
@@ -224,15 +256,16 @@ impl JobRun {
 
     /// The result so far: the optimum (the start point if nothing succeeded), counters, history
     /// and evaluated points. `termination` overrides the optimizer's reason (e.g. "cancelled").
-    pub fn result(&self, job: &PreparedJob, elapsed_s: f64, termination: Option<&str>) -> CalibrationResult {
-        let (x, f) = self.best().unwrap_or_else(|| (job.spec.parameter_vectors().1, f64::INFINITY));
+    pub fn result(&self, job: &JobSpec, elapsed_s: f64, termination: Option<&str>) -> CalibrationResult {
+        let (names, start, _, _) = job.parameter_vectors();
+        let (x, f) = self.best().unwrap_or((start, f64::INFINITY));
         let termination = match (termination, self.optimizer.status()) {
             (Some(why), _) => why.to_owned(),
             (None, Status::Done(t)) => t.to_string(),
             (None, Status::Running) => "stopped".into(),
         };
         CalibrationResult {
-            x_opt: job.parameter_names.iter().cloned().zip(x).collect(),
+            x_opt: names.into_iter().zip(x).collect(),
             f_opt: f,
             iterations: self.optimizer.iterations(),
             evaluations: self.optimizer.evaluations(),
@@ -247,4 +280,11 @@ impl JobRun {
             experiments: vec![],
         }
     }
+}
+
+/// Whether `x` is `start` (a log-scaled value comes back through exp(ln v), so to rounding).
+fn is_same_point(x: &[f64], start: &[f64]) -> bool {
+    !start.is_empty()
+        && x.len() == start.len()
+        && x.iter().zip(start).all(|(a, b)| a == b || (a - b).abs() <= 1e-12 * a.abs().max(b.abs()))
 }

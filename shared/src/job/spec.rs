@@ -427,20 +427,17 @@ impl JobSpec {
         if self.parameters.is_empty() && self.effects.is_empty() {
             return Err(JobError::invalid("parameters", "at least one parameter (or effect) is needed"));
         }
+        super::limits::check_spec(self)?;
+        let mut names = std::collections::HashSet::with_capacity(self.parameters.len());
         for (k, p) in self.parameters.iter().enumerate() {
             let f = |name: &str| format!("parameters[{k}].{name}");
             if p.name.trim().is_empty() {
                 return Err(JobError::invalid(f("name"), "is empty"));
             }
-            if self.parameters[..k].iter().any(|q| q.name == p.name) {
+            if !names.insert(p.name.as_str()) {
                 return Err(JobError::invalid(f("name"), format!("{:?} appears twice", p.name)));
             }
-            if p.lower.is_nan() || p.upper.is_nan() || p.lower > p.upper {
-                return Err(JobError::invalid(
-                    f("lower"),
-                    format!("{}: lower {} is above upper {}", p.name, p.lower, p.upper),
-                ));
-            }
+            check_bounds(p.lower, p.upper).map_err(|m| JobError::invalid(f("lower"), format!("{}: {m}", p.name)))?;
             if !(p.start.is_finite() && p.start >= p.lower && p.start <= p.upper) {
                 return Err(JobError::invalid(
                     f("start"),
@@ -451,12 +448,31 @@ impl JobSpec {
         for (k, e) in self.effects.iter().enumerate() {
             self.validate_effect(k, e)?;
         }
+        self.validate_simulation()?;
         self.validate_experiments()?;
         if self.experiments.is_empty() {
             self.validate_mapping()?;
         }
         if let Some(d) = &self.diagnose {
             d.validate()?;
+        }
+        Ok(())
+    }
+
+    /// The simulation's own settings: a tolerance an integrator can meet.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] naming the field.
+    fn validate_simulation(&self) -> Result<(), JobError> {
+        if let Some(t) = self.simulation.tolerance
+            && !(MIN_TOLERANCE..1.0).contains(&t)
+        {
+            return Err(JobError::invalid(
+                "simulation.tolerance",
+                format!(
+                    "{t:e} is not in [{MIN_TOLERANCE:e}, 1): no integrator meets a relative tolerance below double precision"
+                ),
+            ));
         }
         Ok(())
     }
@@ -498,12 +514,8 @@ impl JobSpec {
     /// on: a port and a signal, a mapped output (sensor) or a mapped input (actuator).
     fn validate_effect(&self, k: usize, e: &EffectSpec) -> Result<(), JobError> {
         for (name, b) in e.ordered_parameters(k)? {
-            if b.lower.is_nan() || b.upper.is_nan() || b.lower > b.upper {
-                return Err(JobError::invalid(
-                    format!("effects[{k}].parameters.{name}.lower"),
-                    format!("lower {} is above upper {}", b.lower, b.upper),
-                ));
-            }
+            check_bounds(b.lower, b.upper)
+                .map_err(|m| JobError::invalid(format!("effects[{k}].parameters.{name}.lower"), m))?;
             if !(b.start.is_finite() && b.start >= b.lower && b.start <= b.upper) {
                 return Err(JobError::invalid(
                     format!("effects[{k}].parameters.{name}.start"),
@@ -556,6 +568,23 @@ impl JobSpec {
     }
 }
 
+/// The smallest `[simulation] tolerance` accepted: a few units of double precision.
+pub const MIN_TOLERANCE: f64 = 1e-14;
+
+/// Bounds the optimizers can work in: ordered, and (when both are finite) a finite width apart;
+/// an infinite bound leaves that side open.
+fn check_bounds(lower: f64, upper: f64) -> Result<(), String> {
+    if lower.is_nan() || upper.is_nan() || lower > upper {
+        return Err(format!("lower {lower} is above upper {upper}"));
+    }
+    if lower.is_finite() && upper.is_finite() && !(upper - lower).is_finite() {
+        return Err(format!(
+            "the bounds [{lower:e}, {upper:e}] are too far apart (their width overflows): scale the parameter, or use scale = \"log\""
+        ));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -598,6 +627,22 @@ upper = 2.0
         assert!(e.to_string().starts_with("parameters[0].start"), "{e}");
         let e = JobSpec::from_toml(&JOB.replace("[data]", "[data]\nbogus = 1"), Path::new(".")).unwrap_err();
         assert!(e.to_string().contains("bogus"), "{e}");
+    }
+
+    #[test]
+    fn values_no_run_can_use_are_refused_at_validation() {
+        let check = |from: &str, to: &str| {
+            JobSpec::from_toml(&JOB.replace(from, to), Path::new(".")).unwrap().validate().map_err(|e| e.to_string())
+        };
+        let e = check("lower = 0.0\nupper = 2.0", "lower = -1e308\nupper = 1e308").unwrap_err();
+        assert!(e.starts_with("parameters[0].lower: k: the bounds [-1e308, 1e308] are too far apart"), "{e}");
+        check("lower = 0.0\nupper = 2.0", "lower = -inf\nupper = inf").unwrap();
+        let e = check("[data]", "[simulation]\ntolerance = 1e-300\n[data]").unwrap_err();
+        assert!(e.starts_with("simulation.tolerance: 1e-300 is not in [1e-14, 1)"), "{e}");
+        check("[data]", "[simulation]\ntolerance = 1e-10\n[data]").unwrap();
+        let twice = format!("{JOB}[[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n");
+        let e = JobSpec::from_toml(&twice, Path::new(".")).unwrap().validate().unwrap_err().to_string();
+        assert_eq!(e, "parameters[1].name: \"k\" appears twice");
     }
 
     #[test]

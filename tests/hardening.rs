@@ -1,0 +1,329 @@
+//! Requests a hostile or careless client or worker may send (issue 11), against an in-process
+//! coordinator on 127.0.0.1: sizes past the caps are refused before anything is allocated and
+//! the coordinator keeps serving; a job whose evaluations all fail, or whose start point fails,
+//! fails with the first error; a worker may answer only the points leased to it; workers and
+//! clients hold different tokens.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use fmucal_proto::auth::AttachToken;
+use fmucal_proto::convert::job_to_proto;
+use fmucal_proto::v1 as pb;
+use fmucal_proto::v1::calibration_client::CalibrationClient;
+use fmucal_proto::v1::worker_pool_client::WorkerPoolClient;
+use fmucal_shared::job::{JobSpec, MeasurementTable};
+use fmucal_shared::sim::{SimSpec, simulate};
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::Channel;
+
+type Client = CalibrationClient<InterceptedService<Channel, AttachToken>>;
+type Pool = WorkerPoolClient<InterceptedService<Channel, AttachToken>>;
+
+const TOKEN: &str = "client-token-0123456789";
+const WORKER_TOKEN: &str = "worker-token-9876543210";
+
+struct Coordinator {
+    url: String,
+    stop: tokio::sync::oneshot::Sender<()>,
+    task: tokio::task::JoinHandle<Result<(), fmucal_coordinator::CoordinatorError>>,
+}
+
+impl Coordinator {
+    /// Stops serving and waits until the store is closed.
+    async fn stop(self) {
+        let _ = self.stop.send(());
+        self.task.await.unwrap().unwrap();
+    }
+}
+
+async fn start_coordinator(data_dir: &Path, worker_token: Option<&str>) -> Coordinator {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let url = format!("http://{}", listener.local_addr().unwrap());
+    let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+    let config = fmucal_coordinator::Config {
+        data_dir: data_dir.to_owned(),
+        token: Some(TOKEN.into()),
+        worker_token: worker_token.map(str::to_owned),
+        timing: fmucal_coordinator::Timing {
+            heartbeat_interval: Duration::from_millis(200),
+            worker_expiry: Duration::from_secs(30),
+            evaluation_timeout: Duration::from_secs(60),
+        },
+        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
+        diagnose_program: None,
+    };
+    let task = tokio::spawn(fmucal_coordinator::run(config, listener, async {
+        let _ = rx.await;
+    }));
+    Coordinator { url, stop: tx, task }
+}
+
+async fn channel(url: &str) -> Channel {
+    tonic::transport::Endpoint::from_shared(url.to_owned()).unwrap().connect().await.unwrap()
+}
+
+async fn client(url: &str, token: &str) -> Client {
+    CalibrationClient::with_interceptor(channel(url).await, AttachToken::new(Some(token)).unwrap())
+        .max_encoding_message_size(256 << 20)
+}
+
+async fn pool(url: &str, token: &str) -> Pool {
+    WorkerPoolClient::with_interceptor(channel(url).await, AttachToken::new(Some(token)).unwrap())
+}
+
+fn start_worker(url: &str, cache: &Path, token: &str) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(["worker", "--coordinator", url, "--cache-dir"])
+        .arg(cache)
+        .env("FMUCAL_WORKER_TOKEN", token)
+        .env_remove("FMUCAL_TOKEN")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap()
+}
+
+/// The decay example's job (`k` from 1.0 in [0.5, 3]) on data made with k = 1.7, with `extra`
+/// tables appended, as the job spec of `model_id`.
+fn decay_job(dir: &Path, extra: &str, model_id: &str) -> pb::JobSpec {
+    let fmu = common::load_example("decay", &dir.join("cache"));
+    let r = simulate(&fmu, &SimSpec { parameters: vec![("k".into(), "1.7".into())], ..Default::default() }).unwrap();
+    let data = MeasurementTable { time: r.time.clone(), columns: vec![("x".into(), r.column("x").unwrap().to_vec())] };
+    let toml = common::job_toml(&common::example("decay"), None, &[("x", "x")], &[], &[("k", 1.0, 0.5, 3.0)], extra);
+    let spec = JobSpec::from_toml(&toml, dir).unwrap();
+    job_to_proto(&spec, std::slice::from_ref(&data), model_id)
+}
+
+async fn upload_decay(c: &mut Client) -> String {
+    let bytes = std::fs::read(common::example("decay")).unwrap();
+    let chunks = vec![pb::UploadModelRequest { chunk: bytes }];
+    c.upload_model(tokio_stream::iter(chunks)).await.unwrap().into_inner().model_id
+}
+
+async fn wait_end(c: &mut Client, job: &str) -> pb::GetJobResponse {
+    let deadline = Instant::now() + Duration::from_secs(120);
+    loop {
+        let r = c.get_job(pb::GetJobRequest { job_id: job.into() }).await.unwrap().into_inner();
+        if r.status != pb::JobStatus::Running as i32 {
+            return r;
+        }
+        assert!(Instant::now() < deadline, "job {job} did not end");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sizes_past_the_caps_are_refused_and_the_coordinator_keeps_serving() {
+    let dir = tempfile::tempdir().unwrap();
+    let coord = start_coordinator(&dir.path().join("coord"), None).await;
+    let mut c = client(&coord.url, TOKEN).await;
+    let model = upload_decay(&mut c).await;
+    let base = decay_job(dir.path(), "", &model);
+    let huge_population = |algorithm: &str, population: u64| {
+        let mut j = base.clone();
+        let o = j.optimizer.get_or_insert_with(Default::default);
+        o.algorithm = algorithm.into();
+        o.population = Some(population);
+        j
+    };
+    let mut many_parameters = base.clone();
+    let p = many_parameters.parameters[0].clone();
+    many_parameters.parameters =
+        (0..100_000).map(|k| pb::ParameterSpec { name: format!("p{k}"), ..p.clone() }).collect();
+    let mut many_fevals = base.clone();
+    many_fevals.optimizer.get_or_insert_with(Default::default).max_fevals = Some(u64::MAX);
+    let cases = [
+        (huge_population("differential-evolution", u64::MAX), "optimizer.population"),
+        (huge_population("differential-evolution", 10_000_000_000), "optimizer.population"),
+        (huge_population("genetic", 100_000_000), "optimizer.population"),
+        (many_parameters, "parameters: 100000 calibrated values exceeds the cap of 1000"),
+        (many_fevals, "optimizer.max_fevals"),
+    ];
+    for (spec, says) in cases {
+        let err = c.submit_job(pb::SubmitJobRequest { spec: Some(spec) }).await.unwrap_err();
+        assert_eq!(err.code(), tonic::Code::InvalidArgument, "{says}: {err:?}");
+        assert!(err.message().contains(says) && err.message().contains("cap"), "{says:?} not in {:?}", err.message());
+    }
+    // Still serving, with nothing queued.
+    assert!(c.list_jobs(pb::ListJobsRequest {}).await.unwrap().into_inner().jobs.is_empty());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_job_whose_start_point_or_every_evaluation_fails_fails_with_the_first_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let coord = start_coordinator(&dir.path().join("coord"), Some(WORKER_TOKEN)).await;
+    let mut c = client(&coord.url, TOKEN).await;
+    let model = upload_decay(&mut c).await;
+    let mut worker = start_worker(&coord.url, &dir.path().join("wcache"), WORKER_TOKEN);
+    // crashMode = "error" at 0.5 s, within the 2 s simulated: every simulation fails.
+    let failing = "[simulation]\nset = { crashMode = \"error\", crashTime = 0.5 }\n";
+    let cases = [
+        ("", "the start point failed: "),
+        // The genetic algorithm's first member is the start point only to its bit resolution,
+        // so this one runs to its end: nothing succeeded.
+        (
+            "[optimizer]\nalgorithm = \"genetic\"\npopulation = 4\nbits = 7\nelitism = 1\nmax_iters = 2\n",
+            "no evaluation succeeded; the first error: ",
+        ),
+    ];
+    for (optimizer, says) in cases {
+        let spec = decay_job(dir.path(), &format!("{failing}{optimizer}"), &model);
+        let job = c.submit_job(pb::SubmitJobRequest { spec: Some(spec) }).await.unwrap().into_inner().job_id;
+        let r = wait_end(&mut c, &job).await;
+        assert_eq!(r.status, pb::JobStatus::Failed as i32, "{r:?}");
+        assert!(r.error.starts_with(says) && r.error.contains("crashMode=error"), "{says:?}: {:?}", r.error);
+    }
+    let _ = worker.kill();
+    let _ = worker.wait();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_worker_may_answer_only_the_points_leased_to_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let coord = start_coordinator(&dir.path().join("coord"), Some(WORKER_TOKEN)).await;
+    let mut c = client(&coord.url, TOKEN).await;
+    let model = upload_decay(&mut c).await;
+    let spec = decay_job(dir.path(), "[optimizer]\nmax_iters = 3\n", &model);
+    let job = c.submit_job(pb::SubmitJobRequest { spec: Some(spec) }).await.unwrap().into_inner().job_id;
+
+    let mut w = pool(&coord.url, WORKER_TOKEN).await;
+    let register = |name: &str| pb::RegisterRequest {
+        protocol_version: fmucal_proto::PROTOCOL_VERSION,
+        slots: 1,
+        name: name.into(),
+    };
+    let honest = w.register(register("honest")).await.unwrap().into_inner().worker_id;
+    let forger = w.register(register("forger")).await.unwrap().into_inner().worker_id;
+    let poll = |worker_id: &str, results: Vec<pb::PointResult>, max_points: u32| pb::PollWorkRequest {
+        worker_id: worker_id.into(),
+        results,
+        max_points,
+        wait_ms: 2000,
+    };
+    let leased = w.poll_work(poll(&honest, vec![], 1)).await.unwrap().into_inner().assignments;
+    assert_eq!(leased.len(), 1, "the start point is leased to the first worker that asks");
+    let forged = |point_id: u64| pb::PointResult {
+        job_id: job.clone(),
+        point_id,
+        status: pb::PointStatus::Ok as i32,
+        value: -1e300,
+        ..Default::default()
+    };
+    // Forged values: for the honest worker's point, and for a point nobody was given.
+    w.poll_work(poll(&forger, vec![forged(leased[0].point_id), forged(99)], 0)).await.unwrap();
+    let summary = |jobs: Vec<pb::JobSummary>| jobs.into_iter().find(|j| j.job_id == job).unwrap();
+    let s = summary(c.list_jobs(pb::ListJobsRequest {}).await.unwrap().into_inner().jobs);
+    assert_eq!((s.evaluations, s.status), (0, pb::JobStatus::Running as i32), "a forged result was told: {s:?}");
+    // The honest worker's answers are taken: it drives the job to its end alone (a flat
+    // objective ends a Nelder–Mead run on f_tol after its first rounds).
+    let mut held = leased;
+    for _ in 0..100 {
+        let answers = held.iter().map(|a| pb::PointResult { value: 0.25, ..forged(a.point_id) }).collect();
+        held = w.poll_work(poll(&honest, answers, 1)).await.unwrap().into_inner().assignments;
+        if held.is_empty() {
+            break;
+        }
+    }
+    let r = c.get_job(pb::GetJobRequest { job_id: job.clone() }).await.unwrap().into_inner();
+    assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
+    let result = r.result.unwrap();
+    assert_eq!((result.f_opt, result.failed_evaluations), (0.25, 0), "{result:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn clients_and_workers_hold_different_tokens() {
+    let dir = tempfile::tempdir().unwrap();
+    let coord = start_coordinator(&dir.path().join("coord"), Some(WORKER_TOKEN)).await;
+    let request = pb::RegisterRequest { protocol_version: fmucal_proto::PROTOCOL_VERSION, slots: 1, name: "w".into() };
+    let err = pool(&coord.url, TOKEN).await.register(request.clone()).await.unwrap_err();
+    assert_eq!(err.code(), tonic::Code::Unauthenticated, "the client token registered a worker");
+    pool(&coord.url, WORKER_TOKEN).await.register(request).await.unwrap();
+    let err = client(&coord.url, WORKER_TOKEN).await.list_jobs(pb::ListJobsRequest {}).await.unwrap_err();
+    assert_eq!(err.code(), tonic::Code::Unauthenticated, "the worker token listed jobs");
+    client(&coord.url, TOKEN).await.list_jobs(pb::ListJobsRequest {}).await.unwrap();
+
+    // The CLI refuses to serve without a token, on loopback too, and a worker token equal to
+    // the client token.
+    let coordinator = |env: &[(&str, &str)]| {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_fmucal"));
+        cmd.args(["coordinator", "--listen", "127.0.0.1:0", "--data-dir"])
+            .arg(dir.path().join("c2"))
+            .env_remove("FMUCAL_TOKEN")
+            .env_remove("FMUCAL_WORKER_TOKEN");
+        for (k, v) in env {
+            cmd.env(k, v);
+        }
+        let out = cmd.output().unwrap();
+        assert!(!out.status.success());
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let stderr = coordinator(&[]);
+    assert!(stderr.contains("refusing to serve without a token"), "{stderr}");
+    let stderr = coordinator(&[("FMUCAL_TOKEN", TOKEN), ("FMUCAL_WORKER_TOKEN", TOKEN)]);
+    assert!(stderr.contains("must differ"), "{stderr}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn jobs_whose_model_is_gone_after_a_restart_stay_readable() {
+    let dir = tempfile::tempdir().unwrap();
+    let data_dir = dir.path().join("coord");
+    let coord = start_coordinator(&data_dir, Some(WORKER_TOKEN)).await;
+    let mut c = client(&coord.url, TOKEN).await;
+    let model = upload_decay(&mut c).await;
+    let mut worker = start_worker(&coord.url, &dir.path().join("wcache"), WORKER_TOKEN);
+    let spec = decay_job(dir.path(), "[optimizer]\nmax_iters = 5\n", &model);
+    let done = c.submit_job(pb::SubmitJobRequest { spec: Some(spec.clone()) }).await.unwrap().into_inner().job_id;
+    let before = wait_end(&mut c, &done).await;
+    assert_eq!(before.status, pb::JobStatus::Succeeded as i32, "{before:?}");
+    let _ = worker.kill();
+    let _ = worker.wait();
+    // With no worker left, this one is still running when the coordinator stops.
+    let running = c.submit_job(pb::SubmitJobRequest { spec: Some(spec) }).await.unwrap().into_inner().job_id;
+    coord.stop().await;
+
+    std::fs::remove_file(data_dir.join("models").join(format!("{model}.fmu"))).unwrap();
+    let _ = std::fs::remove_dir_all(data_dir.join("unpacked"));
+    let coord = start_coordinator(&data_dir, Some(WORKER_TOKEN)).await;
+    let mut c = client(&coord.url, TOKEN).await;
+    let listed: Vec<String> =
+        c.list_jobs(pb::ListJobsRequest {}).await.unwrap().into_inner().jobs.into_iter().map(|j| j.job_id).collect();
+    assert!(listed.contains(&done) && listed.contains(&running), "{listed:?}");
+    let after = c.get_job(pb::GetJobRequest { job_id: done }).await.unwrap().into_inner();
+    assert_eq!((after.status, &after.result), (before.status, &before.result));
+    assert!(after.error.contains(&format!("the job's model {model} cannot be used")), "{:?}", after.error);
+    let stopped = c.get_job(pb::GetJobRequest { job_id: running }).await.unwrap().into_inner();
+    assert_eq!(stopped.status, pb::JobStatus::Failed as i32, "{stopped:?}");
+    assert!(stopped.error.starts_with("cannot resume: the job's model"), "{:?}", stopped.error);
+    assert_eq!(stopped.result.map(|r| r.x_opt), Some(vec![1.0]), "the start point, as nothing was evaluated");
+    coord.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_rejected_upload_leaves_nothing_on_disk() {
+    let dir = tempfile::tempdir().unwrap();
+    let data_dir = dir.path().join("coord");
+    let coord = start_coordinator(&data_dir, None).await;
+    let mut c = client(&coord.url, TOKEN).await;
+    // The decay FMU with 64 MB more and a model description cut short.
+    let broken = common::repack("decay", dir.path(), "broken.fmu", |name, bytes| {
+        Some(if name == "modelDescription.xml" { bytes[..bytes.len() / 2].to_vec() } else { bytes })
+    });
+    let mut entries = common::entries(&broken);
+    entries.push(("resources/padding.bin".into(), vec![7; 64 << 20]));
+    common::write_zip(&broken, &entries);
+    let chunks: Vec<_> =
+        std::fs::read(&broken).unwrap().chunks(1 << 20).map(|c| pb::UploadModelRequest { chunk: c.to_vec() }).collect();
+    let err = c.upload_model(tokio_stream::iter(chunks)).await.unwrap_err();
+    assert_eq!(err.code(), tonic::Code::InvalidArgument, "{err:?}");
+    let left = |sub: &str| std::fs::read_dir(data_dir.join(sub)).unwrap().count();
+    assert_eq!((left("models"), left("unpacked")), (0, 0), "the rejected upload left files");
+    // A good upload still goes in.
+    upload_decay(&mut c).await;
+    assert_eq!(left("models"), 1);
+    coord.stop().await;
+}
