@@ -70,6 +70,7 @@ async fn run(spec: &JobSpec, data: &MeasurementTable, workers: usize, sample_at:
         worker_token: None,
         timing: Default::default(),
         max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
+        tls: None,
         diagnose_program: None,
     };
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();

@@ -16,7 +16,6 @@ use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::calibration_client::CalibrationClient;
 use fmucal_shared::job::{JobSpec, MeasurementTable, PreparedJob, local};
-use fmucal_shared::optim::Optimizer;
 use fmucal_shared::sim::{InputTable, SimSpec, simulate};
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
@@ -65,10 +64,11 @@ fn reference(spec: &JobSpec, data: &MeasurementTable, dir: &Path) -> fmucal_shar
     local::calibrate(fmu, job, 1, |_| {}).unwrap()
 }
 
+/// A coordinator on a free port; it serves until this is dropped.
 struct Coordinator {
     url: String,
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
-    task: tokio::task::JoinHandle<Result<(), fmucal_coordinator::CoordinatorError>>,
+    _stop: Option<tokio::sync::oneshot::Sender<()>>,
+    _task: tokio::task::JoinHandle<Result<(), fmucal_coordinator::CoordinatorError>>,
 }
 
 async fn start_coordinator(data_dir: &Path) -> Coordinator {
@@ -86,12 +86,13 @@ async fn start_coordinator(data_dir: &Path) -> Coordinator {
         worker_token: None,
         timing,
         max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
+        tls: None,
         diagnose_program: None,
     };
     let task = tokio::spawn(fmucal_coordinator::run(config, listener, async {
         let _ = rx.await;
     }));
-    Coordinator { url, stop: Some(tx), task }
+    Coordinator { url, _stop: Some(tx), _task: task }
 }
 
 fn start_worker(url: &str, cache: &Path, token: &str) -> Child {

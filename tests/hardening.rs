@@ -54,6 +54,7 @@ async fn start_coordinator(data_dir: &Path, worker_token: Option<&str>) -> Coord
             evaluation_timeout: Duration::from_secs(60),
         },
         max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
+        tls: None,
         diagnose_program: None,
     };
     let task = tokio::spawn(fmucal_coordinator::run(config, listener, async {

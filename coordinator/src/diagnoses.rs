@@ -19,6 +19,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use fmucal_proto::convert::effect_to_proto;
+use fmucal_proto::tls::ServerTls;
 use fmucal_proto::v1 as pb;
 use fmucal_shared::diagnose::report::Diagnosis;
 use fmucal_shared::diagnose::spec::DiagnoseSpec;
@@ -47,13 +48,20 @@ pub struct Diagnoses {
     /// Where the child reaches this coordinator.
     url: String,
     token: Option<String>,
+    /// The coordinator's TLS: the child trusts its CA and, under mutual TLS, presents the
+    /// coordinator's own certificate (see [`Diagnoses::new`]).
+    tls: Option<ServerTls>,
     dir: PathBuf,
     running: Arc<Semaphore>,
     next: AtomicU64,
 }
 
-/// The URL a child on this host reaches a server listening on `addr` at.
-fn loopback_url(addr: SocketAddr) -> String {
+/// The URL a child on this host reaches a server listening on `addr` at (`localhost` under
+/// TLS, the name a certificate of this host carries).
+fn loopback_url(addr: SocketAddr, tls: bool) -> String {
+    if tls {
+        return format!("https://localhost:{}", addr.port());
+    }
     let ip = match addr.ip() {
         IpAddr::V4(ip) if ip.is_unspecified() => IpAddr::V4(Ipv4Addr::LOCALHOST),
         IpAddr::V6(ip) if ip.is_unspecified() => IpAddr::V6(Ipv6Addr::LOCALHOST),
@@ -64,6 +72,9 @@ fn loopback_url(addr: SocketAddr) -> String {
 
 impl Diagnoses {
     /// Empties `<data_dir>/diagnoses` (no diagnosis outlives the coordinator that ran it).
+    /// Under TLS the child reaches the coordinator at `https://localhost:PORT`, trusting
+    /// `tls.ca_pem`; under mutual TLS it presents the coordinator's own certificate, which
+    /// must then also be valid for client authentication (as `fmucal certs` makes it).
     ///
     /// # Errors
     /// If the folder cannot be emptied or made.
@@ -71,6 +82,7 @@ impl Diagnoses {
         program: Option<PathBuf>,
         addr: SocketAddr,
         token: Option<String>,
+        tls: Option<ServerTls>,
         data_dir: &Path,
     ) -> Result<Self, CoordinatorError> {
         let dir = data_dir.join("diagnoses");
@@ -80,8 +92,9 @@ impl Diagnoses {
         std::fs::create_dir_all(&dir)?;
         Ok(Diagnoses {
             program,
-            url: loopback_url(addr),
+            url: loopback_url(addr, tls.is_some()),
             token,
+            tls,
             dir,
             running: Arc::new(Semaphore::new(MAX_RUNNING)),
             next: AtomicU64::new(1),
@@ -104,6 +117,11 @@ impl Diagnoses {
         let Some(program) = &self.program else {
             return Err(Status::failed_precondition("this coordinator was started without diagnoses"));
         };
+        if self.tls.as_ref().is_some_and(|t| t.ca_pem.is_none()) {
+            return Err(Status::failed_precondition(
+                "this coordinator serves TLS without --tls-ca, so its diagnosis process could not trust it",
+            ));
+        }
         let permit = self.running.clone().try_acquire_owned().map_err(|_| {
             Status::resource_exhausted(format!("{MAX_RUNNING} diagnoses are running; try again when one ends"))
         })?;
@@ -140,6 +158,17 @@ impl Diagnoses {
                 Some(t) => command.env("FMUCAL_TOKEN", t),
                 None => command.env_remove("FMUCAL_TOKEN"),
             };
+            if let Some(tls) = &self.tls {
+                let ca = scratch.join("tls-ca.pem");
+                std::fs::write(&ca, tls.ca_pem.as_deref().unwrap_or_default()).map_err(io)?;
+                command.env("FMUCAL_TLS_CA", ca);
+                if tls.client_ca_pem.is_some() {
+                    let (cert, key) = (scratch.join("tls-cert.pem"), scratch.join("tls-key.pem"));
+                    std::fs::write(&cert, &tls.cert_pem).map_err(io)?;
+                    write_private(&key, &tls.key_pem).map_err(io)?;
+                    command.env("FMUCAL_TLS_CERT", cert).env("FMUCAL_TLS_KEY", key);
+                }
+            }
             command.spawn().map_err(|e| Status::internal(format!("cannot start {}: {e}", program.display())))
         })();
         let child = match prepared {
@@ -252,8 +281,16 @@ mod tests {
 
     #[test]
     fn a_child_reaches_a_wildcard_listener_on_loopback() {
-        assert_eq!(loopback_url("0.0.0.0:7070".parse().unwrap()), "http://127.0.0.1:7070");
-        assert_eq!(loopback_url("[::]:7070".parse().unwrap()), "http://[::1]:7070");
-        assert_eq!(loopback_url("10.1.2.3:80".parse().unwrap()), "http://10.1.2.3:80");
+        assert_eq!(loopback_url("0.0.0.0:7070".parse().unwrap(), false), "http://127.0.0.1:7070");
+        assert_eq!(loopback_url("[::]:7070".parse().unwrap(), false), "http://[::1]:7070");
+        assert_eq!(loopback_url("10.1.2.3:80".parse().unwrap(), false), "http://10.1.2.3:80");
+        assert_eq!(loopback_url("0.0.0.0:7070".parse().unwrap(), true), "https://localhost:7070");
     }
+}
+
+/// Writes a file only its owner may read (a private key).
+fn write_private(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    use std::os::unix::fs::OpenOptionsExt;
+    std::fs::OpenOptions::new().write(true).create_new(true).mode(0o600).open(path)?.write_all(bytes)
 }

@@ -39,6 +39,9 @@ pub struct Config {
     pub timing: Timing,
     /// Cap on the model store (archives and unpacked files), bytes.
     pub max_store_bytes: u64,
+    /// Serve TLS (every listener); `None`: plaintext, which the CLI allows off loopback only
+    /// with `--insecure`.
+    pub tls: Option<fmucal_proto::tls::ServerTls>,
     /// The fmucal binary a `Diagnose` request runs as a child process ([`diagnoses`]);
     /// `None` refuses diagnoses.
     pub diagnose_program: Option<PathBuf>,
@@ -77,15 +80,17 @@ pub fn check_tokens(token: Option<&str>, worker_token: Option<&str>) -> Result<(
     }
 }
 
-/// Waits for the scheduler task to end. It ends only when the server has stopped (and
-/// aborted it) or when it panicked: then the coordinator can no longer answer any job
-/// request, so health goes NOT_SERVING and the reason is returned, for [`run`] to stop the
-/// server and fail (a supervisor restarts the process; the store makes that safe).
+/// Waits for the scheduler task to end. It ends by itself only once the server has dropped
+/// its handlers, or is aborted after the server stopped: neither is a failure. If it panicked,
+/// the coordinator can no longer answer any job request, so health goes NOT_SERVING and the
+/// reason is returned, for [`run`] to stop the server and fail (a supervisor restarts the
+/// process; the store makes that safe).
 async fn supervise_scheduler(
     task: tokio::task::JoinHandle<()>,
     health: &tonic_health::server::HealthReporter,
 ) -> Option<String> {
     let why = match task.await {
+        Ok(()) => return None,
         Err(e) if e.is_cancelled() => return None,
         Err(e) => match e.try_into_panic() {
             Ok(panic) => {
@@ -98,7 +103,6 @@ async fn supervise_scheduler(
             }
             Err(e) => format!("the scheduler failed: {e}"),
         },
-        Ok(()) => "the scheduler stopped".to_owned(),
     };
     tracing::error!("{why}; the coordinator stops");
     health.set_not_serving::<pb::calibration_server::CalibrationServer<services::Handlers>>().await;
@@ -128,8 +132,13 @@ pub async fn run(
         .map_err(|e| CoordinatorError::Storage(e.to_string()))??;
     let (tx, rx) = tokio::sync::mpsc::channel(1024);
     let scheduler_task = tokio::spawn(sched.run(rx));
-    let diagnoses =
-        diagnoses::Diagnoses::new(config.diagnose_program.clone(), addr, config.token.clone(), &config.data_dir)?;
+    let diagnoses = diagnoses::Diagnoses::new(
+        config.diagnose_program.clone(),
+        addr,
+        config.token.clone(),
+        config.tls.clone(),
+        &config.data_dir,
+    )?;
     let handlers = services::Handlers { commands: tx, models, diagnoses: Arc::new(diagnoses) };
     let client_token = config.token.as_deref().unwrap_or_default();
     let client_auth = fmucal_proto::auth::BearerAuth::new(&[client_token]);
@@ -152,8 +161,18 @@ pub async fn run(
             _ = fatal_rx => {}
         }
     };
-    tracing::info!(%addr, "coordinator listening");
-    let served = tonic::transport::Server::builder()
+    tracing::info!(%addr, tls = config.tls.is_some(), "coordinator listening");
+    let mut server = tonic::transport::Server::builder();
+    if let Some(tls) = &config.tls {
+        let mut settings = tonic::transport::ServerTlsConfig::new()
+            .identity(tonic::transport::Identity::from_pem(&tls.cert_pem, &tls.key_pem))
+            .timeout(Duration::from_secs(10));
+        if let Some(ca) = &tls.client_ca_pem {
+            settings = settings.client_ca_root(tonic::transport::Certificate::from_pem(ca));
+        }
+        server = server.tls_config(settings).map_err(|e| CoordinatorError::Config(format!("TLS: {e}")))?;
+    }
+    let served = server
         .add_service(health_service)
         .add_service(InterceptedService::new(
             pb::calibration_server::CalibrationServer::new(handlers.clone())
@@ -207,9 +226,10 @@ mod tests {
             let s = status(service).await;
             assert_eq!(s, tonic_health::pb::health_check_response::ServingStatus::NotServing as i32, "{service:?}");
         }
-        // An abort at shutdown is not a failure.
+        // An abort at shutdown, or an end once the handlers are gone, is not a failure.
         let task = tokio::spawn(std::future::pending::<()>());
         task.abort();
         assert!(supervise_scheduler(task, &reporter).await.is_none());
+        assert!(supervise_scheduler(tokio::spawn(async {}), &reporter).await.is_none());
     }
 }

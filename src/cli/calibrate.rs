@@ -33,6 +33,8 @@ pub struct Args {
     /// Token file for --coordinator (else FMUCAL_TOKEN).
     #[arg(long)]
     token_file: Option<PathBuf>,
+    #[command(flatten)]
+    tls: super::tls::ClientArgs,
 }
 
 /// Resolves `example:NAME` and checks the file exists.
@@ -73,7 +75,7 @@ pub fn run(args: Args) -> Result<()> {
         match &args.coordinator {
             Some(url) => {
                 let token = super::token::load(args.token_file.as_deref())?;
-                work(Client::connect(url, token.as_deref()).await?).await
+                work(Client::connect(url, token.as_deref(), args.tls.load()?.as_ref()).await?).await
             }
             None => super::local_cluster::run(threads, work).await,
         }

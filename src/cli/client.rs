@@ -11,6 +11,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use fmucal_proto::auth::AttachToken;
 use fmucal_proto::convert::{job_to_proto, result_from_proto};
+use fmucal_proto::tls::ClientTls;
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::calibration_client::CalibrationClient;
 use fmucal_shared::job::identifiability::{self, Identifiability};
@@ -30,12 +31,11 @@ pub struct Client {
 }
 
 impl Client {
-    /// Connects to the coordinator at `url`, retrying for about five seconds.
-    pub async fn connect(url: &str, token: Option<&str>) -> Result<Self> {
+    /// Connects to the coordinator at `url` (TLS for `https://`), retrying for about five
+    /// seconds.
+    pub async fn connect(url: &str, token: Option<&str>, tls: Option<&ClientTls>) -> Result<Self> {
         let attach = AttachToken::new(token).map_err(anyhow::Error::msg)?;
-        let endpoint = tonic::transport::Endpoint::from_shared(url.to_owned())?
-            .tcp_nodelay(true)
-            .connect_timeout(Duration::from_secs(2));
+        let endpoint = fmucal_proto::tls::endpoint(url, tls).map_err(anyhow::Error::msg)?;
         // A coordinator started a moment ago may not listen yet: retry for a few seconds.
         let mut attempt = 0;
         let channel = loop {

@@ -32,6 +32,7 @@ pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>)
         worker_token: Some(worker_token.clone()),
         timing: Default::default(),
         max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
+        tls: None,
         diagnose_program: None,
     };
     let server = tokio::spawn(fmucal_coordinator::run(config, listener, async {
@@ -53,7 +54,7 @@ pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>)
     };
     let mut children =
         (0..workers).map(&spawn).collect::<std::io::Result<Vec<_>>>().context("cannot start worker processes")?;
-    let client = Client::connect(&url, Some(&token)).await?;
+    let client = Client::connect(&url, Some(&token), None).await?;
     let work = work(client);
     tokio::pin!(work);
     // Supervise: a worker that dies (an FMU may crash it) is replaced.

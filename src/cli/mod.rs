@@ -11,6 +11,7 @@ mod model_arg;
 mod outputs;
 mod servers;
 mod simulate;
+mod tls;
 mod token;
 
 use std::process::ExitCode;
@@ -42,6 +43,8 @@ enum Command {
     Coordinator(servers::CoordinatorArgs),
     /// Run a worker that evaluates points for a coordinator.
     Worker(servers::WorkerArgs),
+    /// Make a private CA with a coordinator and a client certificate, for TLS.
+    Certs(tls::CertsArgs),
     /// Redraw the plots of a calibration result folder.
     Plot {
         /// A folder written by `fmucal calibrate --out`.
@@ -69,6 +72,7 @@ pub fn main() -> ExitCode {
         Command::Diagnose(args) => diagnose::run(args),
         Command::Coordinator(args) => servers::coordinator(args),
         Command::Worker(args) => servers::worker(args),
+        Command::Certs(args) => tls::certs(args),
         Command::Plot { dir } => outputs::read(&dir).and_then(|(result, fits)| {
             for (k, (folder, fit)) in fits.iter().enumerate() {
                 let errors = result.experiments.get(k).map(|e| &e.errors).or(result.errors.as_ref());

@@ -31,6 +31,8 @@ pub struct CoordinatorArgs {
     /// is refused with RESOURCE_EXHAUSTED.
     #[arg(long, default_value_t = fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES)]
     max_store_bytes: u64,
+    #[command(flatten)]
+    tls: super::tls::ServerArgs,
 }
 
 #[derive(clap::Args)]
@@ -50,6 +52,8 @@ pub struct WorkerArgs {
     /// Where fetched models are kept. Default: the FMU cache.
     #[arg(long)]
     cache_dir: Option<PathBuf>,
+    #[command(flatten)]
+    tls: super::tls::ClientArgs,
 }
 
 pub async fn terminate_signal() {
@@ -71,6 +75,7 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
     let token = super::token::load(args.token_file.as_deref())?;
     let worker_token = super::token::load_worker_token(args.worker_token_file.as_deref())?;
     fmucal_coordinator::check_tokens(token.as_deref(), worker_token.as_deref())?;
+    let tls = args.tls.load(args.listen)?;
     let rt = tokio::runtime::Runtime::new()?;
     rt.block_on(async move {
         let listener = tokio::net::TcpListener::bind(args.listen)
@@ -90,6 +95,7 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
             worker_token,
             timing,
             max_store_bytes: args.max_store_bytes,
+            tls,
             diagnose_program,
         };
         fmucal_coordinator::run(config, listener, terminate_signal()).await?;
@@ -108,6 +114,7 @@ pub fn worker(args: WorkerArgs) -> Result<()> {
         name,
         cache_dir,
         health_listen: args.health_listen,
+        tls: args.tls.load()?,
     };
     // Evaluations run on the slots' own threads; the runtime only does I/O, and one thread is
     // enough (a pool of many workers on few cores then switches less).

@@ -41,6 +41,8 @@ pub struct Config {
     pub cache_dir: PathBuf,
     /// Serve gRPC health (NOT_SERVING until registered) on this address.
     pub health_listen: Option<SocketAddr>,
+    /// How to reach an `https://` coordinator.
+    pub tls: Option<fmucal_proto::tls::ClientTls>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -60,7 +62,7 @@ pub enum WorkerError {
 /// [`WorkerError`] if the coordinator cannot be reached or refuses the registration.
 pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'static) -> Result<(), WorkerError> {
     let attach = AttachToken::new(config.token.as_deref()).map_err(WorkerError::Config)?;
-    let channel = connect(&config.coordinator).await?;
+    let channel = connect(&config.coordinator, config.tls.as_ref()).await?;
     let mut client: Client = WorkerPoolClient::with_interceptor(channel, attach)
         .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES)
         .max_encoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES);
@@ -134,11 +136,9 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
     Ok(())
 }
 
-async fn connect(url: &str) -> Result<Channel, WorkerError> {
-    let endpoint = tonic::transport::Endpoint::from_shared(url.to_owned())
-        .map_err(|e| WorkerError::Connect { url: url.into(), message: e.to_string() })?
-        .tcp_nodelay(true)
-        .connect_timeout(Duration::from_secs(2));
+async fn connect(url: &str, tls: Option<&fmucal_proto::tls::ClientTls>) -> Result<Channel, WorkerError> {
+    let endpoint =
+        fmucal_proto::tls::endpoint(url, tls).map_err(|message| WorkerError::Connect { url: url.into(), message })?;
     let mut last = String::new();
     for _ in 0..50 {
         match endpoint.connect().await {

@@ -46,6 +46,8 @@ pub struct Args {
     /// Token file for --coordinator (else FMUCAL_TOKEN).
     #[arg(long)]
     token_file: Option<PathBuf>,
+    #[command(flatten)]
+    tls: super::tls::ClientArgs,
     /// Stop (cancelling the jobs submitted) when standard input closes: how a coordinator
     /// running this diagnosis for a `Diagnose` request stops it.
     #[arg(long, hide = true)]
@@ -116,7 +118,7 @@ pub fn run(args: Args) -> Result<()> {
         match &args.coordinator {
             Some(url) => {
                 let token = super::token::load(args.token_file.as_deref())?;
-                let client = Client::connect(url, token.as_deref()).await?;
+                let client = Client::connect(url, token.as_deref(), args.tls.load()?.as_ref()).await?;
                 // Stopped midway, the diagnosis cancels its jobs: they would keep the
                 // coordinator's workers busy for nobody.
                 tokio::select! {

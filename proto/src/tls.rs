@@ -1,0 +1,51 @@
+//! TLS for every connection to a coordinator (rustls through tonic): what a client or worker
+//! needs to reach an `https://` coordinator — the CA that signed the coordinator's certificate
+//! and, where the coordinator asks for client certificates (mutual TLS), its own certificate and
+//! key — and the endpoint built from it. An `http://` URL is plaintext.
+
+use std::time::Duration;
+
+use tonic::transport::{Certificate, ClientTlsConfig, Endpoint, Identity};
+
+/// How a client reaches an `https://` coordinator (PEM text).
+#[derive(Debug, Clone, Default)]
+pub struct ClientTls {
+    /// The CA that signed the coordinator's certificate.
+    pub ca_pem: Vec<u8>,
+    /// This client's certificate and key, for a coordinator that asks for one.
+    pub identity: Option<(Vec<u8>, Vec<u8>)>,
+}
+
+/// The coordinator's side (PEM text).
+#[derive(Debug, Clone)]
+pub struct ServerTls {
+    pub cert_pem: Vec<u8>,
+    pub key_pem: Vec<u8>,
+    /// Require client certificates signed by this CA (mutual TLS), of clients and workers alike.
+    pub client_ca_pem: Option<Vec<u8>>,
+    /// The CA that signed `cert_pem`: what the coordinator's own diagnosis process trusts.
+    pub ca_pem: Option<Vec<u8>>,
+}
+
+/// An endpoint for `url`, with TLS when it is `https://`, and the timeouts every fmucal client
+/// uses (2 s to connect).
+///
+/// # Errors
+/// A one-line reason: a malformed URL, an `https://` URL without `tls`, or TLS settings tonic
+/// refuses.
+pub fn endpoint(url: &str, tls: Option<&ClientTls>) -> Result<Endpoint, String> {
+    let endpoint = Endpoint::from_shared(url.to_owned())
+        .map_err(|e| format!("{url:?} is not a coordinator URL: {e}"))?
+        .tcp_nodelay(true)
+        .connect_timeout(Duration::from_secs(2));
+    if !url.starts_with("https://") {
+        return Ok(endpoint);
+    }
+    let tls =
+        tls.ok_or_else(|| format!("{url} uses TLS: give the CA of its certificate (--tls-ca or FMUCAL_TLS_CA)"))?;
+    let mut config = ClientTlsConfig::new().ca_certificate(Certificate::from_pem(&tls.ca_pem));
+    if let Some((cert, key)) = &tls.identity {
+        config = config.identity(Identity::from_pem(cert, key));
+    }
+    endpoint.tls_config(config).map_err(|e| format!("TLS settings for {url}: {e}"))
+}

@@ -1,0 +1,173 @@
+//! TLS on the command line: the coordinator's certificate, key and optional client CA
+//! ([`ServerArgs`]); what a client or worker needs to reach an `https://` coordinator
+//! ([`ClientArgs`], also from `FMUCAL_TLS_CA`, `FMUCAL_TLS_CERT` and `FMUCAL_TLS_KEY`); and
+//! `fmucal certs`, which makes a private CA with a coordinator and a client certificate, so a
+//! pool can run TLS without openssl.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use fmucal_proto::tls::{ClientTls, ServerTls};
+
+fn read(path: &Path, what: &str) -> Result<Vec<u8>> {
+    std::fs::read(path).with_context(|| format!("cannot read the {what} {}", path.display()))
+}
+
+/// The flag if given, else the environment variable.
+fn flag_or_env(flag: &Option<PathBuf>, var: &str) -> Option<PathBuf> {
+    flag.clone().or_else(|| std::env::var_os(var).filter(|v| !v.is_empty()).map(PathBuf::from))
+}
+
+/// How this client reaches an `https://` coordinator.
+#[derive(clap::Args, Debug, Default)]
+pub struct ClientArgs {
+    /// CA certificate (PEM) an https:// coordinator's certificate is signed by (else FMUCAL_TLS_CA).
+    #[arg(long)]
+    tls_ca: Option<PathBuf>,
+    /// This client's certificate (PEM), for a coordinator that requires one (else FMUCAL_TLS_CERT).
+    #[arg(long, requires = "tls_key")]
+    tls_cert: Option<PathBuf>,
+    /// The key of --tls-cert (PEM; else FMUCAL_TLS_KEY).
+    #[arg(long, requires = "tls_cert")]
+    tls_key: Option<PathBuf>,
+}
+
+impl ClientArgs {
+    /// The TLS settings, `None` if no CA is given.
+    ///
+    /// # Errors
+    /// An unreadable file, or a certificate without its key.
+    pub fn load(&self) -> Result<Option<ClientTls>> {
+        let Some(ca) = flag_or_env(&self.tls_ca, "FMUCAL_TLS_CA") else { return Ok(None) };
+        let identity =
+            match (flag_or_env(&self.tls_cert, "FMUCAL_TLS_CERT"), flag_or_env(&self.tls_key, "FMUCAL_TLS_KEY")) {
+                (Some(cert), Some(key)) => Some((read(&cert, "certificate")?, read(&key, "key")?)),
+                (None, None) => None,
+                _ => anyhow::bail!("give both a client certificate and its key (--tls-cert and --tls-key)"),
+            };
+        Ok(Some(ClientTls { ca_pem: read(&ca, "CA certificate")?, identity }))
+    }
+}
+
+/// The coordinator's TLS.
+#[derive(clap::Args, Debug)]
+pub struct ServerArgs {
+    /// Serve TLS with this certificate (PEM, its chain after it).
+    #[arg(long, requires = "tls_key")]
+    tls_cert: Option<PathBuf>,
+    /// The key of --tls-cert (PEM).
+    #[arg(long, requires = "tls_cert")]
+    tls_key: Option<PathBuf>,
+    /// Require client certificates signed by this CA (PEM) from clients and workers (mutual TLS).
+    #[arg(long, requires = "tls_cert")]
+    tls_client_ca: Option<PathBuf>,
+    /// The CA (PEM) that signed --tls-cert: the coordinator's own diagnosis process trusts it.
+    #[arg(long, requires = "tls_cert")]
+    tls_ca: Option<PathBuf>,
+    /// Listen off loopback without TLS (the token then crosses the network in clear text).
+    #[arg(long)]
+    insecure: bool,
+}
+
+impl ServerArgs {
+    /// The TLS settings (`None`: plaintext), refusing plaintext off loopback without
+    /// `--insecure`.
+    ///
+    /// # Errors
+    /// An unreadable file, or plaintext on a non-loopback address without `--insecure`.
+    pub fn load(&self, listen: std::net::SocketAddr) -> Result<Option<ServerTls>> {
+        let (Some(cert), Some(key)) = (&self.tls_cert, &self.tls_key) else {
+            anyhow::ensure!(
+                listen.ip().is_loopback() || self.insecure,
+                "refusing to listen on {listen} without TLS: the token and the models would cross the network in \
+                 clear text; give --tls-cert and --tls-key (`fmucal certs` makes them), or --insecure"
+            );
+            return Ok(None);
+        };
+        let optional = |p: &Option<PathBuf>, what: &str| p.as_deref().map(|p| read(p, what)).transpose();
+        Ok(Some(ServerTls {
+            cert_pem: read(cert, "certificate")?,
+            key_pem: read(key, "key")?,
+            client_ca_pem: optional(&self.tls_client_ca, "client CA certificate")?,
+            ca_pem: optional(&self.tls_ca, "CA certificate")?,
+        }))
+    }
+}
+
+/// `fmucal certs`.
+#[derive(clap::Args, Debug)]
+pub struct CertsArgs {
+    /// Folder to write ca.pem, coordinator.pem, coordinator-key.pem, client.pem and
+    /// client-key.pem to (created; existing files are not overwritten).
+    #[arg(long)]
+    out: PathBuf,
+    /// Names and addresses the coordinator is reached at (localhost and 127.0.0.1 are always
+    /// included), e.g. `--host coordinator --host fmucal.example.org`.
+    #[arg(long)]
+    host: Vec<String>,
+    /// Do nothing if `--out` already holds a ca.pem (for a setup step that runs at every start).
+    #[arg(long)]
+    keep: bool,
+}
+
+/// PEM text of a private CA, a coordinator certificate (valid for `hosts`, localhost and
+/// 127.0.0.1, for server and client authentication), and a client certificate, each with its
+/// key: `(ca, (coordinator, key), (client, key))`.
+///
+/// # Errors
+/// If a host name is not a valid DNS name or IP address.
+pub fn make_certificates(hosts: &[String]) -> Result<(String, (String, String), (String, String))> {
+    use rcgen::{
+        BasicConstraints, CertificateParams, DnType, ExtendedKeyUsagePurpose, IsCa, Issuer, KeyPair, KeyUsagePurpose,
+    };
+    let mut ca = CertificateParams::new(Vec::<String>::new())?;
+    ca.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
+    ca.distinguished_name.push(DnType::CommonName, "fmucal private CA");
+    ca.key_usages = vec![KeyUsagePurpose::KeyCertSign, KeyUsagePurpose::CrlSign, KeyUsagePurpose::DigitalSignature];
+    let ca_key = KeyPair::generate()?;
+    let ca_pem = ca.self_signed(&ca_key)?.pem();
+    let issuer = Issuer::new(ca, ca_key);
+    let leaf = |names: Vec<String>, cn: &str, usages: Vec<ExtendedKeyUsagePurpose>| -> Result<(String, String)> {
+        let mut params = CertificateParams::new(names).context("a --host is not a DNS name or IP address")?;
+        params.distinguished_name.push(DnType::CommonName, cn);
+        params.extended_key_usages = usages;
+        let key = KeyPair::generate()?;
+        Ok((params.signed_by(&key, &issuer)?.pem(), key.serialize_pem()))
+    };
+    let mut names = vec!["localhost".to_owned(), "127.0.0.1".to_owned()];
+    names.extend(hosts.iter().filter(|h| !names.contains(h)).cloned().collect::<Vec<_>>());
+    let both = vec![ExtendedKeyUsagePurpose::ServerAuth, ExtendedKeyUsagePurpose::ClientAuth];
+    let coordinator = leaf(names, "fmucal coordinator", both)?;
+    let client = leaf(vec![], "fmucal client", vec![ExtendedKeyUsagePurpose::ClientAuth])?;
+    Ok((ca_pem, coordinator, client))
+}
+
+pub fn certs(args: CertsArgs) -> Result<()> {
+    if args.keep && args.out.join("ca.pem").is_file() {
+        eprintln!("kept the certificates in {}", args.out.display());
+        return Ok(());
+    }
+    let (ca, (cert, key), (client, client_key)) = make_certificates(&args.host)?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    for (name, text, private) in [
+        ("ca.pem", &ca, false),
+        ("coordinator.pem", &cert, false),
+        ("coordinator-key.pem", &key, true),
+        ("client.pem", &client, false),
+        ("client-key.pem", &client_key, true),
+    ] {
+        let path = args.out.join(name);
+        let mut options = std::fs::OpenOptions::new();
+        options.write(true).create_new(true);
+        if private {
+            std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
+        }
+        let mut file = options.open(&path).with_context(|| format!("cannot create {}", path.display()))?;
+        std::io::Write::write_all(&mut file, text.as_bytes())?;
+    }
+    eprintln!(
+        "wrote ca.pem, coordinator.pem, coordinator-key.pem, client.pem and client-key.pem to {}",
+        args.out.display()
+    );
+    Ok(())
+}
