@@ -455,7 +455,7 @@ async fn calls_without_the_token_are_refused() {
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("registration refused") && stderr.contains("bearer token"), "{stderr}");
-    // A coordinator refuses to listen off loopback without a token.
+    // A coordinator refuses to serve without a token.
     let out = Command::new(env!("CARGO_BIN_EXE_fmucal"))
         .args(["coordinator", "--listen", "0.0.0.0:0", "--data-dir"])
         .arg(dir.path().join("c2"))

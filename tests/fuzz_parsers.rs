@@ -4,7 +4,7 @@
 //! the example models' descriptions, a real FMU) with byte flips, cuts, repeats and inserted
 //! tokens, from a fixed seed, and must return an error or a value for every input, never panic.
 //! The suite runs each target for 60 s (in parallel); `bash bench/fuzz.sh` runs them for an hour
-//! (`FMUCAL_FUZZ_SECONDS`, default 1200, per target). A failing input is written to `target/fuzz-failures/`.
+//! (`FMUCAL_FUZZ_SECONDS`, default 1200, per target). A failing input is written to `target/tmp/fuzz-failures/`.
 
 mod common;
 
@@ -72,7 +72,7 @@ fn mutate(rng: &mut Rng, input: &[u8], tokens: &[&str]) -> Vec<u8> {
 }
 
 /// Runs `target` on mutations of `seeds` until the budget is spent; fails with the first input
-/// that panics (saved under `target/fuzz-failures/NAME-N`). Returns the number of inputs tried.
+/// that panics (saved under `target/tmp/fuzz-failures/NAME-N`). Returns the number of inputs tried.
 fn fuzz(name: &str, seeds: &[Vec<u8>], tokens: &[&str], target: impl Fn(&[u8])) -> u64 {
     assert!(!seeds.is_empty(), "{name}: no seed inputs");
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15 ^ name.len() as u64);

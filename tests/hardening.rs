@@ -200,6 +200,12 @@ async fn a_worker_may_answer_only_the_points_leased_to_it() {
     };
     let honest = w.register(register("honest")).await.unwrap().into_inner().worker_id;
     let forger = w.register(register("forger")).await.unwrap().into_inner().worker_id;
+    // Worker ids end in 16 random hex digits: one worker cannot poll as another.
+    let random_part = |id: &str| id.rsplit('-').next().unwrap().to_owned();
+    for id in [&honest, &forger] {
+        assert!(random_part(id).len() == 16 && random_part(id).bytes().all(|b| b.is_ascii_hexdigit()), "{id}");
+    }
+    assert_ne!(random_part(&honest), random_part(&forger));
     let poll = |worker_id: &str, results: Vec<pb::PointResult>, max_points: u32| pb::PollWorkRequest {
         worker_id: worker_id.into(),
         results,
@@ -296,10 +302,10 @@ async fn jobs_whose_model_is_gone_after_a_restart_stay_readable() {
     assert!(listed.contains(&done) && listed.contains(&running), "{listed:?}");
     let after = c.get_job(pb::GetJobRequest { job_id: done }).await.unwrap().into_inner();
     assert_eq!((after.status, &after.result), (before.status, &before.result));
-    assert!(after.error.contains(&format!("the job's model {model} cannot be used")), "{:?}", after.error);
+    assert_eq!(after.error, format!("the job's model {model} is no longer stored"));
     let stopped = c.get_job(pb::GetJobRequest { job_id: running }).await.unwrap().into_inner();
     assert_eq!(stopped.status, pb::JobStatus::Failed as i32, "{stopped:?}");
-    assert!(stopped.error.starts_with("cannot resume: the job's model"), "{:?}", stopped.error);
+    assert!(stopped.error.starts_with("cannot resume: spec.model_id: unknown model id"), "{:?}", stopped.error);
     assert_eq!(stopped.result.map(|r| r.x_opt), Some(vec![1.0]), "the start point, as nothing was evaluated");
     coord.stop().await;
 }

@@ -81,6 +81,8 @@ async fn a_job_runs_over_mutual_tls_and_plaintext_is_refused() {
     ok.unwrap();
     // Plaintext, and TLS without a client certificate, are refused.
     assert!(list_jobs(&url.replace("https", "http"), None).await.is_err(), "plaintext was served");
+    let e = list_jobs(&url.replace("https", "http"), Some(&client)).await.unwrap_err();
+    assert!(e.contains("is not https://"), "{e}");
     let anonymous = ClientTls { identity: None, ..client.clone() };
     assert!(list_jobs(&url, Some(&anonymous)).await.is_err(), "a client without a certificate was served");
 
@@ -157,6 +159,9 @@ fn a_coordinator_off_loopback_needs_tls_or_insecure() {
     }
     let out = fmucal(&["certs", "--out", "certs"], dir.path()).output().unwrap();
     assert!(!out.status.success(), "existing certificates were overwritten");
+    std::fs::remove_file(certs.join("client.pem")).unwrap();
+    let out = fmucal(&["certs", "--out", "certs", "--keep"], dir.path()).output().unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("some are missing"), "an incomplete set was kept");
     let tls = ServerTls {
         cert_pem: read(&certs, "coordinator.pem"),
         key_pem: read(&certs, "coordinator-key.pem"),

@@ -113,8 +113,8 @@ async fn supervise_scheduler(
 /// Serves until `shutdown` resolves.
 ///
 /// # Errors
-/// [`CoordinatorError`] if the store cannot be opened, the address is exposed without a token,
-/// or the server fails.
+/// [`CoordinatorError`] if the store cannot be opened, there is no token, the TLS settings are
+/// refused, the server fails, or the scheduler task panicked ([`CoordinatorError::Fatal`]).
 pub async fn run(
     config: Config,
     listener: TcpListener,
@@ -139,7 +139,8 @@ pub async fn run(
         config.tls.clone(),
         &config.data_dir,
     )?;
-    let handlers = services::Handlers { commands: tx, models, diagnoses: Arc::new(diagnoses) };
+    let models_dir = models.lock().map_err(|_| CoordinatorError::Storage("model store poisoned".into()))?.models_dir();
+    let handlers = services::Handlers { commands: tx, models, models_dir, diagnoses: Arc::new(diagnoses) };
     let client_token = config.token.as_deref().unwrap_or_default();
     let client_auth = fmucal_proto::auth::BearerAuth::new(&[client_token]);
     let worker_auth = fmucal_proto::auth::BearerAuth::new(&[config.worker_token.as_deref().unwrap_or(client_token)]);

@@ -94,9 +94,12 @@ impl ModelStore {
     /// A new temporary file to stream an upload into (inside the store, so accepting it is a
     /// rename).
     pub fn upload_file(&self) -> UploadFile {
-        static COUNTER: AtomicU64 = AtomicU64::new(0);
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        UploadFile { path: self.dir.join(format!(".upload-{}-{n}", std::process::id())) }
+        upload_file(&self.dir)
+    }
+
+    /// Where uploads are streamed to ([`upload_file`]).
+    pub fn models_dir(&self) -> PathBuf {
+        self.dir.clone()
     }
 
     /// Stores the bytes (a no-op if already stored) and returns (id, model name).
@@ -181,6 +184,14 @@ impl ModelStore {
         }
         std::fs::read(self.path(id)).map(Arc::new).map_err(|_| CoordinatorError::NotFound(format!("model {id:?}")))
     }
+}
+
+/// A new temporary upload file in the store's `models` folder `dir` (callable without the
+/// store's lock, which a check of an earlier upload may hold).
+pub fn upload_file(dir: &Path) -> UploadFile {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    UploadFile { path: dir.join(format!(".upload-{}-{n}", std::process::id())) }
 }
 
 fn is_model_id(id: &str) -> bool {

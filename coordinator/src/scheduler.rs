@@ -8,7 +8,9 @@
 //! pool grow by simply starting more workers that point at the coordinator, through NAT or a
 //! Kubernetes service, with no connection from the coordinator to the workers.
 //!
-//! A worker's result is taken only for a point leased to it and not taken back since.
+//! A worker's result is taken only for a point leased to it (under the random worker id its
+//! registration got) and not taken back since: a late result, after the point was re-sent or
+//! the worker re-registered, is dropped, and the point's current holder answers it.
 //!
 //! Failures: a point whose worker expires (no heartbeat) or passes the evaluation timeout is
 //! re-queued, preferably for another worker; a point that failed on two different workers (or
@@ -200,25 +202,28 @@ impl Scheduler {
                     continue;
                 }
             };
-            // The model must still be there and accept the job for it to go on.
-            match prepare(&s.models, &spec) {
-                Ok(_) => {}
-                Err(e) => {
-                    // Its model is gone (or no longer accepted): the job and its result stay
-                    // listed; a running one cannot go on.
-                    tracing::warn!(job = %id, model = %spec.model_id, "the job's model cannot be used: {e}");
-                    let note = format!("the job's model {} cannot be used: {e}", spec.model_id);
-                    if is_running(state.status) {
-                        state.status = JobStatus::Failed;
-                        state.result = Some(state.run.result(&job_spec, state.elapsed_s, Some("cannot resume")));
-                        state.error = Some(format!("cannot resume: {note}"));
-                        s.save(&id, &state);
-                    } else if state.error.is_none() {
-                        state.error = Some(note);
-                    }
-                    s.jobs.insert(id.clone(), Job::new(spec, job_spec, state));
-                    continue;
+            // A running job goes on only if it still checks against its model (which may be
+            // gone); a finished one only says when its model is gone. Either stays listed with
+            // its result.
+            let models = &s.models;
+            let problem = if is_running(state.status) {
+                prepare(models, &spec).err().map(|e| format!("cannot resume: {e}"))
+            } else {
+                let gone = models.lock().map_or(false, |mut m| m.describe(&spec.model_id).is_err());
+                gone.then(|| format!("the job's model {} is no longer stored", spec.model_id))
+            };
+            if let Some(problem) = problem {
+                tracing::warn!(job = %id, model = %spec.model_id, "{problem}");
+                if is_running(state.status) {
+                    state.status = JobStatus::Failed;
+                    state.result = Some(state.run.result(&job_spec, state.elapsed_s, Some("cannot resume")));
+                    state.error = Some(problem);
+                    s.save(&id, &state);
+                } else if state.error.is_none() {
+                    state.error = Some(problem);
                 }
+                s.jobs.insert(id.clone(), Job::new(spec, job_spec, state));
+                continue;
             }
             let running = is_running(state.status);
             let job = Job::new(spec, job_spec, state);
@@ -315,7 +320,14 @@ impl Scheduler {
                     )))
                 } else {
                     self.next_worker += 1;
-                    let id = format!("w{}-{}", self.next_worker, req.name.replace(char::is_whitespace, "_"));
+                    // A random part, so a worker id cannot be guessed and used to answer
+                    // another worker's points.
+                    let id = format!(
+                        "w{}-{}-{}",
+                        self.next_worker,
+                        req.name.replace(char::is_whitespace, "_"),
+                        random_hex()
+                    );
                     self.workers.insert(
                         id.clone(),
                         WorkerInfo {
@@ -490,12 +502,6 @@ impl Scheduler {
         }
     }
 
-    /// Whether worker `wid` is the one currently assigned the point.
-    fn holds(&self, wid: &str, job: &str, point: u64) -> bool {
-        let assigned = self.jobs.get(job).and_then(|j| j.open.get(&point)).and_then(|p| p.assigned.as_ref());
-        assigned.is_some_and(|(w, _)| w == wid)
-    }
-
     fn poll(&mut self, req: pb::PollWorkRequest, reply: oneshot::Sender<pb::PollWorkResponse>) {
         let wid = req.worker_id.clone();
         match self.workers.get_mut(&wid) {
@@ -516,10 +522,6 @@ impl Scheduler {
             let evaluation = evaluation_from_proto(&r);
             if evaluation.value.is_some() {
                 self.tell(&r.job_id, r.point_id, evaluation);
-            } else if !self.holds(&wid, &r.job_id, r.point_id) {
-                // A late failure from a worker the point was taken from (expiry, timeout):
-                // the attempt was already counted, and another worker may hold the point now.
-                tracing::debug!(job = %r.job_id, point = r.point_id, worker = %wid, "late failure ignored");
             } else {
                 tracing::debug!(job = %r.job_id, point = r.point_id, worker = %wid, "simulation failed: {}", r.message);
                 self.attempt_failed(&r.job_id, r.point_id, &wid, &r.message);
@@ -658,6 +660,18 @@ impl Scheduler {
         self.parked = still;
         self.wake_parked();
     }
+}
+
+/// 16 random hex digits from the operating system (a clock-derived fallback if it has none).
+fn random_hex() -> String {
+    use std::io::Read;
+    let mut bytes = [0u8; 8];
+    let read = std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(&mut bytes));
+    if read.is_err() {
+        let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
+        bytes = (nanos as u64).to_le_bytes();
+    }
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// Checks a submitted job against its model and data: blocking work, linear in the size of the

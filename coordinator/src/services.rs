@@ -33,6 +33,8 @@ fn with_models<T>(
 pub struct Handlers {
     pub commands: mpsc::Sender<Command>,
     pub models: Arc<Mutex<ModelStore>>,
+    /// The store's `models` folder, where uploads are streamed to.
+    pub models_dir: std::path::PathBuf,
     pub diagnoses: Arc<Diagnoses>,
 }
 
@@ -53,25 +55,18 @@ impl pb::calibration_server::Calibration for Handlers {
         &self,
         req: Request<Streaming<pb::UploadModelRequest>>,
     ) -> Result<Response<pb::UploadModelResponse>, Status> {
-        // Streamed to a temporary file in the store (removed unless accepted), so an upload
-        // costs no memory, and cut off at the per-model cap or the store's room.
+        // Streamed to a temporary file in the store (removed unless accepted), cut off at the
+        // per-model cap; the store's own cap is checked when the file is put. No lock is taken
+        // here: the check of another upload may hold the store's.
         let mut stream = req.into_inner();
-        let (file, room) = {
-            let m = self.models.lock().map_err(|_| Status::internal("model store poisoned"))?;
-            (m.upload_file(), m.room())
-        };
-        let limit = (MAX_MODEL_BYTES as u64).min(room);
+        let file = crate::models::upload_file(&self.models_dir);
+        let limit = MAX_MODEL_BYTES as u64;
         let mut out = tokio::fs::File::create(file.path()).await.map_err(|e| Status::internal(e.to_string()))?;
         let mut written = 0u64;
         while let Some(m) = stream.message().await? {
             written += m.chunk.len() as u64;
             if written > limit {
-                let what = if limit < MAX_MODEL_BYTES as u64 {
-                    Status::resource_exhausted(format!("chunk: the model store has room for {room} more bytes only"))
-                } else {
-                    Status::invalid_argument(format!("chunk: the model exceeds {MAX_MODEL_BYTES} bytes"))
-                };
-                return Err(what);
+                return Err(Status::invalid_argument(format!("chunk: the model exceeds {MAX_MODEL_BYTES} bytes")));
             }
             out.write_all(&m.chunk).await.map_err(|e| Status::internal(format!("cannot store the upload: {e}")))?;
         }

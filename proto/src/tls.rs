@@ -31,14 +31,17 @@ pub struct ServerTls {
 /// uses (2 s to connect).
 ///
 /// # Errors
-/// A one-line reason: a malformed URL, an `https://` URL without `tls`, or TLS settings tonic
-/// refuses.
+/// A one-line reason: a malformed URL, an `https://` URL without `tls` (or TLS settings for
+/// another URL), or TLS settings tonic refuses.
 pub fn endpoint(url: &str, tls: Option<&ClientTls>) -> Result<Endpoint, String> {
     let endpoint = Endpoint::from_shared(url.to_owned())
         .map_err(|e| format!("{url:?} is not a coordinator URL: {e}"))?
         .tcp_nodelay(true)
         .connect_timeout(Duration::from_secs(2));
     if !url.starts_with("https://") {
+        if tls.is_some() {
+            return Err(format!("TLS settings were given but {url} is not https://"));
+        }
         return Ok(endpoint);
     }
     let tls =

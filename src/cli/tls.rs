@@ -105,10 +105,17 @@ pub struct CertsArgs {
     /// included), e.g. `--host coordinator --host fmucal.example.org`.
     #[arg(long)]
     host: Vec<String>,
-    /// Do nothing if `--out` already holds a ca.pem (for a setup step that runs at every start).
+    /// Do nothing if `--out` already holds the certificates (for a setup step that runs at
+    /// every start).
     #[arg(long)]
     keep: bool,
+    /// Also copy ca.pem into this folder (what workers mount: they need no key).
+    #[arg(long)]
+    ca_out: Option<PathBuf>,
 }
+
+/// The files `fmucal certs` writes.
+const FILES: [&str; 5] = ["ca.pem", "coordinator.pem", "coordinator-key.pem", "client.pem", "client-key.pem"];
 
 /// PEM text of a private CA, a coordinator certificate (valid for `hosts`, localhost and
 /// 127.0.0.1, for server and client authentication), and a client certificate, each with its
@@ -143,10 +150,17 @@ pub fn make_certificates(hosts: &[String]) -> Result<(String, (String, String), 
 }
 
 pub fn certs(args: CertsArgs) -> Result<()> {
-    if args.keep && args.out.join("ca.pem").is_file() {
+    let present = FILES.iter().filter(|f| args.out.join(f).is_file()).count();
+    if args.keep && present == FILES.len() {
         eprintln!("kept the certificates in {}", args.out.display());
-        return Ok(());
+        return copy_ca(&args);
     }
+    anyhow::ensure!(
+        present == 0,
+        "{} already holds certificates: remove them to make new ones{}",
+        args.out.display(),
+        if args.keep { " (some are missing, so --keep cannot keep them)" } else { "" }
+    );
     let (ca, (cert, key), (client, client_key)) = make_certificates(&args.host)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     for (name, text, private) in [
@@ -165,9 +179,15 @@ pub fn certs(args: CertsArgs) -> Result<()> {
         let mut file = options.open(&path).with_context(|| format!("cannot create {}", path.display()))?;
         std::io::Write::write_all(&mut file, text.as_bytes())?;
     }
-    eprintln!(
-        "wrote ca.pem, coordinator.pem, coordinator-key.pem, client.pem and client-key.pem to {}",
-        args.out.display()
-    );
+    eprintln!("wrote {} to {}", FILES.join(", "), args.out.display());
+    copy_ca(&args)
+}
+
+fn copy_ca(args: &CertsArgs) -> Result<()> {
+    if let Some(dir) = &args.ca_out {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        std::fs::copy(args.out.join("ca.pem"), dir.join("ca.pem"))
+            .with_context(|| format!("cannot copy ca.pem to {}", dir.display()))?;
+    }
     Ok(())
 }

@@ -28,6 +28,9 @@ pub const MAX_DATA_ROWS: usize = 10_000_000;
 pub const MAX_DATA_VALUES: usize = 100_000_000;
 /// `[simulation] set` entries.
 pub const MAX_SET_VALUES: usize = 100_000;
+/// Values one round hands out: points × fitted experiments × calibrated values (80 MB), so
+/// the caps above cannot multiply into a round no machine holds.
+pub const MAX_ROUND_VALUES: usize = 10_000_000;
 
 fn over(field: &str, what: &str, n: impl std::fmt::Display, cap: impl std::fmt::Display) -> JobError {
     JobError::invalid(field, format!("{n} {what} exceeds the cap of {cap}"))
@@ -71,7 +74,40 @@ pub fn check_spec(spec: &JobSpec) -> Result<(), JobError> {
     {
         return Err(over("points", "points", points.len(), MAX_POINTS));
     }
-    check_optimizer(spec)
+    check_optimizer(spec)?;
+    let fitted = spec.fitted_experiments().len().max(1);
+    let values = round_points(spec, calibrated).saturating_mul(fitted).saturating_mul(calibrated);
+    if values > MAX_ROUND_VALUES {
+        return Err(JobError::invalid(
+            "optimizer.population",
+            format!(
+                "a round of {} points × {fitted} experiments × {calibrated} values is {values} values, \
+                 which exceeds the cap of {MAX_ROUND_VALUES}",
+                round_points(spec, calibrated)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The most points one round of `spec`'s optimizer hands out (`n` calibrated values), with
+/// each optimizer's default population where none is set.
+fn round_points(spec: &JobSpec, n: usize) -> usize {
+    if let JobKind::EvaluatePoints(points) = &spec.kind {
+        return points.len();
+    }
+    let o = &spec.optimizer;
+    match o.algorithm {
+        Algorithm::DifferentialEvolution => o.population.unwrap_or((10 * n).max(10)),
+        Algorithm::Genetic => o.population.unwrap_or(50),
+        Algorithm::CmaEs => {
+            let first = o.population.unwrap_or(4 + (3.0 * (n.max(1) as f64).ln()).floor() as usize);
+            let doublings = o.restarts.unwrap_or(0).min(63);
+            first.saturating_mul(1usize << doublings)
+        }
+        // An initial simplex or interpolation set.
+        Algorithm::NelderMead | Algorithm::LeastSquares => n + 2,
+    }
 }
 
 fn check_optimizer(spec: &JobSpec) -> Result<(), JobError> {
@@ -157,6 +193,19 @@ mod tests {
         let spec = JobSpec::from_toml(JOB, Path::new(".")).unwrap();
         let e = spec.evaluating_points(vec![vec![1.0]; MAX_POINTS + 1]).validate().unwrap_err().to_string();
         assert!(e.starts_with("points: 100001 points exceeds the cap"), "{e}");
+    }
+
+    #[test]
+    fn caps_cannot_multiply_into_a_huge_round() {
+        let mut text = JOB.to_owned();
+        for k in 0..999 {
+            text.push_str(&format!("[[parameters]]\nname = \"p{k}\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n"));
+        }
+        let spec = |optimizer: &str| JobSpec::from_toml(&format!("{text}[optimizer]\n{optimizer}"), Path::new("."));
+        let e = spec("algorithm = \"differential-evolution\"\npopulation = 100000").unwrap().validate().unwrap_err();
+        assert!(e.to_string().contains("a round of 100000 points × 1 experiments × 1000 values"), "{e}");
+        spec("algorithm = \"differential-evolution\"\npopulation = 10000").unwrap().validate().unwrap();
+        spec("").unwrap().validate().unwrap();
     }
 
     #[test]

@@ -192,7 +192,10 @@ impl JobRun {
             self.failed_evaluations += 1;
             tracing::debug!(?x, error = ?evaluation.error, "evaluation failed");
             let why = evaluation.error.clone().unwrap_or_else(|| "the simulation failed".into());
-            if self.start_error.is_none() && is_same_point(x, &self.start) {
+            // Only in the first round: later, a failure at the start point (a simplex that came
+            // back to it, a lost worker) does not mean the job is wrong, and the round is the
+            // same whatever order its results arrive in.
+            if self.start_error.is_none() && self.history.is_empty() && is_same_point(x, &self.start) {
                 self.start_error = Some(why.clone());
             }
             self.first_error.get_or_insert(why);
