@@ -87,14 +87,8 @@ impl ModelStore {
     }
 
     /// Bytes the store may still take.
-    pub fn room(&self) -> u64 {
+    fn room(&self) -> u64 {
         self.max_bytes.saturating_sub(self.used)
-    }
-
-    /// A new temporary file to stream an upload into (inside the store, so accepting it is a
-    /// rename).
-    pub fn upload_file(&self) -> UploadFile {
-        upload_file(&self.dir)
     }
 
     /// Where uploads are streamed to ([`upload_file`]).
@@ -107,7 +101,7 @@ impl ModelStore {
     /// # Errors
     /// As [`ModelStore::put_file`].
     pub fn put(&mut self, bytes: &[u8]) -> Result<(String, String), CoordinatorError> {
-        let file = self.upload_file();
+        let file = upload_file(&self.dir);
         std::fs::write(file.path(), bytes)?;
         self.put_file(file)
     }
@@ -186,8 +180,9 @@ impl ModelStore {
     }
 }
 
-/// A new temporary upload file in the store's `models` folder `dir` (callable without the
-/// store's lock, which a check of an earlier upload may hold).
+/// A new temporary file to stream an upload into, in the store's `models` folder `dir` (so
+/// accepting it is a rename); callable without the store's lock, which the check of an earlier
+/// upload may hold.
 pub fn upload_file(dir: &Path) -> UploadFile {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);

@@ -7,6 +7,7 @@
 use super::JobError;
 use super::spec::JobSpec;
 use super::{Algorithm, JobKind};
+use crate::optim::{CmaSettings, DeSettings, GaSettings};
 
 /// Calibrated values: `[[parameters]]` plus the effects' parameters.
 pub const MAX_PARAMETERS: usize = 1_000;
@@ -91,17 +92,17 @@ pub fn check_spec(spec: &JobSpec) -> Result<(), JobError> {
 }
 
 /// The most points one round of `spec`'s optimizer hands out (`n` calibrated values), with
-/// each optimizer's default population where none is set.
+/// each optimizer's default population ([`DeSettings::new`] and the like) where none is set.
 fn round_points(spec: &JobSpec, n: usize) -> usize {
     if let JobKind::EvaluatePoints(points) = &spec.kind {
         return points.len();
     }
     let o = &spec.optimizer;
     match o.algorithm {
-        Algorithm::DifferentialEvolution => o.population.unwrap_or((10 * n).max(10)),
-        Algorithm::Genetic => o.population.unwrap_or(50),
+        Algorithm::DifferentialEvolution => o.population.unwrap_or(DeSettings::new(n).population),
+        Algorithm::Genetic => o.population.unwrap_or(GaSettings::new(n).population),
         Algorithm::CmaEs => {
-            let first = o.population.unwrap_or(4 + (3.0 * (n.max(1) as f64).ln()).floor() as usize);
+            let first = o.population.unwrap_or(CmaSettings::new(n).population);
             let doublings = o.restarts.unwrap_or(0).min(63);
             first.saturating_mul(1usize << doublings)
         }
