@@ -70,6 +70,8 @@ async fn run(spec: &JobSpec, data: &MeasurementTable, workers: usize, sample_at:
         worker_token: None,
         timing: Default::default(),
         max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
+        connections: Default::default(),
+        keep_finished_jobs: None,
         tls: None,
         diagnose_program: None,
     };

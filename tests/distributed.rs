@@ -86,6 +86,8 @@ async fn start_coordinator(data_dir: &Path) -> Coordinator {
         worker_token: None,
         timing,
         max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
+        connections: Default::default(),
+        keep_finished_jobs: None,
         tls: None,
         diagnose_program: None,
     };

@@ -41,10 +41,19 @@ impl Coordinator {
 }
 
 async fn start_coordinator(data_dir: &Path, worker_token: Option<&str>) -> Coordinator {
+    start_coordinator_with(data_dir, worker_token, |_| {}).await
+}
+
+/// [`start_coordinator`] with `edit` applied to its configuration.
+async fn start_coordinator_with(
+    data_dir: &Path,
+    worker_token: Option<&str>,
+    edit: impl FnOnce(&mut fmucal_coordinator::Config),
+) -> Coordinator {
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let url = format!("http://{}", listener.local_addr().unwrap());
     let (tx, rx) = tokio::sync::oneshot::channel::<()>();
-    let config = fmucal_coordinator::Config {
+    let mut config = fmucal_coordinator::Config {
         data_dir: data_dir.to_owned(),
         token: Some(TOKEN.into()),
         worker_token: worker_token.map(str::to_owned),
@@ -54,9 +63,12 @@ async fn start_coordinator(data_dir: &Path, worker_token: Option<&str>) -> Coord
             evaluation_timeout: Duration::from_secs(60),
         },
         max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
+        connections: Default::default(),
+        keep_finished_jobs: None,
         tls: None,
         diagnose_program: None,
     };
+    edit(&mut config);
     let task = tokio::spawn(fmucal_coordinator::run(config, listener, async {
         let _ = rx.await;
     }));
@@ -77,14 +89,22 @@ async fn pool(url: &str, token: &str) -> Pool {
 }
 
 fn start_worker(url: &str, cache: &Path, token: &str) -> Child {
+    start_worker_with(url, cache, token, &[], None)
+}
+
+/// A worker process with more `args`, logging at debug level to `log` if given.
+fn start_worker_with(url: &str, cache: &Path, token: &str, args: &[&str], log: Option<&Path>) -> Child {
+    let stderr = log.map_or_else(Stdio::null, |path| Stdio::from(std::fs::File::create(path).unwrap()));
     Command::new(env!("CARGO_BIN_EXE_fmucal"))
         .args(["worker", "--coordinator", url, "--cache-dir"])
         .arg(cache)
+        .args(args)
         .env("FMUCAL_WORKER_TOKEN", token)
+        .env("FMUCAL_LOG", "fmucal=debug,fmucal_worker=debug")
         .env_remove("FMUCAL_TOKEN")
         .stdin(Stdio::null())
         .stdout(Stdio::null())
-        .stderr(Stdio::null())
+        .stderr(stderr)
         .spawn()
         .unwrap()
 }
@@ -92,12 +112,41 @@ fn start_worker(url: &str, cache: &Path, token: &str) -> Child {
 /// The decay example's job (`k` from 1.0 in [0.5, 3]) on data made with k = 1.7, with `extra`
 /// tables appended, as the job spec of `model_id`.
 fn decay_job(dir: &Path, extra: &str, model_id: &str) -> pb::JobSpec {
+    let (spec, data) = decay_spec(dir, extra, &[("k", 1.0, 0.5, 3.0)]);
+    job_to_proto(&spec, std::slice::from_ref(&data), model_id)
+}
+
+/// The decay example's job calibrating `parameters` (name, start, lower, upper) on data made
+/// with k = 1.7, with `extra` tables appended, and its data.
+fn decay_spec(dir: &Path, extra: &str, parameters: &[(&str, f64, f64, f64)]) -> (JobSpec, MeasurementTable) {
     let fmu = common::load_example("decay", &dir.join("cache"));
     let r = simulate(&fmu, &SimSpec { parameters: vec![("k".into(), "1.7".into())], ..Default::default() }).unwrap();
     let data = MeasurementTable { time: r.time.clone(), columns: vec![("x".into(), r.column("x").unwrap().to_vec())] };
-    let toml = common::job_toml(&common::example("decay"), None, &[("x", "x")], &[], &[("k", 1.0, 0.5, 3.0)], extra);
-    let spec = JobSpec::from_toml(&toml, dir).unwrap();
-    job_to_proto(&spec, std::slice::from_ref(&data), model_id)
+    let toml = common::job_toml(&common::example("decay"), None, &[("x", "x")], &[], parameters, extra);
+    (JobSpec::from_toml(&toml, dir).unwrap(), data)
+}
+
+/// Waits until `child` exits, for at most `limit`; whether it did (it is killed if not).
+fn exits_within(child: &mut Child, limit: Duration) -> bool {
+    let end = Instant::now() + limit;
+    while Instant::now() < end {
+        if child.try_wait().unwrap().is_some() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    false
+}
+
+/// Waits until the file at `path` contains `text`, for at most 60 s.
+fn wait_for_text(path: &Path, text: &str) {
+    let end = Instant::now() + Duration::from_secs(60);
+    while !std::fs::read_to_string(path).unwrap_or_default().contains(text) {
+        assert!(Instant::now() < end, "{text:?} never appeared in {}", path.display());
+        std::thread::sleep(Duration::from_millis(50));
+    }
 }
 
 async fn upload_decay(c: &mut Client) -> String {
@@ -333,4 +382,149 @@ async fn a_rejected_upload_leaves_nothing_on_disk() {
     upload_decay(&mut c).await;
     assert_eq!(left("models"), 1);
     coord.stop().await;
+}
+
+/// A model that never returns (Decay with crashMode = "hang" from crashTime on) fails its
+/// point at the worker's evaluation deadline instead of wedging the worker: with two slots the
+/// stuck thread is replaced, with one the worker restarts its process; either way the next job
+/// runs on that worker. And SIGTERM stops a worker within its grace period while a model hangs.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_model_that_never_returns_fails_its_point_and_does_not_wedge_the_worker() {
+    for slots in ["2", "1"] {
+        let dir = tempfile::tempdir().unwrap();
+        // The coordinator would re-send a point only after 10 minutes.
+        let coord = start_coordinator_with(&dir.path().join("coord"), Some(WORKER_TOKEN), |c| {
+            c.timing.evaluation_timeout = Duration::from_secs(600);
+        })
+        .await;
+        let mut c = client(&coord.url, TOKEN).await;
+        let model = upload_decay(&mut c).await;
+        let log = dir.path().join("worker.log");
+        let args = ["--slots", slots, "--evaluation-deadline", "2", "--stop-grace", "1"];
+        let mut worker = start_worker_with(&coord.url, &dir.path().join("wcache"), WORKER_TOKEN, &args, Some(&log));
+        let parameters = [("k", 1.0, 0.5, 3.0), ("crashTime", 5.0, 0.5, 10.0)];
+        let (spec, data) = decay_spec(dir.path(), "[simulation]\nset = { crashMode = \"hang\" }\n", &parameters);
+        // The simulation ends at 2 s: the second point hangs, the others do not.
+        let points = spec.evaluating_points(vec![vec![1.7, 5.0], vec![1.7, 1.0], vec![1.0, 5.0]]);
+        let job = job_to_proto(&points, std::slice::from_ref(&data), &model);
+        let id = c.submit_job(pb::SubmitJobRequest { spec: Some(job) }).await.unwrap().into_inner().job_id;
+        let r = wait_end(&mut c, &id).await;
+        assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{slots} slots: {r:?}");
+        let evaluated = r.result.unwrap().evaluated;
+        assert_eq!(evaluated.iter().map(|p| p.ok).collect::<Vec<_>>(), [true, false, true], "{evaluated:?}");
+        assert!(evaluated[1].message.contains("did not return within the worker's evaluation deadline of 2.0 s"));
+        // The worker goes on with the next job.
+        let next = c.submit_job(pb::SubmitJobRequest { spec: Some(decay_job(dir.path(), "", &model)) }).await.unwrap();
+        let r = wait_end(&mut c, &next.into_inner().job_id).await;
+        assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{slots} slots: {r:?}");
+        assert!(worker.try_wait().unwrap().is_none(), "the worker exited");
+        let text = std::fs::read_to_string(&log).unwrap();
+        let restarted = text.contains("restarting the worker");
+        assert_eq!(restarted, slots == "1", "{slots} slots, restarted: {restarted}\n{text}");
+
+        // SIGTERM while a model hangs, with no deadline in sight: the worker leaves within its
+        // grace period (1 s) and the coordinator re-sends the point it held.
+        let _ = worker.kill();
+        let _ = worker.wait();
+        let args = ["--evaluation-deadline", "600", "--stop-grace", "1"];
+        let mut worker = start_worker_with(&coord.url, &dir.path().join("wcache"), WORKER_TOKEN, &args, Some(&log));
+        let hanging = spec.evaluating_points(vec![vec![1.7, 1.0]]);
+        let job = job_to_proto(&hanging, std::slice::from_ref(&data), &model);
+        c.submit_job(pb::SubmitJobRequest { spec: Some(job) }).await.unwrap();
+        wait_for_text(&log, "evaluating point");
+        Command::new("kill").args(["-TERM", &worker.id().to_string()]).status().unwrap();
+        assert!(exits_within(&mut worker, Duration::from_secs(20)), "SIGTERM did not stop a worker whose model hangs");
+        coord.stop().await;
+    }
+}
+
+/// `fmucal coordinator` on a free port with `args`, its descriptors limited to `max_fds`.
+fn coordinator_process(dir: &Path, max_fds: u32, args: &[&str]) -> (Child, String) {
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let child = Command::new("sh")
+        .arg("-c")
+        .arg(format!("ulimit -n {max_fds} && exec \"$@\""))
+        .arg("sh")
+        .arg(env!("CARGO_BIN_EXE_fmucal"))
+        .args(["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir"])
+        .arg(dir)
+        .args(args)
+        .env("FMUCAL_TOKEN", TOKEN)
+        .env_remove("FMUCAL_WORKER_TOKEN")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    (child, format!("http://127.0.0.1:{port}"))
+}
+
+/// Lists the jobs of the coordinator at `url`, retrying for up to `limit`; whether it answered.
+async fn answers_within(url: &str, limit: Duration) -> bool {
+    let end = Instant::now() + limit;
+    while Instant::now() < end {
+        let attempt = async {
+            let channel = tonic::transport::Endpoint::from_shared(url.to_owned()).ok()?.connect().await.ok()?;
+            let mut c = CalibrationClient::with_interceptor(channel, AttachToken::new(Some(TOKEN)).unwrap());
+            c.list_jobs(pb::ListJobsRequest {}).await.ok()
+        };
+        if tokio::time::timeout(Duration::from_secs(5), attempt).await.ok().flatten().is_some() {
+            return true;
+        }
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+    false
+}
+
+/// Reads `stream` until the peer closes it; false if it is still open after `limit`.
+fn read_to_end_within(mut stream: &std::net::TcpStream, limit: Duration) -> bool {
+    stream.set_read_timeout(Some(limit)).unwrap();
+    let mut buf = [0u8; 4096];
+    loop {
+        match std::io::Read::read(&mut stream, &mut buf) {
+            Ok(0) => return true,
+            Ok(_) => {}
+            Err(e) => return e.kind() == std::io::ErrorKind::ConnectionReset,
+        }
+    }
+}
+
+fn open_fds(pid: u32) -> usize {
+    std::fs::read_dir(format!("/proc/{pid}/fd")).map(Iterator::count).unwrap_or(0)
+}
+
+/// Connections that never send a byte cannot lock clients out: with 64 file descriptors, 150
+/// of them are accepted until descriptors run out (the accept loop then backs off), closed
+/// after the idle timeout (1 s), and a client is served. With `--max-connections 8` the
+/// coordinator holds at most 8 of 40 such connections open at once.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn idle_connections_neither_exhaust_descriptors_nor_lock_clients_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut coord, url) =
+        coordinator_process(&dir.path().join("a"), 64, &["--idle-timeout", "1", "--max-connections", "1000"]);
+    assert!(answers_within(&url, Duration::from_secs(60)).await, "the coordinator did not start");
+    let addr = url.trim_start_matches("http://").to_owned();
+    let idle: Vec<std::net::TcpStream> = (0..150).map(|_| std::net::TcpStream::connect(&addr).unwrap()).collect();
+    assert!(answers_within(&url, Duration::from_secs(60)).await, "a client was locked out by idle connections");
+    assert!(coord.try_wait().unwrap().is_none(), "the coordinator died");
+    // The server closed the idle connections: reading one ends (after the server's HTTP/2
+    // preface, which it sends first).
+    assert!(read_to_end_within(&idle[0], Duration::from_secs(10)), "an idle connection was not closed");
+    drop(idle);
+    let _ = coord.kill();
+    let _ = coord.wait();
+
+    let (mut coord, url) =
+        coordinator_process(&dir.path().join("b"), 1024, &["--idle-timeout", "30", "--max-connections", "8"]);
+    assert!(answers_within(&url, Duration::from_secs(60)).await, "the coordinator did not start");
+    // The client's connection closes when it is dropped; wait until the server let it go.
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let before = open_fds(coord.id());
+    let addr = url.trim_start_matches("http://").to_owned();
+    let _held: Vec<std::net::TcpStream> = (0..40).map(|_| std::net::TcpStream::connect(&addr).unwrap()).collect();
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    let during = open_fds(coord.id());
+    assert!(during <= before + 8, "{} descriptors more with 40 idle connections and a cap of 8", during - before);
+    let _ = coord.kill();
+    let _ = coord.wait();
 }

@@ -54,6 +54,8 @@ async fn a_job_runs_over_mutual_tls_and_plaintext_is_refused() {
         worker_token: Some(WORKER_TOKEN.into()),
         timing: Default::default(),
         max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
+        connections: Default::default(),
+        keep_finished_jobs: None,
         tls: Some(ServerTls {
             cert_pem: read(&certs, "coordinator.pem"),
             key_pem: read(&certs, "coordinator-key.pem"),

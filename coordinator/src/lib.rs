@@ -5,8 +5,10 @@
 //! `Diagnose` request runs `fmucal diagnose` as a child process against this coordinator
 //! ([`diagnoses`]).
 
+pub mod connections;
 pub mod diagnoses;
 pub mod error;
+pub mod fillable_disk;
 pub mod models;
 pub mod scheduler;
 pub mod services;
@@ -20,7 +22,6 @@ use std::time::Duration;
 use fmucal_proto::v1 as pb;
 use tokio::net::TcpListener;
 use tonic::service::interceptor::InterceptedService;
-use tonic::transport::server::TcpIncoming;
 
 pub use error::CoordinatorError;
 pub use scheduler::Timing;
@@ -39,6 +40,10 @@ pub struct Config {
     pub timing: Timing,
     /// Cap on the model store (archives and unpacked files), bytes.
     pub max_store_bytes: u64,
+    /// Cap on open connections and their idle timeout.
+    pub connections: connections::ConnectionLimits,
+    /// Keep at most this many finished jobs, deleting the oldest; `None` keeps every one.
+    pub keep_finished_jobs: Option<usize>,
     /// Serve TLS (every listener); `None`: plaintext, which the CLI allows off loopback only
     /// with `--insecure`.
     pub tls: Option<fmucal_proto::tls::ServerTls>,
@@ -127,9 +132,12 @@ pub async fn run(
     let (store, models2, timing) =
         (tokio::task::spawn_blocking(move || store::Store::open(&data_dir)), models.clone(), config.timing.clone());
     let store = store.await.map_err(|e| CoordinatorError::Storage(e.to_string()))??;
-    let sched = tokio::task::spawn_blocking(move || scheduler::Scheduler::new(store, models2, timing))
-        .await
-        .map_err(|e| CoordinatorError::Storage(e.to_string()))??;
+    let keep = config.keep_finished_jobs;
+    let sched = tokio::task::spawn_blocking(move || {
+        scheduler::Scheduler::new(store, models2, timing).map(|s| s.with_retention(keep))
+    })
+    .await
+    .map_err(|e| CoordinatorError::Storage(e.to_string()))??;
     let (tx, rx) = tokio::sync::mpsc::channel(1024);
     let scheduler_task = tokio::spawn(sched.run(rx));
     let diagnoses = diagnoses::Diagnoses::new(
@@ -163,7 +171,10 @@ pub async fn run(
         }
     };
     tracing::info!(%addr, tls = config.tls.is_some(), "coordinator listening");
-    let mut server = tonic::transport::Server::builder();
+    let keepalive = config.connections.keepalive_interval();
+    let mut server = tonic::transport::Server::builder()
+        .http2_keepalive_interval(Some(keepalive))
+        .http2_keepalive_timeout(Some(keepalive));
     if let Some(tls) = &config.tls {
         let mut settings = tonic::transport::ServerTlsConfig::new()
             .identity(tonic::transport::Identity::from_pem(&tls.cert_pem, &tls.key_pem))
@@ -185,7 +196,7 @@ pub async fn run(
                 .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES),
             move |r| worker_auth.check(r),
         ))
-        .serve_with_incoming_shutdown(TcpIncoming::from(listener).with_nodelay(Some(true)), stop)
+        .serve_with_incoming_shutdown(connections::incoming(listener, &config.connections), stop)
         .await;
     abort_scheduler.abort();
     if let Some(why) = fatal.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take() {

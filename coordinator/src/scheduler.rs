@@ -60,6 +60,10 @@ pub enum Command {
         job_id: String,
         reply: Reply<i32>,
     },
+    Delete {
+        job_id: String,
+        reply: Reply<()>,
+    },
     Watch {
         job_id: String,
         tx: WatchSender,
@@ -158,7 +162,12 @@ pub struct Scheduler {
     timing: Timing,
     next_seq: u64,
     next_worker: u64,
+    /// Finished jobs kept (the oldest past it are deleted); `None`: every one.
+    keep_finished_jobs: Option<usize>,
 }
+
+/// How the error of a job whose state could not be written begins.
+const UNSAVED: &str = "the job's state could not be saved";
 
 fn is_running(status: JobStatus) -> bool {
     status == JobStatus::Running
@@ -185,8 +194,10 @@ impl Scheduler {
             timing,
             next_seq: 0,
             next_worker: 0,
+            keep_finished_jobs: None,
         };
-        // Past every stored id, also of jobs whose state this version cannot read.
+        // Past every stored id, also of jobs whose state this version cannot read, or deleted.
+        s.next_seq = s.store.next_seq()?;
         for id in s.store.job_ids()? {
             if let Some(seq) = id.strip_prefix("job-").and_then(|n| n.parse::<u64>().ok()) {
                 s.next_seq = s.next_seq.max(seq.saturating_add(1));
@@ -244,6 +255,15 @@ impl Scheduler {
         Ok(s)
     }
 
+    /// Keeps at most `keep` finished jobs from now on (deleting the oldest by submission,
+    /// now and whenever a job finishes); `None` keeps every job.
+    #[must_use]
+    pub fn with_retention(mut self, keep: Option<usize>) -> Self {
+        self.keep_finished_jobs = keep;
+        self.apply_retention();
+        self
+    }
+
     /// Runs until the command channel closes.
     pub async fn run(mut self, mut commands: mpsc::Receiver<Command>) {
         let mut tick = tokio::time::interval(Duration::from_millis(50));
@@ -295,6 +315,19 @@ impl Scheduler {
                 };
                 let _ = reply.send(r);
             }
+            Command::Delete { job_id, reply } => {
+                let r = match self.jobs.get(&job_id) {
+                    None => Err(CoordinatorError::NotFound(format!("job {job_id:?}"))),
+                    Some(j) if is_running(j.state.status) => Err(CoordinatorError::FailedPrecondition(format!(
+                        "job {job_id} is running: cancel it before deleting it"
+                    ))),
+                    Some(_) => {
+                        self.delete(&job_id);
+                        Ok(())
+                    }
+                };
+                let _ = reply.send(r);
+            }
             Command::Watch { job_id, tx, reply } => {
                 let r = match self.jobs.get_mut(&job_id) {
                     None => Err(CoordinatorError::NotFound(format!("job {job_id:?}"))),
@@ -340,6 +373,7 @@ impl Scheduler {
                     Ok(pb::RegisterResponse {
                         worker_id: id,
                         heartbeat_interval_ms: self.timing.heartbeat_interval.as_millis() as u64,
+                        evaluation_timeout_ms: self.timing.evaluation_timeout.as_millis() as u64,
                     })
                 };
                 let _ = reply.send(r);
@@ -438,6 +472,7 @@ impl Scheduler {
         self.flush_log();
         self.writer.send(Write::State { id: id.to_owned(), json: state_json });
         tracing::info!(job = %id, ?status, "job finished");
+        self.apply_retention();
         Ok(())
     }
 
@@ -502,6 +537,64 @@ impl Scheduler {
         }
     }
 
+    /// A write of the job's state or log failed (a full disk): the job fails, visibly, with its
+    /// best point so far; the writer writes that state once the disk has room.
+    fn fail_unsaved(&mut self, id: &str, error: &str) {
+        let Some(job) = self.jobs.get_mut(id) else { return };
+        if job.state.error.as_deref().is_some_and(|e| e.starts_with(UNSAVED)) {
+            return;
+        }
+        let why = format!("{UNSAVED}: {error}");
+        tracing::error!(job = %id, "{why}");
+        if is_running(job.state.status) {
+            if let Err(e) = self.finish(id, JobStatus::Failed, Some(&why)) {
+                tracing::error!(job = %id, "{e}");
+            }
+        } else {
+            job.state.status = JobStatus::Failed;
+            job.state.error = Some(why);
+            let state = job.state.clone();
+            self.save(id, &state);
+        }
+    }
+
+    /// Forgets a finished job and deletes it from the store (after the writes queued before).
+    fn delete(&mut self, id: &str) {
+        self.flush_log();
+        self.jobs.remove(id);
+        self.writer.send(Write::Delete { id: id.to_owned() });
+        tracing::info!(job = %id, "job deleted");
+    }
+
+    /// Deletes the oldest finished jobs past the retention cap.
+    fn apply_retention(&mut self) {
+        let Some(keep) = self.keep_finished_jobs else { return };
+        let mut finished: Vec<(u64, String)> = self
+            .jobs
+            .iter()
+            .filter(|(_, j)| !is_running(j.state.status))
+            .map(|(id, j)| (j.state.seq, id.clone()))
+            .collect();
+        if finished.len() <= keep {
+            return;
+        }
+        finished.sort_unstable();
+        let excess = finished.len() - keep;
+        for (_, id) in finished.into_iter().take(excess) {
+            self.delete(&id);
+        }
+    }
+
+    /// A worker handed a point back unevaluated: it is queued again, first in line, without
+    /// counting as an attempt.
+    fn hand_back(&mut self, id: &str, point: u64) {
+        let Some(job) = self.jobs.get_mut(id) else { return };
+        let Some(p) = job.open.get_mut(&point) else { return };
+        p.assigned = None;
+        job.queue.push_front(point);
+        self.wake_parked();
+    }
+
     fn poll(&mut self, req: pb::PollWorkRequest, reply: oneshot::Sender<pb::PollWorkResponse>) {
         let wid = req.worker_id.clone();
         match self.workers.get_mut(&wid) {
@@ -517,6 +610,10 @@ impl Scheduler {
             let leased = self.workers.get_mut(&wid).is_some_and(|w| w.inflight.remove(&(r.job_id.clone(), r.point_id)));
             if !leased {
                 tracing::warn!(job = %r.job_id, point = r.point_id, worker = %wid, "result for a point not leased to this worker ignored");
+                continue;
+            }
+            if r.status == pb::PointStatus::NotEvaluated as i32 {
+                self.hand_back(&r.job_id, r.point_id);
                 continue;
             }
             let evaluation = evaluation_from_proto(&r);
@@ -613,6 +710,11 @@ impl Scheduler {
 
     fn on_tick(&mut self) {
         self.flush_log();
+        for failure in self.writer.failures() {
+            for id in &failure.jobs {
+                self.fail_unsaved(id, &failure.error);
+            }
+        }
         let now = Instant::now();
         // Expire silent workers; their points count as failed attempts on them.
         let expired: Vec<String> = self

@@ -118,6 +118,12 @@ impl pb::calibration_server::Calibration for Handlers {
         Ok(Response::new(pb::CancelJobResponse { status }))
     }
 
+    async fn delete_job(&self, req: Request<pb::DeleteJobRequest>) -> Result<Response<pb::DeleteJobResponse>, Status> {
+        let job_id = req.into_inner().job_id;
+        self.ask(|reply| Command::Delete { job_id, reply }).await?;
+        Ok(Response::new(pb::DeleteJobResponse {}))
+    }
+
     async fn list_jobs(&self, _req: Request<pb::ListJobsRequest>) -> Result<Response<pb::ListJobsResponse>, Status> {
         Ok(Response::new(self.ask(|reply| Command::List { reply }).await?))
     }

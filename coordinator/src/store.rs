@@ -5,10 +5,17 @@
 //! has queued up in one durable transaction, so the scheduler never waits for a disk flush. After a restart, running jobs resume from their
 //! last completed batch and the logged points of the open batch are told again rather than
 //! re-evaluated; finished results stay queryable.
+//!
+//! A write that fails (a full disk) is reported to the scheduler ([`Writer::failures`]), which
+//! fails the jobs it concerned; redb refuses every later write until the database is opened
+//! again, so the writer reopens it and keeps the failed job states to write again, until the
+//! disk has room.
 
+use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::Arc;
 use std::sync::mpsc;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
 
 use fmucal_shared::job::{CalibrationResult, Evaluation, JobRun, JobStatus};
 use redb::{Database, ReadableDatabase, ReadableTable, TableDefinition};
@@ -19,6 +26,8 @@ use crate::error::CoordinatorError;
 const SPECS: TableDefinition<&str, &[u8]> = TableDefinition::new("job_specs");
 const STATES: TableDefinition<&str, &str> = TableDefinition::new("job_states");
 const EVALS: TableDefinition<(&str, u64), &str> = TableDefinition::new("evaluations");
+/// `next_seq`: past every job ever stored, deleted ones included, so ids are never reused.
+const META: TableDefinition<&str, u64> = TableDefinition::new("meta");
 
 /// Everything about a job except its spec.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -34,35 +43,90 @@ pub struct JobState {
     pub error: Option<String>,
 }
 
+/// redb's page cache (its default, 1 GiB, kept a coordinator that had run 300 jobs at 700 MB).
+const CACHE_BYTES: usize = 64 << 20;
+
+/// Opens the database (again, after an I/O error).
+type Opener = Box<dyn Fn() -> Result<Database, redb::DatabaseError> + Send + Sync>;
+
 pub struct Store {
-    db: Database,
+    db: Mutex<Option<Database>>,
+    open: Opener,
 }
 
 impl Store {
     pub fn open(data_dir: &Path) -> Result<Self, CoordinatorError> {
         std::fs::create_dir_all(data_dir)?;
-        let db = Database::create(data_dir.join("jobs.redb"))?;
+        let path = data_dir.join("jobs.redb");
+        Self::with_opener(Box::new(move || Database::builder().set_cache_size(CACHE_BYTES).create(&path)))
+    }
+
+    /// A store on the database `open` returns, called again to reopen it after an I/O error
+    /// (tests use a redb backend that can fail its writes).
+    pub fn with_opener(open: Opener) -> Result<Self, CoordinatorError> {
+        let db = open()?;
         let tx = db.begin_write()?;
         tx.open_table(SPECS)?;
         tx.open_table(STATES)?;
         tx.open_table(EVALS)?;
+        tx.open_table(META)?;
         tx.commit()?;
-        Ok(Store { db })
+        Ok(Store { db: Mutex::new(Some(db)), open })
+    }
+
+    fn db(&self) -> Result<MutexGuard<'_, Option<Database>>, CoordinatorError> {
+        let mut guard = self.db.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if guard.is_none() {
+            *guard = Some((self.open)()?);
+            tracing::info!("the job store is open again");
+        }
+        Ok(guard)
+    }
+
+    /// Closes the database after an I/O error; the next use opens it again.
+    fn reopen_later(&self) {
+        let mut guard = self.db.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        guard.take();
+    }
+
+    /// The sequence number past every job ever stored, deleted ones included.
+    pub fn next_seq(&self) -> Result<u64, CoordinatorError> {
+        let db = self.db()?;
+        let tx = db.as_ref().expect("opened").begin_read()?;
+        let meta = tx.open_table(META)?;
+        Ok(meta.get("next_seq")?.map_or(0, |v| v.value()))
     }
 
     /// Stores a new job durably.
     pub fn create(&self, id: &str, spec: &[u8], state: &JobState) -> Result<(), CoordinatorError> {
-        let tx = self.db.begin_write()?;
-        tx.open_table(SPECS)?.insert(id, spec)?;
-        tx.open_table(STATES)?.insert(id, serde_json::to_string(state)?.as_str())?;
-        tx.commit()?;
-        Ok(())
+        self.insert_job(id, spec, state.seq, &serde_json::to_string(state)?)
+    }
+
+    fn insert_job(&self, id: &str, spec: &[u8], seq: u64, state_json: &str) -> Result<(), CoordinatorError> {
+        let db = self.db()?;
+        let written = (|| -> Result<(), CoordinatorError> {
+            let tx = db.as_ref().expect("opened").begin_write()?;
+            tx.open_table(SPECS)?.insert(id, spec)?;
+            tx.open_table(STATES)?.insert(id, state_json)?;
+            let mut meta = tx.open_table(META)?;
+            let next = meta.get("next_seq")?.map_or(0, |v| v.value()).max(seq + 1);
+            meta.insert("next_seq", next)?;
+            drop(meta);
+            tx.commit()?;
+            Ok(())
+        })();
+        drop(db);
+        if written.is_err() {
+            self.reopen_later();
+        }
+        written
     }
 
     /// The ids of every job ever stored, also those whose state cannot be read: new ids must
     /// not reuse them (their logs are still there).
     pub fn job_ids(&self) -> Result<Vec<String>, CoordinatorError> {
-        let tx = self.db.begin_read()?;
+        let db = self.db()?;
+        let tx = db.as_ref().expect("opened").begin_read()?;
         let specs = tx.open_table(SPECS)?;
         let mut ids = vec![];
         for entry in specs.iter()? {
@@ -74,7 +138,8 @@ impl Store {
     /// Every job: (id, spec bytes, state). A state that cannot be read (written by another
     /// version of fmucal) is reported and left out, not fatal.
     pub fn load_all(&self) -> Result<Vec<(String, Vec<u8>, JobState)>, CoordinatorError> {
-        let tx = self.db.begin_read()?;
+        let db = self.db()?;
+        let tx = db.as_ref().expect("opened").begin_read()?;
         let specs = tx.open_table(SPECS)?;
         let states = tx.open_table(STATES)?;
         let mut out = vec![];
@@ -96,7 +161,8 @@ impl Store {
 
     /// Logged evaluations of a job's points.
     pub fn evaluations(&self, id: &str) -> Result<Vec<(u64, Evaluation)>, CoordinatorError> {
-        let tx = self.db.begin_read()?;
+        let db = self.db()?;
+        let tx = db.as_ref().expect("opened").begin_read()?;
         let evals = tx.open_table(EVALS)?;
         let mut out = vec![];
         for entry in evals.range((id, 0)..=(id, u64::MAX))? {
@@ -113,30 +179,36 @@ pub enum Write {
     State { id: String, json: String },
     /// Told points: (job, point, evaluation).
     Log(Vec<(String, u64, Evaluation)>),
+    /// Removes a job: its spec, state and evaluation log.
+    Delete { id: String },
 }
+
+/// A group of writes that could not be committed: the jobs it concerned and why.
+#[derive(Debug, Clone)]
+pub struct WriteFailure {
+    pub jobs: Vec<String>,
+    pub error: String,
+}
+
+/// How often the writer tries again to write the job states a failed commit left unwritten.
+const RETRY_EVERY: Duration = Duration::from_secs(1);
 
 /// The thread that commits queued writes in order.
 pub struct Writer {
     tx: Option<mpsc::Sender<Write>>,
+    failures: mpsc::Receiver<WriteFailure>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
 
 impl Writer {
     pub fn spawn(store: Arc<Store>) -> Self {
         let (tx, rx) = mpsc::channel::<Write>();
+        let (failed_tx, failures) = mpsc::channel::<WriteFailure>();
         let thread = std::thread::Builder::new()
             .name("fmucal-store".into())
-            .spawn(move || {
-                while let Ok(first) = rx.recv() {
-                    let mut writes = vec![first];
-                    writes.extend(rx.try_iter());
-                    if let Err(e) = store.commit(writes) {
-                        tracing::error!("cannot write job state: {e}");
-                    }
-                }
-            })
+            .spawn(move || write_until_closed(&store, &rx, &failed_tx))
             .ok();
-        Writer { tx: Some(tx), thread }
+        Writer { tx: Some(tx), failures, thread }
     }
 
     pub fn send(&self, w: Write) {
@@ -144,10 +216,83 @@ impl Writer {
             let _ = tx.send(w);
         }
     }
+
+    /// The failed commits reported since the last call.
+    pub fn failures(&self) -> Vec<WriteFailure> {
+        self.failures.try_iter().collect()
+    }
+}
+
+/// The writer thread: commits what has queued up in one transaction. After a failure it
+/// reports the jobs concerned, has the database reopened, and keeps their latest states
+/// and deletions (later writes of the same job replace them) to commit with the next group, or
+/// alone every [`RETRY_EVERY`], until they are written. Evaluation logs of a failed group are
+/// dropped: the jobs they belong to are failed.
+fn write_until_closed(store: &Store, rx: &mpsc::Receiver<Write>, failed: &mpsc::Sender<WriteFailure>) {
+    let mut unwritten: BTreeMap<String, Write> = BTreeMap::new();
+    loop {
+        let first = if unwritten.is_empty() {
+            match rx.recv() {
+                Ok(w) => Some(w),
+                Err(_) => return,
+            }
+        } else {
+            match rx.recv_timeout(RETRY_EVERY) {
+                Ok(w) => Some(w),
+                Err(mpsc::RecvTimeoutError::Timeout) => None,
+                Err(mpsc::RecvTimeoutError::Disconnected) => {
+                    // Closing: one last try for what is left.
+                    let _ = commit_group(store, retried(&mut unwritten), &mut unwritten, failed);
+                    return;
+                }
+            }
+        };
+        let mut writes = retried(&mut unwritten);
+        writes.extend(first);
+        writes.extend(rx.try_iter());
+        let _ = commit_group(store, writes, &mut unwritten, failed);
+    }
+}
+
+/// The states and deletions left unwritten (they go first: a later write of a job replaces its).
+fn retried(unwritten: &mut BTreeMap<String, Write>) -> Vec<Write> {
+    std::mem::take(unwritten).into_values().collect()
+}
+
+fn commit_group(
+    store: &Store,
+    writes: Vec<Write>,
+    unwritten: &mut BTreeMap<String, Write>,
+    failed: &mpsc::Sender<WriteFailure>,
+) -> Result<(), ()> {
+    if writes.is_empty() {
+        return Ok(());
+    }
+    let Err(e) = store.commit(&writes) else { return Ok(()) };
+    let error = e.to_string();
+    tracing::error!("cannot write job state: {error}");
+    store.reopen_later();
+    let mut jobs = vec![];
+    for w in writes {
+        match w {
+            Write::State { ref id, .. } => {
+                jobs.push(id.clone());
+                unwritten.insert(id.clone(), w);
+            }
+            Write::Log(entries) => jobs.extend(entries.into_iter().map(|(id, _, _)| id)),
+            Write::Delete { ref id } => {
+                unwritten.insert(id.clone(), w);
+            }
+        }
+    }
+    jobs.sort_unstable();
+    jobs.dedup();
+    let _ = failed.send(WriteFailure { jobs, error });
+    Err(())
 }
 
 impl Drop for Writer {
-    /// Waits until everything queued is on disk.
+    /// Waits until everything queued is on disk (one last try for states a failed write left).
     fn drop(&mut self) {
         self.tx.take();
         if let Some(t) = self.thread.take() {
@@ -157,26 +302,126 @@ impl Drop for Writer {
 }
 
 impl Store {
-    /// Commits a group of writes in one durable transaction (for a job's state, the last wins).
-    fn commit(&self, writes: Vec<Write>) -> Result<(), CoordinatorError> {
-        let tx = self.db.begin_write()?;
+    /// Commits a group of writes in one durable transaction, in order (for a job's state, the
+    /// last wins).
+    fn commit(&self, writes: &[Write]) -> Result<(), CoordinatorError> {
+        let db = self.db()?;
+        let tx = db.as_ref().expect("opened").begin_write()?;
         {
+            let mut specs = tx.open_table(SPECS)?;
             let mut states = tx.open_table(STATES)?;
             let mut evals = tx.open_table(EVALS)?;
-            for w in &writes {
+            for w in writes {
                 match w {
                     Write::State { id, json } => {
-                        states.insert(id.as_str(), json.as_str())?;
+                        // A state written after its job was deleted stays deleted.
+                        if specs.get(id.as_str())?.is_some() {
+                            states.insert(id.as_str(), json.as_str())?;
+                        }
                     }
                     Write::Log(entries) => {
                         for (id, point, evaluation) in entries {
                             evals.insert((id.as_str(), *point), serde_json::to_string(evaluation)?.as_str())?;
                         }
                     }
+                    Write::Delete { id } => {
+                        specs.remove(id.as_str())?;
+                        states.remove(id.as_str())?;
+                        evals.retain_in((id.as_str(), 0)..=(id.as_str(), u64::MAX), |_, _| false)?;
+                    }
                 }
             }
         }
         tx.commit()?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use fmucal_shared::job::JobStatus;
+
+    use super::*;
+    use crate::fillable_disk::FillableDisk;
+
+    fn store_on(disk: &FillableDisk) -> Store {
+        let disk = disk.clone();
+        Store::with_opener(Box::new(move || disk.open())).unwrap()
+    }
+
+    fn state(seq: u64, status: JobStatus, error: Option<&str>) -> String {
+        let mut json: serde_json::Value = serde_json::json!({ "seq": seq });
+        json["status"] = serde_json::to_value(status).unwrap();
+        json["error"] = serde_json::to_value(error).unwrap();
+        json.to_string()
+    }
+
+    fn stored_state(store: &Store, id: &str) -> Option<String> {
+        let db = store.db().unwrap();
+        let tx = db.as_ref().unwrap().begin_read().unwrap();
+        tx.open_table(STATES).unwrap().get(id).unwrap().map(|v| v.value().to_owned())
+    }
+
+    fn wait_for(mut ok: impl FnMut() -> bool) {
+        let end = std::time::Instant::now() + Duration::from_secs(30);
+        while !ok() {
+            assert!(std::time::Instant::now() < end, "timed out");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// A full disk fails the writes of the jobs concerned, reported to the scheduler; once the
+    /// disk has room again the store writes again, the last state of each such job first,
+    /// without a restart.
+    #[test]
+    fn a_full_disk_is_reported_and_the_store_recovers_once_it_has_room() {
+        let disk = FillableDisk::default();
+        let store = Arc::new(store_on(&disk));
+        store.insert_job("job-0", b"spec", 0, &state(0, JobStatus::Running, None)).unwrap();
+        let writer = Writer::spawn(store.clone());
+        disk.set_full(true);
+        writer.send(Write::State { id: "job-0".into(), json: state(0, JobStatus::Succeeded, None) });
+        let mut failures = vec![];
+        wait_for(|| {
+            failures.extend(writer.failures());
+            !failures.is_empty()
+        });
+        assert_eq!(failures[0].jobs, ["job-0"]);
+        assert!(failures[0].error.contains("No space left on device"), "{:?}", failures[0].error);
+        // The scheduler fails the job; that state cannot be written either, for now.
+        let failed = state(0, JobStatus::Failed, Some("the job's state could not be saved"));
+        writer.send(Write::State { id: "job-0".into(), json: failed.clone() });
+        std::thread::sleep(Duration::from_millis(300));
+        let second = state(1, JobStatus::Running, None);
+        assert!(store.insert_job("job-1", b"spec", 1, &second).is_err(), "a write went through on a full disk");
+        // Room again: the failed state is written without any new write, and new jobs are stored.
+        disk.set_full(false);
+        wait_for(|| stored_state(&store, "job-0").as_deref() == Some(failed.as_str()));
+        store.insert_job("job-1", b"spec", 1, &second).unwrap();
+        assert_eq!(store.next_seq().unwrap(), 2);
+        drop(writer);
+        // What a restart reads: the failed state, and both jobs.
+        drop(store);
+        let store = store_on(&disk);
+        assert_eq!(stored_state(&store, "job-0").as_deref(), Some(failed.as_str()));
+        assert_eq!(store.job_ids().unwrap(), ["job-0", "job-1"]);
+    }
+
+    /// A deleted job is gone with its log, a state queued after its deletion does not bring it
+    /// back, and its sequence number stays taken.
+    #[test]
+    fn a_deleted_job_is_gone_with_its_log_and_its_number_stays_taken() {
+        let disk = FillableDisk::default();
+        let store = Arc::new(store_on(&disk));
+        store.insert_job("job-7", b"spec", 7, &state(7, JobStatus::Running, None)).unwrap();
+        let writer = Writer::spawn(store.clone());
+        writer.send(Write::Log(vec![("job-7".into(), 0, Evaluation::failed("x"))]));
+        writer.send(Write::Delete { id: "job-7".into() });
+        writer.send(Write::State { id: "job-7".into(), json: state(7, JobStatus::Failed, None) });
+        drop(writer);
+        assert!(store.job_ids().unwrap().is_empty());
+        assert!(stored_state(&store, "job-7").is_none());
+        assert!(store.evaluations("job-7").unwrap().is_empty());
+        assert_eq!(store.next_seq().unwrap(), 8);
     }
 }

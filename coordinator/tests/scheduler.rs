@@ -102,11 +102,15 @@ struct Sched {
 impl Sched {
     /// Opens the store and models in `dir` (resuming what runs there) and starts the task.
     fn start(dir: &Path) -> Sched {
-        let store = Store::open(dir).unwrap();
+        Sched::start_with(dir, Store::open(dir).unwrap(), None)
+    }
+
+    /// [`Sched::start`] on `store`, keeping at most `keep` finished jobs.
+    fn start_with(dir: &Path, store: Store, keep: Option<usize>) -> Sched {
         let models = Arc::new(Mutex::new(ModelStore::open(dir, DEFAULT_MAX_STORE_BYTES).unwrap()));
         let timing = Timing { heartbeat_interval: HEARTBEAT, worker_expiry: EXPIRY, evaluation_timeout: TIMEOUT };
         let (tx, rx) = mpsc::channel(64);
-        let task = tokio::spawn(Scheduler::new(store, models.clone(), timing).unwrap().run(rx));
+        let task = tokio::spawn(Scheduler::new(store, models.clone(), timing).unwrap().with_retention(keep).run(rx));
         Sched { tx, task, models }
     }
 
@@ -163,6 +167,14 @@ impl Sched {
 
     async fn get(&self, job_id: &str) -> pb::GetJobResponse {
         self.call(|reply| Command::Get { job_id: job_id.into(), reply }).await.unwrap()
+    }
+
+    async fn delete(&self, job_id: &str) -> Result<(), CoordinatorError> {
+        self.call(|reply| Command::Delete { job_id: job_id.into(), reply }).await
+    }
+
+    async fn listed(&self) -> Vec<String> {
+        self.call(|reply| Command::List { reply }).await.unwrap().jobs.into_iter().map(|j| j.job_id).collect()
     }
 
     async fn cancel(&self, job_id: &str) -> Result<i32, CoordinatorError> {
@@ -562,4 +574,116 @@ async fn a_job_whose_state_cannot_be_read_is_left_out_and_its_id_not_reused() {
     assert_ne!(new, old, "a new job took the id of one whose state could not be read");
     let listed = s.call(|reply| Command::List { reply }).await.unwrap();
     assert_eq!(listed.jobs.iter().map(|j| j.job_id.clone()).collect::<Vec<_>>(), vec![new]);
+}
+
+/// A point handed back unevaluated (a stopping worker) is sent again, first, and does not
+/// count as an attempt: the job ends as if it had never been handed out.
+#[tokio::test(start_paused = true)]
+async fn a_point_handed_back_unevaluated_is_sent_again_without_counting_as_an_attempt() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let w = s.register("w", 1).await;
+    let id = s.submit(points_job(dir.path(), 3)).await;
+    let first = s.take(&w, 4).await;
+    assert_eq!(ids(&first), [0, 1, 2]);
+    let back = |a: &pb::Assignment| pb::PointResult {
+        job_id: a.job_id.clone(),
+        point_id: a.point_id,
+        status: pb::PointStatus::NotEvaluated as i32,
+        ..Default::default()
+    };
+    // Point 0 answered, 1 and 2 handed back, three times over: never told as failed.
+    s.answer(&w, vec![ok(&first[0]), back(&first[1]), back(&first[2])]).await;
+    for _ in 0..3 {
+        let again = s.take(&w, 4).await;
+        let mut again_ids = ids(&again);
+        again_ids.sort_unstable();
+        assert_eq!(again_ids, [1, 2], "handed-back points are sent again");
+        s.answer(&w, again.iter().map(back).collect()).await;
+    }
+    let again = s.take(&w, 4).await;
+    s.answer(&w, again.iter().map(ok).collect()).await;
+    let r = s.get(&id).await;
+    assert_eq!(r.status, SUCCEEDED, "{r:?}");
+    let evaluated = result(&r).evaluated;
+    assert!(evaluated.iter().all(|p| p.ok), "{evaluated:?}");
+}
+
+/// DeleteJob removes a finished job (refusing a running one), a restart does not bring it
+/// back, and its id is not reused; with a retention of 2, finishing a third job deletes the
+/// oldest.
+#[tokio::test(start_paused = true)]
+async fn finished_jobs_can_be_deleted_and_retention_keeps_the_newest() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let w = s.register("w", 4).await;
+    let running = s.submit(de_job(dir.path(), 4, 2)).await;
+    let refused = s.delete(&running).await;
+    assert!(matches!(refused, Err(CoordinatorError::FailedPrecondition(_))), "{refused:?}");
+    let (r, _) = s.drive(&running, &[&w], |_, a| ok(a)).await;
+    assert_eq!(r.status, SUCCEEDED);
+    s.delete(&running).await.unwrap();
+    assert!(matches!(s.delete(&running).await, Err(CoordinatorError::NotFound(_))));
+    assert!(s.listed().await.is_empty());
+    s.kill().await;
+
+    let s = Sched::start_with(dir.path(), Store::open(dir.path()).unwrap(), Some(2));
+    assert!(s.listed().await.is_empty(), "a deleted job came back after a restart");
+    let w = s.register("w", 4).await;
+    let mut done = vec![];
+    for _ in 0..3 {
+        let id = s.submit(de_job(dir.path(), 4, 2)).await;
+        assert!(!done.contains(&id) && id != running, "id {id} reused");
+        s.drive(&id, &[&w], |_, a| ok(a)).await;
+        done.push(id);
+    }
+    assert_eq!(s.listed().await, [done[2].clone(), done[1].clone()], "retention keeps the 2 newest");
+}
+
+/// A full disk fails the job whose state cannot be written, visibly (GetJob says FAILED and
+/// why); once the disk has room the store recovers without a restart, and a restart finds
+/// the job failed, not running.
+#[tokio::test(start_paused = true)]
+async fn a_job_whose_state_cannot_be_written_fails_visibly_and_the_store_recovers() {
+    use fmucal_coordinator::fillable_disk::FillableDisk;
+    let dir = tempfile::tempdir().unwrap();
+    let disk = FillableDisk::default();
+    let on_disk = |disk: &FillableDisk| {
+        let disk = disk.clone();
+        Store::with_opener(Box::new(move || disk.open())).unwrap()
+    };
+    let s = Sched::start_with(dir.path(), on_disk(&disk), None);
+    let w = s.register("w", 4).await;
+    let id = s.submit(de_job(dir.path(), 4, 50)).await;
+    let first = s.take(&w, 4).await;
+    disk.set_full(true);
+    s.answer(&w, first.iter().map(ok).collect()).await;
+    // The writer thread runs on the real clock.
+    let deadline = std::time::Instant::now() + Duration::from_secs(30);
+    let r = loop {
+        s.pass(Duration::from_millis(100), &[&w]).await;
+        let r = s.get(&id).await;
+        if r.status != RUNNING {
+            break r;
+        }
+        assert!(std::time::Instant::now() < deadline, "the job did not fail");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(r.status, pb::JobStatus::Failed as i32, "{r:?}");
+    assert!(
+        r.error.starts_with("the job's state could not be saved") && r.error.contains("No space left"),
+        "{:?}",
+        r.error
+    );
+    assert!(s.take(&w, 4).await.is_empty(), "a failed job hands out points");
+    // Room again: a new job is stored and runs, without a restart.
+    disk.set_full(false);
+    let next = s.submit(de_job(dir.path(), 4, 2)).await;
+    let (r, _) = s.drive(&next, &[&w], |_, a| ok(a)).await;
+    assert_eq!(r.status, SUCCEEDED);
+    drop(s.tx);
+    s.task.await.unwrap();
+    let s = Sched::start_with(dir.path(), on_disk(&disk), None);
+    let r = s.get(&id).await;
+    assert_eq!(r.status, pb::JobStatus::Failed as i32, "after a restart: {r:?}");
 }

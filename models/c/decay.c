@@ -3,7 +3,7 @@
  * a resource file, declared types, an alias, Integer/Boolean/Enumeration parameters, a time
  * event (kickTime adds kickAmount to x), terminateSimulation at terminateTime, a wall-time `delay`
  * (seconds slept at initialisation, for benchmarks), and a configurable failure (crashMode from crashTime:
- * 2 returns fmi2Error, 3 calls abort(), 4 dereferences a null pointer). */
+ * 2 returns fmi2Error, 3 calls abort(), 4 dereferences a null pointer, 5 never returns). */
 #define _POSIX_C_SOURCE 200809L /* nanosleep under -std=c99 */
 #define MODEL_IDENTIFIER "Decay"
 #define MODEL_GUID "{6a1f3c2e-3b44-4d1c-9a43-f0a1c0de0003}"
@@ -21,7 +21,7 @@
 enum { X, DER_X, K, KICK_TIME, KICK_AMOUNT, CRASH_TIME, RESOURCE_FACTOR, TERMINATE_TIME, DELAY };
 enum { POWER, CRASH_MODE, KICKED };
 enum { ENABLED };
-enum { CRASH_NONE = 1, CRASH_ERROR = 2, CRASH_ABORT = 3, CRASH_SEGFAULT = 4 };
+enum { CRASH_NONE = 1, CRASH_ERROR = 2, CRASH_ABORT = 3, CRASH_SEGFAULT = 4, CRASH_HANG = 5 };
 static const fmi2ValueReference STATE_VR[NX] = {X};
 static const fmi2ValueReference DER_VR[NX] = {DER_X};
 
@@ -94,6 +94,11 @@ static fmi2Status model_derivatives(Model *m) {
         case CRASH_SEGFAULT:
             raise(SIGSEGV);
             return fmi2Fatal;
+        case CRASH_HANG: /* a model stuck in a loop that never ends (sleeping, so it costs no CPU) */
+            for (;;) {
+                struct timespec ts = {1, 0};
+                nanosleep(&ts, NULL);
+            }
         default:
             break;
         }

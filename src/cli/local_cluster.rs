@@ -32,6 +32,8 @@ pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>)
         worker_token: Some(worker_token.clone()),
         timing: Default::default(),
         max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
+        connections: Default::default(),
+        keep_finished_jobs: None,
         tls: None,
         diagnose_program: None,
     };

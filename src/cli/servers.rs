@@ -31,6 +31,17 @@ pub struct CoordinatorArgs {
     /// is refused with RESOURCE_EXHAUSTED.
     #[arg(long, default_value_t = fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES)]
     max_store_bytes: u64,
+    /// Cap on open connections; past it, new ones wait until one closes.
+    #[arg(long, default_value_t = fmucal_coordinator::connections::DEFAULT_MAX_CONNECTIONS)]
+    max_connections: usize,
+    /// Close a connection nothing was read from for this many seconds (live clients answer
+    /// the coordinator's keep-alive pings, sent three times per period).
+    #[arg(long, default_value_t = fmucal_coordinator::connections::DEFAULT_IDLE_TIMEOUT.as_secs_f64())]
+    idle_timeout: f64,
+    /// Keep at most this many finished jobs, deleting the oldest (with their results and
+    /// logs) when another finishes. Default: keep every job (delete them with DeleteJob).
+    #[arg(long)]
+    keep_finished_jobs: Option<usize>,
     #[command(flatten)]
     tls: super::tls::ServerArgs,
 }
@@ -52,6 +63,13 @@ pub struct WorkerArgs {
     /// Where fetched models are kept. Default: the FMU cache.
     #[arg(long)]
     cache_dir: Option<PathBuf>,
+    /// Fail a point whose model has not returned after this many seconds and abandon its
+    /// instance. Default: 90 % of the coordinator's --evaluation-timeout.
+    #[arg(long)]
+    evaluation_deadline: Option<f64>,
+    /// On SIGTERM or Ctrl-C, wait at most this many seconds for the points being evaluated.
+    #[arg(long, default_value_t = fmucal_worker::DEFAULT_STOP_GRACE.as_secs_f64())]
+    stop_grace: f64,
     #[command(flatten)]
     tls: super::tls::ClientArgs,
 }
@@ -95,6 +113,11 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
             worker_token,
             timing,
             max_store_bytes: args.max_store_bytes,
+            connections: fmucal_coordinator::connections::ConnectionLimits {
+                max_connections: args.max_connections,
+                idle_timeout: seconds("--idle-timeout", args.idle_timeout)?,
+            },
+            keep_finished_jobs: args.keep_finished_jobs,
             tls,
             diagnose_program,
         };
@@ -115,10 +138,32 @@ pub fn worker(args: WorkerArgs) -> Result<()> {
         cache_dir,
         health_listen: args.health_listen,
         tls: args.tls.load()?,
+        evaluation_deadline: args.evaluation_deadline.map(|s| seconds("--evaluation-deadline", s)).transpose()?,
+        stop_grace: seconds("--stop-grace", args.stop_grace)?,
     };
     // Evaluations run on the slots' own threads; the runtime only does I/O, and one thread is
     // enough (a pool of many workers on few cores then switches less).
     let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
-    rt.block_on(fmucal_worker::run(config, terminate_signal()))?;
-    Ok(())
+    match rt.block_on(fmucal_worker::run(config, terminate_signal())) {
+        Err(fmucal_worker::WorkerError::Restart(why)) => restart_worker(&why),
+        other => Ok(other?),
+    }
+}
+
+/// A duration given in seconds on the command line.
+fn seconds(flag: &str, s: f64) -> Result<std::time::Duration> {
+    std::time::Duration::try_from_secs_f64(s)
+        .ok()
+        .filter(|d| !d.is_zero())
+        .with_context(|| format!("{flag} must be a positive number of seconds, not {s}"))
+}
+
+/// Replaces this worker process by a fresh one with the same arguments (and pid), leaving
+/// behind the threads stuck in models that did not return.
+fn restart_worker(why: &str) -> Result<()> {
+    use std::os::unix::process::CommandExt;
+    tracing::warn!("restarting the worker: {why}");
+    let exe = std::env::current_exe().context("cannot find this program to restart the worker")?;
+    let err = std::process::Command::new(exe).args(std::env::args_os().skip(1)).exec();
+    Err(err).context("cannot restart the worker")
 }

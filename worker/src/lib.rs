@@ -4,8 +4,16 @@
 //! keeps a warm FMU instance for each of its last 4 jobs (FMU instances are not `Send`). Points
 //! of an FMU that may be instantiated only once per process all go to thread 0. Models and job data are fetched
 //! once per job and cached; unpacked models are cached by hash. On shutdown the slots finish
-//! their current point and hand its result back before the worker exits.
+//! their current point and hand its result back before the worker exits, within a grace period
+//! after which the worker leaves whatever is still running (the coordinator re-sends it).
+//!
+//! Every evaluation runs under a deadline (by default 90 % of the coordinator's evaluation
+//! timeout): a model that has not returned by then fails its point, and the slot's thread is
+//! abandoned and replaced. When twice as many threads are abandoned as there are slots, or the model
+//! may be instantiated only once per process, the worker stops and [`run`] returns
+//! [`WorkerError::Restart`]: `fmucal worker` then replaces its process with a fresh one.
 
+mod hung;
 mod jobs;
 mod slot;
 
@@ -14,6 +22,8 @@ use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
+
+pub use hung::DEFAULT_STOP_GRACE;
 
 use fmucal_proto::auth::AttachToken;
 use fmucal_proto::v1 as pb;
@@ -43,6 +53,11 @@ pub struct Config {
     pub health_listen: Option<SocketAddr>,
     /// How to reach an `https://` coordinator.
     pub tls: Option<fmucal_proto::tls::ClientTls>,
+    /// Abandon an evaluation that has not returned after this long. Default (`None`): 90 % of
+    /// the coordinator's evaluation timeout, so the point fails here before it is re-sent.
+    pub evaluation_deadline: Option<Duration>,
+    /// After a stop is asked, how long the slots may take to finish their points.
+    pub stop_grace: Duration,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -53,6 +68,10 @@ pub enum WorkerError {
     Registration(String),
     #[error("{0}")]
     Config(String),
+    /// Evaluations did not return and their threads could not all be replaced: the process
+    /// must be replaced (its points were handed back or failed).
+    #[error("the worker needs a fresh process: {0}")]
+    Restart(String),
 }
 
 /// Runs until `shutdown` resolves (then finishes the points in hand) or the coordinator stops
@@ -83,9 +102,16 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
     let worker_id = Arc::new(tokio::sync::RwLock::new(reg.worker_id));
     health_reporter.set_service_status(pb::worker_pool_server::SERVICE_NAME, ServingStatus::Serving).await;
     let (stop_tx, stop_rx) = watch::channel(false);
-    tokio::spawn(async move {
-        shutdown.await;
-        let _ = stop_tx.send(true);
+    let stop_tx = Arc::new(stop_tx);
+    {
+        let stop_tx = stop_tx.clone();
+        tokio::spawn(async move {
+            shutdown.await;
+            let _ = stop_tx.send(true);
+        });
+    }
+    let deadline = config.evaluation_deadline.or_else(|| {
+        (reg.evaluation_timeout_ms > 0).then(|| Duration::from_millis(reg.evaluation_timeout_ms).mul_f64(0.9))
     });
 
     // Heartbeats; a coordinator that forgot us gets a new registration.
@@ -116,7 +142,9 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
     let pool = EvaluatorPool::new(config.slots.max(1), "fmucal-slot")
         .map_err(|e| WorkerError::Config(format!("cannot start evaluation threads: {e}")))?;
     let pool = Arc::new(pool);
-    let mut slots = vec![];
+    let hung = Arc::new(hung::Hung::new(config.slots.max(1), stop_tx.clone()));
+    let (give_up_tx, give_up_rx) = watch::channel(false);
+    let mut slots = tokio::task::JoinSet::new();
     for k in 0..config.slots.max(1) {
         let ctx = slot::SlotContext {
             pool: pool.clone(),
@@ -125,13 +153,17 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
             jobs: jobs.clone(),
             stop: stop_rx.clone(),
             index: k,
+            deadline,
+            hung: hung.clone(),
+            give_up: give_up_rx.clone(),
         };
-        slots.push(tokio::spawn(slot::run(ctx)));
+        slots.spawn(slot::run(ctx));
     }
-    for s in slots {
-        let _ = s.await;
-    }
+    hung::join_within_grace(&mut slots, stop_rx.clone(), config.stop_grace, &give_up_tx, &pool).await;
     health_reporter.set_service_status(pb::worker_pool_server::SERVICE_NAME, ServingStatus::NotServing).await;
+    if let Some(why) = hung.restart_reason() {
+        return Err(WorkerError::Restart(why));
+    }
     tracing::info!("worker stopped");
     Ok(())
 }

@@ -1,8 +1,10 @@
 //! One evaluation slot: a task that long-polls the coordinator (asking for up to 4 points and
 //! returning their results with the next poll) and has them evaluated on its own thread of the
-//! worker's warm-evaluator pool (thread 0 for an FMU that allows one instance per process).
+//! worker's warm-evaluator pool (thread 0 for an FMU that allows one instance per process),
+//! waiting at most the evaluation deadline for each.
 
 use std::sync::Arc;
+use std::time::Duration;
 
 use fmucal_proto::convert::point_result;
 use fmucal_proto::v1 as pb;
@@ -11,6 +13,7 @@ use fmucal_shared::job::pool::{EvalRequest, EvaluatorPool};
 use tokio::sync::{RwLock, oneshot, watch};
 
 use crate::Client;
+use crate::hung::Hung;
 use crate::jobs::JobCache;
 
 /// Points a slot asks for per poll; the coordinator grants at most a fair share.
@@ -24,6 +27,11 @@ pub struct SlotContext {
     pub jobs: Arc<JobCache>,
     pub stop: watch::Receiver<bool>,
     pub index: usize,
+    /// How long an evaluation may take before it is abandoned (`None`: no limit).
+    pub deadline: Option<Duration>,
+    pub hung: Arc<Hung>,
+    /// Turns true when the worker stops waiting for its evaluations.
+    pub give_up: watch::Receiver<bool>,
 }
 
 pub async fn run(mut s: SlotContext) {
@@ -53,9 +61,10 @@ pub async fn run(mut s: SlotContext) {
             }
             Err(e) => {
                 pending = sent;
-                // Keep trying for about two minutes: the coordinator may be restarting.
+                // Keep trying for about two minutes (the coordinator may be restarting), but
+                // not past the grace period of a stop.
                 failures += 1;
-                if failures > 600 {
+                if failures > 600 || *s.give_up.borrow() {
                     tracing::error!("the coordinator stopped answering: {e}");
                     return;
                 }
@@ -72,28 +81,74 @@ pub async fn run(mut s: SlotContext) {
             continue;
         }
         for a in resp.assignments {
-            let evaluation = match s.jobs.get(&mut s.client, &a.job_id).await {
-                Ok(ctx) => {
-                    let (reply, wait) = oneshot::channel();
-                    let thread = if ctx.exclusive { 0 } else { s.index };
-                    let request = EvalRequest {
-                        job_key: a.job_id.clone(),
-                        fmu: ctx.fmu.clone(),
-                        job: ctx.job.clone(),
-                        x: a.x.clone(),
-                        experiment: a.experiment as usize,
-                        want_residuals: a.want_residuals,
-                    };
-                    s.pool.submit(Some(thread), request, move |e| {
-                        let _ = reply.send(e);
-                    });
-                    wait.await.unwrap_or_else(|_| Evaluation::failed("the evaluation thread stopped"))
-                }
-                Err(e) => Evaluation::failed(e),
+            // Once the worker gives up on its evaluations (it needs a fresh process, or the
+            // grace period of a stop has passed), the points not done go back.
+            let evaluation = if s.hung.restart_reason().is_some() || *s.give_up.borrow() {
+                None
+            } else {
+                evaluate(&mut s, &a).await
             };
-            let point = point_result(&a, evaluation);
-            tracing::debug!(job = %point.job_id, point = point.point_id, status = point.status, "point evaluated");
+            let point = match evaluation {
+                Some(e) => {
+                    let point = point_result(&a, e);
+                    tracing::debug!(job = %point.job_id, point = point.point_id, status = point.status, "point evaluated");
+                    point
+                }
+                None => {
+                    tracing::debug!(job = %a.job_id, point = a.point_id, "point handed back unevaluated");
+                    not_evaluated(&a)
+                }
+            };
             pending.push(point);
         }
+    }
+}
+
+/// Evaluates one assignment under the deadline; `None` if the worker gave up waiting.
+async fn evaluate(s: &mut SlotContext, a: &pb::Assignment) -> Option<Evaluation> {
+    let ctx = match s.jobs.get(&mut s.client, &a.job_id).await {
+        Ok(ctx) => ctx,
+        Err(e) => return Some(Evaluation::failed(e)),
+    };
+    let (reply, wait) = oneshot::channel();
+    let thread = if ctx.exclusive { 0 } else { s.index };
+    let request = EvalRequest {
+        job_key: a.job_id.clone(),
+        fmu: ctx.fmu.clone(),
+        job: ctx.job.clone(),
+        x: a.x.clone(),
+        experiment: a.experiment as usize,
+        want_residuals: a.want_residuals,
+    };
+    tracing::debug!(job = %a.job_id, point = a.point_id, thread, "evaluating point");
+    s.pool.submit(Some(thread), request, move |e| {
+        let _ = reply.send(e);
+    });
+    let stopped = |_| Evaluation::failed("the evaluation thread stopped");
+    let within_deadline = async {
+        match s.deadline {
+            None => wait.await.unwrap_or_else(stopped),
+            Some(deadline) => match tokio::time::timeout(deadline, wait).await {
+                Ok(evaluation) => evaluation.unwrap_or_else(stopped),
+                Err(_) => s.hung.abandon(&s.pool, thread, ctx.exclusive, deadline),
+            },
+        }
+    };
+    let mut give_up = s.give_up.clone();
+    tokio::select! {
+        e = within_deadline => Some(e),
+        _ = give_up.wait_for(|g| *g) => None,
+    }
+}
+
+/// Hands a point back unevaluated: the coordinator re-sends it, to this worker or another.
+fn not_evaluated(a: &pb::Assignment) -> pb::PointResult {
+    pb::PointResult {
+        job_id: a.job_id.clone(),
+        point_id: a.point_id,
+        status: pb::PointStatus::NotEvaluated as i32,
+        value: f64::NAN,
+        message: "handed back unevaluated: the worker is stopping".into(),
+        ..Default::default()
     }
 }

@@ -7,8 +7,14 @@
 //! identifiability analysis and the workers. A panic while evaluating (a bug, or an FMU
 //! calling back into a panicking logger) fails that point only: the thread drops the job's
 //! instance and goes on, so no request is left without an answer.
+//!
+//! A thread stuck in an FMU that never returns cannot be stopped from outside; its owner (a
+//! worker slot with a deadline) may [`EvaluatorPool::replace_thread`] it: a fresh thread takes
+//! over its index and its queue, and the stuck one, if it ever returns, drops what it holds and
+//! ends without taking more work. Dropping the pool joins the live threads only.
 
 use std::collections::{HashMap, VecDeque};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -51,18 +57,28 @@ struct Queue {
 struct Shared {
     queue: Mutex<Queue>,
     ready: Condvar,
+    /// Per thread index, the generation of the thread that serves it; a thread whose
+    /// generation is older has been replaced.
+    generations: Vec<AtomicU64>,
 }
 
 impl Shared {
     fn lock(&self) -> MutexGuard<'_, Queue> {
         self.queue.lock().unwrap_or_else(|p| p.into_inner())
     }
+
+    fn is_current(&self, index: usize, generation: u64) -> bool {
+        self.generations[index].load(Ordering::SeqCst) == generation
+    }
 }
 
-/// Threads with warm evaluators; dropping the pool lets queued work finish, then joins them.
+/// Threads with warm evaluators; dropping the pool lets queued work finish, then joins the live
+/// threads (not the replaced or abandoned ones).
 pub struct EvaluatorPool {
     shared: Arc<Shared>,
-    threads: Vec<JoinHandle<()>>,
+    name: String,
+    /// The live thread of each index (`None` once abandoned).
+    threads: Mutex<Vec<Option<JoinHandle<()>>>>,
 }
 
 impl EvaluatorPool {
@@ -71,20 +87,60 @@ impl EvaluatorPool {
     /// # Errors
     /// The OS error if a thread cannot be started.
     pub fn new(threads: usize, name: &str) -> std::io::Result<Self> {
-        let shared = Arc::new(Shared { queue: Mutex::new(Queue::default()), ready: Condvar::new() });
-        let threads = (0..threads.max(1))
-            .map(|k| {
-                let shared = shared.clone();
-                std::thread::Builder::new().name(format!("{name}-{k}")).spawn(move || serve(&shared, k))
-            })
-            .collect::<std::io::Result<Vec<_>>>()?;
-        Ok(EvaluatorPool { shared, threads })
+        let n = threads.max(1);
+        let shared = Arc::new(Shared {
+            queue: Mutex::new(Queue::default()),
+            ready: Condvar::new(),
+            generations: (0..n).map(|_| AtomicU64::new(0)).collect(),
+        });
+        let threads = (0..n).map(|k| spawn(&shared, name, k, 0).map(Some)).collect::<std::io::Result<Vec<_>>>()?;
+        Ok(EvaluatorPool { shared, name: name.to_owned(), threads: Mutex::new(threads) })
+    }
+
+    /// The number of thread indices.
+    pub fn len(&self) -> usize {
+        self.shared.generations.len()
+    }
+
+    /// Always false: a pool has at least one thread.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// Gives up on the thread serving `index` (stuck in a model that does not return) and
+    /// starts a fresh one in its place, which takes over the requests queued for `index`. The
+    /// stuck thread is never joined; if it returns, it ends without taking more work, and the
+    /// reply of the request it held goes nowhere.
+    ///
+    /// # Errors
+    /// The OS error if the new thread cannot be started (then `index` has no thread until a
+    /// later call succeeds).
+    pub fn replace_thread(&self, index: usize) -> std::io::Result<()> {
+        let index = index % self.len();
+        self.abandon_thread(index);
+        let generation = self.shared.generations[index].load(Ordering::SeqCst);
+        let handle = spawn(&self.shared, &self.name, index, generation)?;
+        self.lock_threads()[index] = Some(handle);
+        Ok(())
+    }
+
+    /// Gives up on the thread serving `index` without replacing it (at shutdown, for a thread
+    /// still busy after the grace period): dropping the pool will not wait for it.
+    pub fn abandon_thread(&self, index: usize) {
+        let index = index % self.len();
+        self.shared.generations[index].fetch_add(1, Ordering::SeqCst);
+        self.lock_threads()[index] = None;
+        self.shared.ready.notify_all();
+    }
+
+    fn lock_threads(&self) -> MutexGuard<'_, Vec<Option<JoinHandle<()>>>> {
+        self.threads.lock().unwrap_or_else(|p| p.into_inner())
     }
 
     /// Queues `request` for thread `thread` (taken modulo the number of threads) or, with
     /// `None`, for the first free thread; `reply` receives the evaluation on that thread.
     pub fn submit(&self, thread: Option<usize>, request: EvalRequest, reply: impl FnOnce(Evaluation) + Send + 'static) {
-        let thread = thread.map(|t| t % self.threads.len());
+        let thread = thread.map(|t| t % self.len());
         self.shared.lock().tasks.push_back(Queued { thread, request, reply: Box::new(reply) });
         self.shared.ready.notify_all();
     }
@@ -127,20 +183,29 @@ impl Drop for EvaluatorPool {
     fn drop(&mut self) {
         self.shared.lock().closed = true;
         self.shared.ready.notify_all();
-        for t in self.threads.drain(..) {
+        let threads = std::mem::take(&mut *self.lock_threads());
+        for t in threads.into_iter().flatten() {
             let _ = t.join();
         }
     }
 }
 
-/// Thread `me`: takes the first task meant for it or for any thread, until the pool closes
-/// and nothing is left for it.
-fn serve(shared: &Shared, me: usize) {
+fn spawn(shared: &Arc<Shared>, name: &str, index: usize, generation: u64) -> std::io::Result<JoinHandle<()>> {
+    let shared = shared.clone();
+    std::thread::Builder::new().name(format!("{name}-{index}")).spawn(move || serve(&shared, index, generation))
+}
+
+/// Thread `me` of `generation`: takes the first task meant for it or for any thread, until the
+/// pool closes and nothing is left for it, or until it has been replaced.
+fn serve(shared: &Shared, me: usize, generation: u64) {
     let mut warm: HashMap<String, Evaluator> = HashMap::new();
     loop {
         let task = {
             let mut q = shared.lock();
             loop {
+                if !shared.is_current(me, generation) {
+                    break None;
+                }
                 if let Some(i) = q.tasks.iter().position(|t| t.thread.is_none_or(|t| t == me)) {
                     break q.tasks.remove(i);
                 }

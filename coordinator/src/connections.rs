@@ -1,0 +1,160 @@
+//! The coordinator's listener, guarded against clients that hold connections open: at most
+//! [`ConnectionLimits::max_connections`] are open at once (past that, new ones wait in the
+//! kernel's backlog until one closes), a connection from which nothing has been read for
+//! [`ConnectionLimits::idle_timeout`] is closed (live HTTP/2 peers answer the server's
+//! keep-alive pings, sent three times per idle timeout, so only silent ones are), and an accept
+//! error (out of file descriptors) backs off for 100 ms instead of spinning.
+
+use std::pin::Pin;
+use std::sync::Arc;
+use std::task::{Context, Poll};
+use std::time::Duration;
+
+use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
+use tokio::net::{TcpListener, TcpStream};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore, mpsc};
+use tokio::time::{Instant, Sleep};
+use tokio_stream::wrappers::ReceiverStream;
+use tonic::transport::server::{Connected, TcpConnectInfo};
+
+/// Default cap on open connections: with a 1024-descriptor limit, leaves room for the store,
+/// the models and the diagnoses.
+pub const DEFAULT_MAX_CONNECTIONS: usize = 512;
+/// Default time after which a connection nothing was read from is closed.
+pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(60);
+/// Pause after an accept error.
+const ACCEPT_BACKOFF: Duration = Duration::from_millis(100);
+
+/// Limits on the coordinator's connections.
+#[derive(Debug, Clone)]
+pub struct ConnectionLimits {
+    pub max_connections: usize,
+    pub idle_timeout: Duration,
+}
+
+impl Default for ConnectionLimits {
+    fn default() -> Self {
+        ConnectionLimits { max_connections: DEFAULT_MAX_CONNECTIONS, idle_timeout: DEFAULT_IDLE_TIMEOUT }
+    }
+}
+
+impl ConnectionLimits {
+    /// How often the server pings its peers: three pings per idle timeout keep a live
+    /// connection from looking idle.
+    pub fn keepalive_interval(&self) -> Duration {
+        self.idle_timeout / 3
+    }
+}
+
+/// The accepted connections of `listener`, for `serve_with_incoming`. The accepting task ends
+/// when the stream is dropped, and the listening socket with it.
+pub fn incoming(listener: TcpListener, limits: &ConnectionLimits) -> ReceiverStream<std::io::Result<GuardedStream>> {
+    let (tx, rx) = mpsc::channel(1);
+    let permits = Arc::new(Semaphore::new(limits.max_connections.max(1)));
+    let idle_timeout = limits.idle_timeout;
+    tokio::spawn(async move {
+        let mut failures: u64 = 0;
+        loop {
+            let permit = tokio::select! {
+                p = permits.clone().acquire_owned() => p.expect("the semaphore is never closed"),
+                () = tx.closed() => return,
+            };
+            let accepted = tokio::select! {
+                a = listener.accept() => a,
+                () = tx.closed() => return,
+            };
+            match accepted {
+                Ok((stream, _)) => {
+                    failures = 0;
+                    let _ = stream.set_nodelay(true);
+                    let guarded = GuardedStream::new(stream, permit, idle_timeout);
+                    if tx.send(Ok(guarded)).await.is_err() {
+                        return;
+                    }
+                }
+                Err(e) => {
+                    failures += 1;
+                    // Logged on the first failure of a run and every 100th after it.
+                    if failures % 100 == 1 {
+                        tracing::warn!(failures, "cannot accept a connection, backing off: {e}");
+                    }
+                    drop(permit);
+                    tokio::time::sleep(ACCEPT_BACKOFF).await;
+                }
+            }
+        }
+    });
+    ReceiverStream::new(rx)
+}
+
+/// An accepted connection holding one of the listener's permits, closed with an error once
+/// nothing has been read from it for the idle timeout.
+pub struct GuardedStream {
+    stream: TcpStream,
+    _permit: OwnedSemaphorePermit,
+    idle_timeout: Duration,
+    idle: Pin<Box<Sleep>>,
+}
+
+impl GuardedStream {
+    fn new(stream: TcpStream, permit: OwnedSemaphorePermit, idle_timeout: Duration) -> Self {
+        GuardedStream { stream, _permit: permit, idle_timeout, idle: Box::pin(tokio::time::sleep(idle_timeout)) }
+    }
+}
+
+impl Connected for GuardedStream {
+    type ConnectInfo = TcpConnectInfo;
+
+    fn connect_info(&self) -> Self::ConnectInfo {
+        self.stream.connect_info()
+    }
+}
+
+impl AsyncRead for GuardedStream {
+    fn poll_read(mut self: Pin<&mut Self>, cx: &mut Context<'_>, buf: &mut ReadBuf<'_>) -> Poll<std::io::Result<()>> {
+        let before = buf.filled().len();
+        match Pin::new(&mut self.stream).poll_read(cx, buf) {
+            Poll::Ready(Ok(())) => {
+                if buf.filled().len() > before {
+                    let next = Instant::now() + self.idle_timeout;
+                    self.idle.as_mut().reset(next);
+                }
+                Poll::Ready(Ok(()))
+            }
+            Poll::Ready(Err(e)) => Poll::Ready(Err(e)),
+            Poll::Pending => match self.idle.as_mut().poll(cx) {
+                Poll::Ready(()) => Poll::Ready(Err(std::io::Error::new(
+                    std::io::ErrorKind::TimedOut,
+                    format!("nothing read for {:.0} s", self.idle_timeout.as_secs_f64()),
+                ))),
+                Poll::Pending => Poll::Pending,
+            },
+        }
+    }
+}
+
+impl AsyncWrite for GuardedStream {
+    fn poll_write(mut self: Pin<&mut Self>, cx: &mut Context<'_>, buf: &[u8]) -> Poll<std::io::Result<usize>> {
+        Pin::new(&mut self.stream).poll_write(cx, buf)
+    }
+
+    fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.stream).poll_flush(cx)
+    }
+
+    fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.stream).poll_shutdown(cx)
+    }
+
+    fn poll_write_vectored(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        bufs: &[std::io::IoSlice<'_>],
+    ) -> Poll<std::io::Result<usize>> {
+        Pin::new(&mut self.stream).poll_write_vectored(cx, bufs)
+    }
+
+    fn is_write_vectored(&self) -> bool {
+        self.stream.is_write_vectored()
+    }
+}
