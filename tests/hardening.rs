@@ -423,10 +423,10 @@ async fn a_model_that_never_returns_fails_its_point_and_does_not_wedge_the_worke
         assert_eq!(restarted, slots == "1", "{slots} slots, restarted: {restarted}\n{text}");
 
         // SIGTERM while a model hangs, with no deadline in sight: the worker leaves within its
-        // grace period (1 s) and the coordinator re-sends the point it held.
+        // grace period (2 s), handing the point back for the coordinator to send again.
         let _ = worker.kill();
         let _ = worker.wait();
-        let args = ["--evaluation-deadline", "600", "--stop-grace", "1"];
+        let args = ["--evaluation-deadline", "600", "--stop-grace", "2"];
         let mut worker = start_worker_with(&coord.url, &dir.path().join("wcache"), WORKER_TOKEN, &args, Some(&log));
         let hanging = spec.evaluating_points(vec![vec![1.7, 1.0]]);
         let job = job_to_proto(&hanging, std::slice::from_ref(&data), &model);
@@ -434,6 +434,7 @@ async fn a_model_that_never_returns_fails_its_point_and_does_not_wedge_the_worke
         wait_for_text(&log, "evaluating point");
         Command::new("kill").args(["-TERM", &worker.id().to_string()]).status().unwrap();
         assert!(exits_within(&mut worker, Duration::from_secs(20)), "SIGTERM did not stop a worker whose model hangs");
+        wait_for_text(&log, "point handed back unevaluated");
         coord.stop().await;
     }
 }

@@ -118,6 +118,8 @@ struct Job {
     watchers: Vec<WatchSender>,
     started: Instant,
     batch_started: Instant,
+    /// When it finished in this process (`None`: running, or finished before it started).
+    finished_at: Option<Instant>,
 }
 
 impl Job {
@@ -133,6 +135,7 @@ impl Job {
             watchers: vec![],
             started: now,
             batch_started: now,
+            finished_at: None,
         }
     }
 }
@@ -164,7 +167,13 @@ pub struct Scheduler {
     next_worker: u64,
     /// Finished jobs kept (the oldest past it are deleted); `None`: every one.
     keep_finished_jobs: Option<usize>,
+    last_retention: Instant,
+    /// The next job to finish gets this [`JobState::finished_seq`].
+    next_finish: u64,
 }
+
+/// How long a finished job stays at least, whatever the retention cap.
+const RETENTION_GRACE: Duration = Duration::from_secs(60);
 
 /// How the error of a job whose state could not be written begins.
 const UNSAVED: &str = "the job's state could not be saved";
@@ -195,6 +204,8 @@ impl Scheduler {
             next_seq: 0,
             next_worker: 0,
             keep_finished_jobs: None,
+            last_retention: Instant::now(),
+            next_finish: 0,
         };
         // Past every stored id, also of jobs whose state this version cannot read, or deleted.
         s.next_seq = s.store.next_seq()?;
@@ -205,6 +216,7 @@ impl Scheduler {
         }
         for (id, spec_bytes, mut state) in s.store.load_all()? {
             s.next_seq = s.next_seq.max(state.seq + 1);
+            s.next_finish = s.next_finish.max(state.finished_seq.map_or(0, |f| f + 1));
             let spec = pb::JobSpec::decode(spec_bytes.as_slice()).unwrap_or_default();
             let job_spec = match SubmittedJob::try_from(spec.clone()) {
                 Ok(j) => j.spec,
@@ -404,7 +416,15 @@ impl Scheduler {
         let seq = self.next_seq;
         self.next_seq += 1;
         let id = format!("job-{seq:06}");
-        let state = JobState { seq, status: JobStatus::Running, run, elapsed_s: 0.0, result: None, error: None };
+        let state = JobState {
+            seq,
+            status: JobStatus::Running,
+            run,
+            elapsed_s: 0.0,
+            result: None,
+            error: None,
+            finished_seq: None,
+        };
         self.store.create(&id, &spec.encode_to_vec(), &state)?;
         self.jobs.insert(id.clone(), Job::new(spec, job, state));
         tracing::info!(job = %id, "job submitted");
@@ -454,6 +474,9 @@ impl Scheduler {
         let Some(job) = self.jobs.get_mut(id) else { return Ok(()) };
         let elapsed = job.state.elapsed_s + job.started.elapsed().as_secs_f64();
         job.state.status = status;
+        job.state.finished_seq = Some(self.next_finish);
+        self.next_finish += 1;
+        job.finished_at = Some(Instant::now());
         job.state.elapsed_s = elapsed;
         if status == JobStatus::Failed {
             job.state.error = why.map(str::to_owned);
@@ -472,7 +495,6 @@ impl Scheduler {
         self.flush_log();
         self.writer.send(Write::State { id: id.to_owned(), json: state_json });
         tracing::info!(job = %id, ?status, "job finished");
-        self.apply_retention();
         Ok(())
     }
 
@@ -566,21 +588,30 @@ impl Scheduler {
         tracing::info!(job = %id, "job deleted");
     }
 
-    /// Deletes the oldest finished jobs past the retention cap.
+    /// Deletes the finished jobs past the retention cap, those that finished first, once they
+    /// have been finished for [`RETENTION_GRACE`] (so the client that waited for one can read
+    /// its result).
     fn apply_retention(&mut self) {
+        self.last_retention = Instant::now();
         let Some(keep) = self.keep_finished_jobs else { return };
-        let mut finished: Vec<(u64, String)> = self
+        let mut finished: Vec<((u64, u64), &String, &Job)> = self
             .jobs
             .iter()
             .filter(|(_, j)| !is_running(j.state.status))
-            .map(|(id, j)| (j.state.seq, id.clone()))
+            .map(|(id, j)| ((j.state.finished_seq.unwrap_or(0), j.state.seq), id, j))
             .collect();
         if finished.len() <= keep {
             return;
         }
-        finished.sort_unstable();
+        finished.sort_unstable_by_key(|(order, _, _)| *order);
         let excess = finished.len() - keep;
-        for (_, id) in finished.into_iter().take(excess) {
+        let expired: Vec<String> = finished
+            .into_iter()
+            .take(excess)
+            .filter(|(_, _, j)| j.finished_at.is_none_or(|t| t.elapsed() >= RETENTION_GRACE))
+            .map(|(_, id, _)| id.clone())
+            .collect();
+        for id in expired {
             self.delete(&id);
         }
     }
@@ -710,6 +741,9 @@ impl Scheduler {
 
     fn on_tick(&mut self) {
         self.flush_log();
+        if self.last_retention.elapsed() >= Duration::from_secs(1) {
+            self.apply_retention();
+        }
         for failure in self.writer.failures() {
             for id in &failure.jobs {
                 self.fail_unsaved(id, &failure.error);

@@ -41,6 +41,10 @@ pub struct JobState {
     pub elapsed_s: f64,
     pub result: Option<CalibrationResult>,
     pub error: Option<String>,
+    /// In which order the job finished (retention deletes those that finished first); `None`
+    /// while running, and for jobs finished before fmucal recorded it.
+    #[serde(default)]
+    pub finished_seq: Option<u64>,
 }
 
 /// redb's page cache (its default, 1 GiB, kept a coordinator that had run 300 jobs at 700 MB).
@@ -74,9 +78,17 @@ impl Store {
         Ok(Store { db: Mutex::new(Some(db)), open })
     }
 
-    fn db(&self) -> Result<MutexGuard<'_, Option<Database>>, CoordinatorError> {
+    /// The open database. Closed after a write error, it is opened again only on the writer
+    /// thread (`reopen`: opening may repair the file, which takes a while); elsewhere that is
+    /// an error, so the scheduler never waits for it.
+    fn db(&self, reopen: bool) -> Result<MutexGuard<'_, Option<Database>>, CoordinatorError> {
         let mut guard = self.db.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         if guard.is_none() {
+            if !reopen {
+                return Err(CoordinatorError::Storage(
+                    "the job store is being reopened after a write error (is the disk full?)".into(),
+                ));
+            }
             *guard = Some((self.open)()?);
             tracing::info!("the job store is open again");
         }
@@ -91,7 +103,7 @@ impl Store {
 
     /// The sequence number past every job ever stored, deleted ones included.
     pub fn next_seq(&self) -> Result<u64, CoordinatorError> {
-        let db = self.db()?;
+        let db = self.db(false)?;
         let tx = db.as_ref().expect("opened").begin_read()?;
         let meta = tx.open_table(META)?;
         Ok(meta.get("next_seq")?.map_or(0, |v| v.value()))
@@ -103,7 +115,7 @@ impl Store {
     }
 
     fn insert_job(&self, id: &str, spec: &[u8], seq: u64, state_json: &str) -> Result<(), CoordinatorError> {
-        let db = self.db()?;
+        let db = self.db(false)?;
         let written = (|| -> Result<(), CoordinatorError> {
             let tx = db.as_ref().expect("opened").begin_write()?;
             tx.open_table(SPECS)?.insert(id, spec)?;
@@ -125,7 +137,7 @@ impl Store {
     /// The ids of every job ever stored, also those whose state cannot be read: new ids must
     /// not reuse them (their logs are still there).
     pub fn job_ids(&self) -> Result<Vec<String>, CoordinatorError> {
-        let db = self.db()?;
+        let db = self.db(false)?;
         let tx = db.as_ref().expect("opened").begin_read()?;
         let specs = tx.open_table(SPECS)?;
         let mut ids = vec![];
@@ -138,7 +150,7 @@ impl Store {
     /// Every job: (id, spec bytes, state). A state that cannot be read (written by another
     /// version of fmucal) is reported and left out, not fatal.
     pub fn load_all(&self) -> Result<Vec<(String, Vec<u8>, JobState)>, CoordinatorError> {
-        let db = self.db()?;
+        let db = self.db(false)?;
         let tx = db.as_ref().expect("opened").begin_read()?;
         let specs = tx.open_table(SPECS)?;
         let states = tx.open_table(STATES)?;
@@ -161,7 +173,7 @@ impl Store {
 
     /// Logged evaluations of a job's points.
     pub fn evaluations(&self, id: &str) -> Result<Vec<(u64, Evaluation)>, CoordinatorError> {
-        let db = self.db()?;
+        let db = self.db(false)?;
         let tx = db.as_ref().expect("opened").begin_read()?;
         let evals = tx.open_table(EVALS)?;
         let mut out = vec![];
@@ -305,12 +317,13 @@ impl Store {
     /// Commits a group of writes in one durable transaction, in order (for a job's state, the
     /// last wins).
     fn commit(&self, writes: &[Write]) -> Result<(), CoordinatorError> {
-        let db = self.db()?;
+        let db = self.db(true)?;
         let tx = db.as_ref().expect("opened").begin_write()?;
         {
             let mut specs = tx.open_table(SPECS)?;
             let mut states = tx.open_table(STATES)?;
             let mut evals = tx.open_table(EVALS)?;
+            let mut meta = tx.open_table(META)?;
             for w in writes {
                 match w {
                     Write::State { id, json } => {
@@ -325,6 +338,11 @@ impl Store {
                         }
                     }
                     Write::Delete { id } => {
+                        // Its number stays taken (also in a store from before `next_seq`).
+                        if let Some(seq) = id.strip_prefix("job-").and_then(|n| n.parse::<u64>().ok()) {
+                            let next = meta.get("next_seq")?.map_or(0, |v| v.value()).max(seq.saturating_add(1));
+                            meta.insert("next_seq", next)?;
+                        }
                         specs.remove(id.as_str())?;
                         states.remove(id.as_str())?;
                         evals.retain_in((id.as_str(), 0)..=(id.as_str(), u64::MAX), |_, _| false)?;
@@ -357,8 +375,9 @@ mod tests {
     }
 
     fn stored_state(store: &Store, id: &str) -> Option<String> {
-        let db = store.db().unwrap();
-        let tx = db.as_ref().unwrap().begin_read().unwrap();
+        // Closed while the writer reopens it: nothing to read yet.
+        let db = store.db(false).ok()?;
+        let tx = db.as_ref()?.begin_read().unwrap();
         tx.open_table(STATES).unwrap().get(id).unwrap().map(|v| v.value().to_owned())
     }
 
@@ -399,7 +418,10 @@ mod tests {
         wait_for(|| stored_state(&store, "job-0").as_deref() == Some(failed.as_str()));
         store.insert_job("job-1", b"spec", 1, &second).unwrap();
         assert_eq!(store.next_seq().unwrap(), 2);
+        // A deletion keeps the number taken in a store written before `next_seq` was kept.
+        writer.send(Write::Delete { id: "job-9".into() });
         drop(writer);
+        assert_eq!(store.next_seq().unwrap(), 10);
         // What a restart reads: the failed state, and both jobs.
         drop(store);
         let store = store_on(&disk);

@@ -610,8 +610,8 @@ async fn a_point_handed_back_unevaluated_is_sent_again_without_counting_as_an_at
 }
 
 /// DeleteJob removes a finished job (refusing a running one), a restart does not bring it
-/// back, and its id is not reused; with a retention of 2, finishing a third job deletes the
-/// oldest.
+/// back, and its id is not reused; with a retention of 2, a minute after a third job finished
+/// the one that finished first (not the first submitted) is deleted.
 #[tokio::test(start_paused = true)]
 async fn finished_jobs_can_be_deleted_and_retention_keeps_the_newest() {
     let dir = tempfile::tempdir().unwrap();
@@ -634,10 +634,17 @@ async fn finished_jobs_can_be_deleted_and_retention_keeps_the_newest() {
     for _ in 0..3 {
         let id = s.submit(de_job(dir.path(), 4, 2)).await;
         assert!(!done.contains(&id) && id != running, "id {id} reused");
-        s.drive(&id, &[&w], |_, a| ok(a)).await;
         done.push(id);
     }
-    assert_eq!(s.listed().await, [done[2].clone(), done[1].clone()], "retention keeps the 2 newest");
+    // The second is cancelled and so finishes first; the first submitted finishes second
+    // (its points go out first), the third last. Retention goes by when jobs finished.
+    s.cancel(&done[1]).await.unwrap();
+    s.drive(&done[2], &[&w], |_, a| ok(a)).await;
+    assert_eq!(s.get(&done[0]).await.status, SUCCEEDED);
+    // A finished job stays for a minute whatever the cap, so its client can read it.
+    assert_eq!(s.listed().await.len(), 3);
+    s.pass(Duration::from_secs(61), &[&w]).await;
+    assert_eq!(s.listed().await, [done[2].clone(), done[0].clone()], "retention keeps the 2 that finished last");
 }
 
 /// A full disk fails the job whose state cannot be written, visibly (GetJob says FAILED and
@@ -678,7 +685,20 @@ async fn a_job_whose_state_cannot_be_written_fails_visibly_and_the_store_recover
     assert!(s.take(&w, 4).await.is_empty(), "a failed job hands out points");
     // Room again: a new job is stored and runs, without a restart.
     disk.set_full(false);
-    let next = s.submit(de_job(dir.path(), 4, 2)).await;
+    // The store's writer reopens the database within a second (real time); until then a
+    // submission is refused.
+    let spec = de_job(dir.path(), 4, 2);
+    let deadline = std::time::Instant::now() + Duration::from_secs(30);
+    let next = loop {
+        let prepared = fmucal_coordinator::scheduler::prepare(&s.models, &spec).unwrap();
+        let run = Box::new(fmucal_shared::job::JobRun::new(&prepared).unwrap());
+        let (job, spec) = (Box::new(prepared.spec.clone()), spec.clone());
+        match s.call(|reply| Command::Submit { spec, job, run, reply }).await {
+            Ok(id) => break id,
+            Err(e) => assert!(std::time::Instant::now() < deadline, "the store did not recover: {e}"),
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
     let (r, _) = s.drive(&next, &[&w], |_, a| ok(a)).await;
     assert_eq!(r.status, SUCCEEDED);
     drop(s.tx);

@@ -34,14 +34,15 @@ pub struct CoordinatorArgs {
     /// Cap on open connections; past it, new ones wait until one closes.
     #[arg(long, default_value_t = fmucal_coordinator::connections::DEFAULT_MAX_CONNECTIONS)]
     max_connections: usize,
-    /// Close a connection nothing was read from for this many seconds (live clients answer
-    /// the coordinator's keep-alive pings, sent three times per period).
+    /// Close a connection nothing was read from for this many seconds, at least 1 (live
+    /// clients answer the coordinator's keep-alive pings, sent three times per period).
     #[arg(long, default_value_t = fmucal_coordinator::connections::DEFAULT_IDLE_TIMEOUT.as_secs_f64())]
     idle_timeout: f64,
-    /// Keep at most this many finished jobs, deleting the oldest (with their results and
-    /// logs) when another finishes. Default: keep every job (delete them with DeleteJob).
-    #[arg(long)]
-    keep_finished_jobs: Option<usize>,
+    /// Keep at most this many finished jobs (at least 1), deleting those that finished first
+    /// (with their results and logs) once they have been finished for a minute. Default: keep
+    /// every job (delete them with DeleteJob).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    keep_finished_jobs: Option<u64>,
     #[command(flatten)]
     tls: super::tls::ServerArgs,
 }
@@ -115,9 +116,9 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
             max_store_bytes: args.max_store_bytes,
             connections: fmucal_coordinator::connections::ConnectionLimits {
                 max_connections: args.max_connections,
-                idle_timeout: seconds("--idle-timeout", args.idle_timeout)?,
+                idle_timeout: seconds("--idle-timeout", args.idle_timeout.max(1.0))?,
             },
-            keep_finished_jobs: args.keep_finished_jobs,
+            keep_finished_jobs: args.keep_finished_jobs.map(|n| usize::try_from(n).unwrap_or(usize::MAX)),
             tls,
             diagnose_program,
         };
@@ -144,7 +145,10 @@ pub fn worker(args: WorkerArgs) -> Result<()> {
     // Evaluations run on the slots' own threads; the runtime only does I/O, and one thread is
     // enough (a pool of many workers on few cores then switches less).
     let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
-    match rt.block_on(fmucal_worker::run(config, terminate_signal())) {
+    let outcome = rt.block_on(fmucal_worker::run(config, terminate_signal()));
+    // A model being loaded (a blocking task) must not hold the exit.
+    rt.shutdown_timeout(std::time::Duration::from_secs(1));
+    match outcome {
         Err(fmucal_worker::WorkerError::Restart(why)) => restart_worker(&why),
         other => Ok(other?),
     }

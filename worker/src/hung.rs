@@ -2,7 +2,6 @@
 //! and its slot's thread is abandoned and replaced ([`Hung::abandon`]); when that is not safe
 //! or twice as many threads as slots are stuck, the worker stops and asks for a fresh process. At shutdown, [`join_within_grace`] bounds how long the slots may take.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -14,11 +13,10 @@ use tokio::task::JoinSet;
 /// How long the slots may take to finish their points once a stop is asked.
 pub const DEFAULT_STOP_GRACE: Duration = Duration::from_secs(20);
 
-/// The worker's count of abandoned evaluation threads and its restart request.
+/// The worker's limit on stuck evaluation threads and its restart request.
 pub struct Hung {
-    abandoned: AtomicUsize,
-    /// Abandoned threads the worker tolerates before it asks for a fresh process: twice its
-    /// slots (a thread stuck in a busy loop takes a core).
+    /// Threads still stuck the worker tolerates before it asks for a fresh process: twice its
+    /// slots (a thread stuck in a busy loop takes a core). One that comes back no longer counts.
     limit: usize,
     restart: Mutex<Option<String>>,
     stop: Arc<watch::Sender<bool>>,
@@ -27,7 +25,7 @@ pub struct Hung {
 impl Hung {
     /// For a worker with `slots` slots; `stop` stops the slots.
     pub fn new(slots: usize, stop: Arc<watch::Sender<bool>>) -> Self {
-        Hung { abandoned: AtomicUsize::new(0), limit: 2 * slots.max(1), restart: Mutex::new(None), stop }
+        Hung { limit: 2 * slots.max(1), restart: Mutex::new(None), stop }
     }
 
     /// The point evaluated on pool thread `thread` did not return within `deadline`: gives up
@@ -40,11 +38,12 @@ impl Hung {
             "the model did not return within the worker's evaluation deadline of {:.1} s; its instance was abandoned",
             deadline.as_secs_f64()
         );
-        let stuck = self.abandoned.fetch_add(1, Ordering::SeqCst) + 1;
+        // Threads given up on before that are still stuck, and this one.
+        let stuck = pool.stuck_threads() + 1;
         tracing::error!(thread, stuck, "{why}");
         let restart = if exclusive {
             Some("a model that may be instantiated only once per process did not return".to_owned())
-        } else if stuck >= self.limit {
+        } else if stuck >= self.limit as u64 {
             Some(format!("{stuck} evaluation threads are stuck in models that did not return"))
         } else {
             pool.replace_thread(thread).err().map(|e| format!("cannot start a thread to replace a stuck one: {e}"))

@@ -31,6 +31,11 @@ impl JobCache {
         JobCache { dir, jobs: Mutex::new(HashMap::new()) }
     }
 
+    /// Whether a cached job's model may be instantiated only once per process.
+    pub async fn has_exclusive(&self) -> bool {
+        self.jobs.lock().await.values().any(|c| c.exclusive)
+    }
+
     /// The job's context, fetching and loading it on first use.
     pub async fn get(&self, client: &mut Client, job_id: &str) -> Result<Arc<JobContext>, String> {
         let mut jobs = self.jobs.lock().await;

@@ -103,10 +103,14 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
     health_reporter.set_service_status(pb::worker_pool_server::SERVICE_NAME, ServingStatus::Serving).await;
     let (stop_tx, stop_rx) = watch::channel(false);
     let stop_tx = Arc::new(stop_tx);
+    // Whether the stop came from `shutdown` (then the worker exits, even if it also wanted a
+    // fresh process).
+    let terminated = Arc::new(std::sync::atomic::AtomicBool::new(false));
     {
-        let stop_tx = stop_tx.clone();
+        let (stop_tx, terminated) = (stop_tx.clone(), terminated.clone());
         tokio::spawn(async move {
             shutdown.await;
+            terminated.store(true, std::sync::atomic::Ordering::SeqCst);
             let _ = stop_tx.send(true);
         });
     }
@@ -114,9 +118,12 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
         (reg.evaluation_timeout_ms > 0).then(|| Duration::from_millis(reg.evaluation_timeout_ms).mul_f64(0.9))
     });
 
-    // Heartbeats; a coordinator that forgot us gets a new registration.
+    // Heartbeats, until the slots have ended (while they finish or hand back their points the
+    // coordinator must not expire this worker); a coordinator that forgot us gets a new
+    // registration.
+    let (slots_done_tx, slots_done_rx) = watch::channel(false);
     {
-        let (mut client, id, config, mut stop) = (client.clone(), worker_id.clone(), config.clone(), stop_rx.clone());
+        let (mut client, id, config, mut stop) = (client.clone(), worker_id.clone(), config.clone(), slots_done_rx);
         let every = Duration::from_millis(reg.heartbeat_interval_ms.max(50));
         tokio::spawn(async move {
             loop {
@@ -160,8 +167,11 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
         slots.spawn(slot::run(ctx));
     }
     hung::join_within_grace(&mut slots, stop_rx.clone(), config.stop_grace, &give_up_tx, &pool).await;
+    let _ = slots_done_tx.send(true);
     health_reporter.set_service_status(pb::worker_pool_server::SERVICE_NAME, ServingStatus::NotServing).await;
-    if let Some(why) = hung.restart_reason() {
+    if let Some(why) = hung.restart_reason()
+        && !terminated.load(std::sync::atomic::Ordering::SeqCst)
+    {
         return Err(WorkerError::Restart(why));
     }
     tracing::info!("worker stopped");

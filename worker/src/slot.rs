@@ -80,10 +80,14 @@ pub async fn run(mut s: SlotContext) {
             tokio::time::sleep(std::time::Duration::from_millis(100)).await;
             continue;
         }
+        let received = tokio::time::Instant::now();
         for a in resp.assignments {
             // Once the worker gives up on its evaluations (it needs a fresh process, or the
-            // grace period of a stop has passed), the points not done go back.
-            let evaluation = if s.hung.restart_reason().is_some() || *s.give_up.borrow() {
+            // grace period of a stop has passed), the points not done go back; so do the
+            // points after one that took a tenth of the deadline, which could otherwise reach
+            // the coordinator past its evaluation timeout.
+            let late = s.deadline.is_some_and(|d| received.elapsed() > d / 10);
+            let evaluation = if late || s.hung.restart_reason().is_some() || *s.give_up.borrow() {
                 None
             } else {
                 evaluate(&mut s, &a).await
@@ -111,6 +115,7 @@ async fn evaluate(s: &mut SlotContext, a: &pb::Assignment) -> Option<Evaluation>
         Err(e) => return Some(Evaluation::failed(e)),
     };
     let (reply, wait) = oneshot::channel();
+    let (started_tx, started) = oneshot::channel();
     let thread = if ctx.exclusive { 0 } else { s.index };
     let request = EvalRequest {
         job_key: a.job_id.clone(),
@@ -119,19 +124,32 @@ async fn evaluate(s: &mut SlotContext, a: &pb::Assignment) -> Option<Evaluation>
         x: a.x.clone(),
         experiment: a.experiment as usize,
         want_residuals: a.want_residuals,
+        started: Some(Box::new(move || {
+            let _ = started_tx.send(());
+        })),
     };
     tracing::debug!(job = %a.job_id, point = a.point_id, thread, "evaluating point");
     s.pool.submit(Some(thread), request, move |e| {
         let _ = reply.send(e);
     });
     let stopped = |_| Evaluation::failed("the evaluation thread stopped");
+    // The deadline runs from when a thread starts on the point, not while it waits in the
+    // queue (points of a once-per-process model share thread 0).
     let within_deadline = async {
-        match s.deadline {
-            None => wait.await.unwrap_or_else(stopped),
-            Some(deadline) => match tokio::time::timeout(deadline, wait).await {
-                Ok(evaluation) => evaluation.unwrap_or_else(stopped),
-                Err(_) => s.hung.abandon(&s.pool, thread, ctx.exclusive, deadline),
-            },
+        let Some(deadline) = s.deadline else { return wait.await.unwrap_or_else(stopped) };
+        let mut wait = wait;
+        tokio::select! {
+            biased;
+            evaluation = &mut wait => return evaluation.unwrap_or_else(stopped),
+            _ = started => {}
+        }
+        match tokio::time::timeout(deadline, wait).await {
+            Ok(evaluation) => evaluation.unwrap_or_else(stopped),
+            Err(_) => {
+                // A thread that held a once-per-process model must not be replaced while it lives.
+                let exclusive = ctx.exclusive || (thread == 0 && s.jobs.has_exclusive().await);
+                s.hung.abandon(&s.pool, thread, exclusive, deadline)
+            }
         }
     };
     let mut give_up = s.give_up.clone();

@@ -38,6 +38,8 @@ pub struct EvalRequest {
     /// The experiment to simulate (its index in the job).
     pub experiment: usize,
     pub want_residuals: bool,
+    /// Called when a thread starts evaluating the point (after any wait in the queue).
+    pub started: Option<Box<dyn FnOnce() + Send>>,
 }
 
 type Reply = Box<dyn FnOnce(Evaluation) + Send>;
@@ -60,6 +62,8 @@ struct Shared {
     /// Per thread index, the generation of the thread that serves it; a thread whose
     /// generation is older has been replaced.
     generations: Vec<AtomicU64>,
+    /// Replaced or abandoned threads that have not ended yet (stuck in a model).
+    stuck: AtomicU64,
 }
 
 impl Shared {
@@ -92,6 +96,7 @@ impl EvaluatorPool {
             queue: Mutex::new(Queue::default()),
             ready: Condvar::new(),
             generations: (0..n).map(|_| AtomicU64::new(0)).collect(),
+            stuck: AtomicU64::new(0),
         });
         let threads = (0..n).map(|k| spawn(&shared, name, k, 0).map(Some)).collect::<std::io::Result<Vec<_>>>()?;
         Ok(EvaluatorPool { shared, name: name.to_owned(), threads: Mutex::new(threads) })
@@ -129,8 +134,15 @@ impl EvaluatorPool {
     pub fn abandon_thread(&self, index: usize) {
         let index = index % self.len();
         self.shared.generations[index].fetch_add(1, Ordering::SeqCst);
-        self.lock_threads()[index] = None;
+        if self.lock_threads()[index].take().is_some() {
+            self.shared.stuck.fetch_add(1, Ordering::SeqCst);
+        }
         self.shared.ready.notify_all();
+    }
+
+    /// Threads given up on (replaced or abandoned) that have not ended yet.
+    pub fn stuck_threads(&self) -> u64 {
+        self.shared.stuck.load(Ordering::SeqCst)
     }
 
     fn lock_threads(&self) -> MutexGuard<'_, Vec<Option<JoinHandle<()>>>> {
@@ -165,6 +177,7 @@ impl EvaluatorPool {
                 x: item.x.clone(),
                 experiment: item.experiment,
                 want_residuals,
+                started: None,
             };
             self.submit(None, request, move |e| {
                 let _ = tx.send((i, e));
@@ -199,6 +212,15 @@ fn spawn(shared: &Arc<Shared>, name: &str, index: usize, generation: u64) -> std
 /// pool closes and nothing is left for it, or until it has been replaced.
 fn serve(shared: &Shared, me: usize, generation: u64) {
     let mut warm: HashMap<String, Evaluator> = HashMap::new();
+    serve_until_replaced(shared, me, generation, &mut warm);
+    if !shared.is_current(me, generation) {
+        // A thread given up on has come back: its instances go, and so does it.
+        drop(warm);
+        shared.stuck.fetch_sub(1, Ordering::SeqCst);
+    }
+}
+
+fn serve_until_replaced(shared: &Shared, me: usize, generation: u64, warm: &mut HashMap<String, Evaluator>) {
     loop {
         let task = {
             let mut q = shared.lock();
@@ -215,9 +237,12 @@ fn serve(shared: &Shared, me: usize, generation: u64) {
                 q = shared.ready.wait_timeout(q, Duration::from_secs(1)).unwrap_or_else(|p| p.into_inner()).0;
             }
         };
-        let Some(Queued { request, reply, .. }) = task else { return };
+        let Some(Queued { mut request, reply, .. }) = task else { return };
+        if let Some(started) = request.started.take() {
+            started();
+        }
         let key = request.job_key.clone();
-        let evaluation = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| evaluate(&mut warm, request)))
+        let evaluation = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| evaluate(warm, request)))
             .unwrap_or_else(|panic| {
                 // The instance may be in any state now: never reuse it.
                 warm.remove(&key);
