@@ -529,3 +529,63 @@ async fn idle_connections_neither_exhaust_descriptors_nor_lock_clients_out() {
     let _ = coord.kill();
     let _ = coord.wait();
 }
+
+/// A job store one flipped byte made unreadable (here its first, redb's magic number): the
+/// coordinator refuses to start on it, `fmucal coordinator --salvage` gives back the finished
+/// job, keeping the damaged file aside, and the coordinator then serves the job's result.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn salvage_gives_back_the_jobs_of_a_damaged_store() {
+    let dir = tempfile::tempdir().unwrap();
+    let data_dir = dir.path().join("coord");
+    let coord = start_coordinator(&data_dir, Some(WORKER_TOKEN)).await;
+    let mut c = client(&coord.url, TOKEN).await;
+    let model = upload_decay(&mut c).await;
+    let mut worker = start_worker(&coord.url, &dir.path().join("wcache"), WORKER_TOKEN);
+    let spec = decay_job(dir.path(), "[optimizer]\nmax_iters = 5\n", &model);
+    let job = c.submit_job(pb::SubmitJobRequest { spec: Some(spec) }).await.unwrap().into_inner().job_id;
+    let before = wait_end(&mut c, &job).await;
+    let _ = worker.kill();
+    let _ = worker.wait();
+    coord.stop().await;
+
+    let store = data_dir.join("jobs.redb");
+    let mut bytes = std::fs::read(&store).unwrap();
+    bytes[0] ^= 0x20;
+    std::fs::write(&store, &bytes).unwrap();
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let config = fmucal_coordinator::Config {
+        data_dir: data_dir.clone(),
+        token: Some(TOKEN.into()),
+        worker_token: None,
+        timing: fmucal_coordinator::Timing::default(),
+        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
+        connections: Default::default(),
+        keep_finished_jobs: None,
+        tls: None,
+        diagnose_program: None,
+    };
+    let refused = fmucal_coordinator::run(config, listener, async {}).await.unwrap_err().to_string();
+    assert!(refused.contains("Not a redb database"), "{refused}");
+
+    let out = Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(["coordinator", "--salvage", "--data-dir"])
+        .arg(&data_dir)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.starts_with("kept 1 jobs"), "{stdout}");
+    let aside: Vec<_> = std::fs::read_dir(&data_dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with("jobs.redb.damaged-"))
+        .collect();
+    assert_eq!(aside.len(), 1, "the damaged store is not kept aside");
+    assert_eq!(std::fs::read(aside[0].path()).unwrap(), bytes);
+
+    let coord = start_coordinator(&data_dir, Some(WORKER_TOKEN)).await;
+    let mut c = client(&coord.url, TOKEN).await;
+    let after = c.get_job(pb::GetJobRequest { job_id: job }).await.unwrap().into_inner();
+    assert_eq!((after.status, after.result), (before.status, before.result));
+    coord.stop().await;
+}

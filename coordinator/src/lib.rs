@@ -10,6 +10,7 @@ pub mod diagnoses;
 pub mod error;
 pub mod fillable_disk;
 pub mod models;
+pub mod salvage;
 pub mod scheduler;
 pub mod services;
 pub mod store;
@@ -158,7 +159,7 @@ pub async fn run(
     let (fatal_tx, fatal_rx) = tokio::sync::oneshot::channel::<()>();
     let (fatal2, reporter) = (fatal.clone(), health_reporter.clone());
     let abort_scheduler = scheduler_task.abort_handle();
-    tokio::spawn(async move {
+    let supervisor = tokio::spawn(async move {
         if let Some(why) = supervise_scheduler(scheduler_task, &reporter).await {
             *fatal2.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(why);
             let _ = fatal_tx.send(());
@@ -199,6 +200,8 @@ pub async fn run(
         .serve_with_incoming_shutdown(connections::incoming(listener, &config.connections), stop)
         .await;
     abort_scheduler.abort();
+    // Once the scheduler has ended, its store is closed: a new coordinator may open it.
+    let _ = supervisor.await;
     if let Some(why) = fatal.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take() {
         return Err(CoordinatorError::Fatal(why));
     }

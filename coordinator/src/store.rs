@@ -23,11 +23,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::CoordinatorError;
 
-const SPECS: TableDefinition<&str, &[u8]> = TableDefinition::new("job_specs");
-const STATES: TableDefinition<&str, &str> = TableDefinition::new("job_states");
-const EVALS: TableDefinition<(&str, u64), &str> = TableDefinition::new("evaluations");
+pub(crate) const SPECS: TableDefinition<&str, &[u8]> = TableDefinition::new("job_specs");
+pub(crate) const STATES: TableDefinition<&str, &str> = TableDefinition::new("job_states");
+pub(crate) const EVALS: TableDefinition<(&str, u64), &str> = TableDefinition::new("evaluations");
 /// `next_seq`: past every job ever stored, deleted ones included, so ids are never reused.
-const META: TableDefinition<&str, u64> = TableDefinition::new("meta");
+pub(crate) const META: TableDefinition<&str, u64> = TableDefinition::new("meta");
 
 /// Everything about a job except its spec.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -132,6 +132,28 @@ impl Store {
             self.reopen_later();
         }
         written
+    }
+
+    /// Writes a job as salvaged from a damaged store: spec, state JSON, evaluation log.
+    pub(crate) fn restore_job(
+        &self,
+        id: &str,
+        spec: &[u8],
+        state_json: &str,
+        evaluations: &[(u64, String)],
+    ) -> Result<(), CoordinatorError> {
+        let seq = id.strip_prefix("job-").and_then(|n| n.parse::<u64>().ok()).unwrap_or(0);
+        self.insert_job(id, spec, seq, state_json)?;
+        let db = self.db(false)?;
+        let tx = db.as_ref().expect("opened").begin_write()?;
+        {
+            let mut evals = tx.open_table(EVALS)?;
+            for (point, json) in evaluations {
+                evals.insert((id, *point), json.as_str())?;
+            }
+        }
+        tx.commit()?;
+        Ok(())
     }
 
     /// The ids of every job ever stored, also those whose state cannot be read: new ids must

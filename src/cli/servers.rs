@@ -43,6 +43,11 @@ pub struct CoordinatorArgs {
     /// every job (delete them with DeleteJob).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     keep_finished_jobs: Option<u64>,
+    /// Do not serve: rewrite a damaged job store under --data-dir with every job that still
+    /// reads (the damaged file is kept aside), print what was kept, and exit. Stop the
+    /// coordinator first.
+    #[arg(long)]
+    salvage: bool,
     #[command(flatten)]
     tls: super::tls::ServerArgs,
 }
@@ -91,6 +96,9 @@ pub async fn terminate_signal() {
 }
 
 pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
+    if args.salvage {
+        return salvage(&args.data_dir);
+    }
     let token = super::token::load(args.token_file.as_deref())?;
     let worker_token = super::token::load_worker_token(args.worker_token_file.as_deref())?;
     fmucal_coordinator::check_tokens(token.as_deref(), worker_token.as_deref())?;
@@ -152,6 +160,24 @@ pub fn worker(args: WorkerArgs) -> Result<()> {
         Err(fmucal_worker::WorkerError::Restart(why)) => restart_worker(&why),
         other => Ok(other?),
     }
+}
+
+fn salvage(data_dir: &std::path::Path) -> Result<()> {
+    // redb may panic on a damaged file; each such attempt is caught and reported below.
+    std::panic::set_hook(Box::new(|_| {}));
+    let report = fmucal_coordinator::salvage::salvage(data_dir)?;
+    let _ = std::panic::take_hook();
+    println!(
+        "kept {} jobs ({} logged evaluations), read {}; the damaged store is now {}",
+        report.kept.len(),
+        report.evaluations,
+        report.method,
+        report.damaged.display()
+    );
+    if !report.lost.is_empty() {
+        println!("lost {} jobs: {}", report.lost.len(), report.lost.join(", "));
+    }
+    Ok(())
 }
 
 /// A duration given in seconds on the command line.
