@@ -589,3 +589,27 @@ async fn salvage_gives_back_the_jobs_of_a_damaged_store() {
     assert_eq!((after.status, after.result), (before.status, before.result));
     coord.stop().await;
 }
+
+fn peak_rss_mb(pid: u32) -> f64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    let line = status.lines().find(|l| l.starts_with("VmHWM:")).unwrap();
+    line.split_whitespace().nth(1).unwrap().parse::<f64>().unwrap() / 1024.0
+}
+
+/// A 256 MiB upload of garbage is refused without ever being held in memory: the coordinator
+/// streams it to a file and reads the archive from the file (it peaked at 1 GB for 1 GiB when
+/// the check read the whole archive into memory).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_large_garbage_upload_is_never_held_in_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut coord, url) = coordinator_process(dir.path(), 1024, &[]);
+    assert!(answers_within(&url, Duration::from_secs(60)).await, "the coordinator did not start");
+    let mut c = client(&url, TOKEN).await;
+    let chunks = (0..256u32).map(|i| pb::UploadModelRequest { chunk: vec![(i % 251) as u8; 1 << 20] });
+    let err = c.upload_model(tokio_stream::iter(chunks)).await.unwrap_err();
+    assert_eq!(err.code(), tonic::Code::InvalidArgument, "{err:?}");
+    let peak = peak_rss_mb(coord.id());
+    assert!(peak < 128.0, "the coordinator peaked at {peak:.0} MB for a 256 MiB upload");
+    let _ = coord.kill();
+    let _ = coord.wait();
+}

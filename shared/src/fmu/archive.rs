@@ -110,8 +110,12 @@ pub fn unpack(path: &Path, cache_dir: &Path, limits: &ArchiveLimits) -> Result<U
             what: format!("archive is {len} bytes, limit {}", limits.max_archive_bytes),
         });
     }
-    let bytes = fs::read(path).map_err(io)?;
-    let sha256 = sha256_hex(&bytes);
+    // Read from the file, never held whole in memory (an upload may be a gigabyte).
+    let mut file = fs::File::open(path).map_err(io)?;
+    let mut hasher = Sha256::new();
+    std::io::copy(&mut file, &mut hasher).map_err(io)?;
+    let sha256: String = hasher.finalize().iter().map(|b| format!("{b:02x}")).collect();
+    std::io::Seek::rewind(&mut file).map_err(io)?;
     let dir = cache_dir.join(&sha256);
     if dir.join("modelDescription.xml").is_file() {
         tracing::debug!(fmu = %path.display(), dir = %dir.display(), "reusing unpacked FMU");
@@ -119,7 +123,7 @@ pub fn unpack(path: &Path, cache_dir: &Path, limits: &ArchiveLimits) -> Result<U
     }
     fs::create_dir_all(cache_dir).map_err(|source| ArchiveError::Io { path: cache_dir.to_owned(), source })?;
     let staging = staging_dir(cache_dir, &sha256);
-    let result = extract(path, &bytes, &staging, limits);
+    let result = extract(path, file, &staging, limits);
     if let Err(e) = result {
         let _ = fs::remove_dir_all(&staging);
         return Err(e);
@@ -169,9 +173,9 @@ fn safe_relative_path(name: &str) -> Result<PathBuf, &'static str> {
     Ok(out)
 }
 
-fn extract(path: &Path, bytes: &[u8], target: &Path, limits: &ArchiveLimits) -> Result<(), ArchiveError> {
+fn extract(path: &Path, file: fs::File, target: &Path, limits: &ArchiveLimits) -> Result<(), ArchiveError> {
     let corrupt = |e: zip::result::ZipError| ArchiveError::Corrupt { path: path.to_owned(), message: e.to_string() };
-    let mut zip = zip::ZipArchive::new(std::io::Cursor::new(bytes)).map_err(corrupt)?;
+    let mut zip = zip::ZipArchive::new(std::io::BufReader::new(file)).map_err(corrupt)?;
     if zip.len() > limits.max_entries {
         return Err(ArchiveError::TooLarge {
             path: path.to_owned(),
