@@ -44,16 +44,10 @@ async fn start_coordinator(data_dir: &Path, worker_token: Option<&str>) -> Coord
     start_coordinator_with(data_dir, worker_token, |_| {}).await
 }
 
-/// [`start_coordinator`] with `edit` applied to its configuration.
-async fn start_coordinator_with(
-    data_dir: &Path,
-    worker_token: Option<&str>,
-    edit: impl FnOnce(&mut fmucal_coordinator::Config),
-) -> Coordinator {
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let url = format!("http://{}", listener.local_addr().unwrap());
-    let (tx, rx) = tokio::sync::oneshot::channel::<()>();
-    let mut config = fmucal_coordinator::Config {
+/// The configuration the tests' coordinators start from: tokens [`TOKEN`] and `worker_token`,
+/// fast heartbeats.
+fn config(data_dir: &Path, worker_token: Option<&str>) -> fmucal_coordinator::Config {
+    fmucal_coordinator::Config {
         data_dir: data_dir.to_owned(),
         token: Some(TOKEN.into()),
         worker_token: worker_token.map(str::to_owned),
@@ -67,7 +61,19 @@ async fn start_coordinator_with(
         keep_finished_jobs: None,
         tls: None,
         diagnose_program: None,
-    };
+    }
+}
+
+/// [`start_coordinator`] with `edit` applied to its configuration.
+async fn start_coordinator_with(
+    data_dir: &Path,
+    worker_token: Option<&str>,
+    edit: impl FnOnce(&mut fmucal_coordinator::Config),
+) -> Coordinator {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let url = format!("http://{}", listener.local_addr().unwrap());
+    let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+    let mut config = config(data_dir, worker_token);
     edit(&mut config);
     let task = tokio::spawn(fmucal_coordinator::run(config, listener, async {
         let _ = rx.await;
@@ -553,18 +559,7 @@ async fn salvage_gives_back_the_jobs_of_a_damaged_store() {
     bytes[0] ^= 0x20;
     std::fs::write(&store, &bytes).unwrap();
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let config = fmucal_coordinator::Config {
-        data_dir: data_dir.clone(),
-        token: Some(TOKEN.into()),
-        worker_token: None,
-        timing: fmucal_coordinator::Timing::default(),
-        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
-        connections: Default::default(),
-        keep_finished_jobs: None,
-        tls: None,
-        diagnose_program: None,
-    };
-    let refused = fmucal_coordinator::run(config, listener, async {}).await.unwrap_err().to_string();
+    let refused = fmucal_coordinator::run(config(&data_dir, None), listener, async {}).await.unwrap_err().to_string();
     assert!(refused.contains("Not a redb database"), "{refused}");
 
     let out = Command::new(env!("CARGO_BIN_EXE_fmucal"))
