@@ -536,6 +536,99 @@ async fn idle_connections_neither_exhaust_descriptors_nor_lock_clients_out() {
     let _ = coord.wait();
 }
 
+/// A peer without a token cannot hold a connection open (`--auth-timeout 2`, `--idle-timeout 1`):
+/// one trickling a byte every 200 ms, never idle, is closed once 2 s pass without a request
+/// carrying a valid token, and so is a live HTTP/2 client that only asks the (open) health
+/// service, while a client whose request carried the token keeps its connection.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_peer_without_a_token_cannot_hold_a_connection_open() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["--idle-timeout", "1", "--auth-timeout", "2"];
+    let (mut coord, url) = coordinator_process(dir.path(), 1024, &args);
+    assert!(answers_within(&url, Duration::from_secs(60)).await, "the coordinator did not start");
+    // The probing client's connection closes when it is dropped; wait until the server let it go.
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let baseline = open_fds(coord.id());
+
+    let addr = url.trim_start_matches("http://").to_owned();
+    let trickler = std::net::TcpStream::connect(&addr).unwrap();
+    let mut writer = trickler.try_clone().unwrap();
+    let trickling = std::thread::spawn(move || {
+        let preface = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n";
+        for byte in preface.iter().cycle().take(100) {
+            if std::io::Write::write_all(&mut writer, &[*byte]).is_err() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    });
+    let opened = Instant::now();
+    assert!(read_to_end_within(&trickler, Duration::from_secs(10)), "a trickling peer kept its connection");
+    let held = opened.elapsed();
+    assert!(held >= Duration::from_millis(1900), "closed after {held:?}, before the auth timeout");
+    trickling.join().unwrap();
+
+    let mut health = tonic_health::pb::health_client::HealthClient::new(channel(&url).await);
+    let req = tonic_health::pb::HealthCheckRequest { service: String::new() };
+    assert_eq!(health.check(req).await.unwrap().into_inner().status, 1, "not SERVING");
+    let mut authenticated = client(&url, TOKEN).await;
+    authenticated.list_jobs(pb::ListJobsRequest {}).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert_eq!(open_fds(coord.id()), baseline + 2, "the two clients' connections are not open");
+    tokio::time::sleep(Duration::from_secs(4)).await;
+    assert_eq!(open_fds(coord.id()), baseline + 1, "not only the authenticated connection is left open");
+    authenticated.list_jobs(pb::ListJobsRequest {}).await.unwrap();
+    let _ = coord.kill();
+    let _ = coord.wait();
+}
+
+/// A points job keeps its residuals once and within a cap: with 10,001 measured values a
+/// point, 1,000 points (10,001,000 residuals) are refused by `SubmitJob`, and 999 are evaluated
+/// with every residual vector in the result while the coordinator process stays under 1 GB
+/// (measured: about 700 MB at the end, when the result is stored as JSON and sent; a
+/// 4,000-point job once kept 1.9 GB resident: no cap, and each point held twice in memory).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_points_job_keeps_its_residuals_once_and_within_the_cap() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut coord, url) = coordinator_process(&dir.path().join("coord"), 1024, &[]);
+    assert!(answers_within(&url, Duration::from_secs(60)).await, "the coordinator did not start");
+    let mut c = client(&url, TOKEN).await.max_decoding_message_size(256 << 20);
+    let model = upload_decay(&mut c).await;
+    let fmu = common::load_example("decay", &dir.path().join("cache"));
+    let sim = SimSpec {
+        parameters: vec![("k".into(), "1.7".into())],
+        output_times: Some(fmucal_shared::sim::OutputTimes::Interval(2e-4)),
+        ..Default::default()
+    };
+    let r = simulate(&fmu, &sim).unwrap();
+    assert_eq!(r.time.len(), 10_001);
+    let data = MeasurementTable { time: r.time.clone(), columns: vec![("x".into(), r.column("x").unwrap().to_vec())] };
+    let toml = common::job_toml(&common::example("decay"), None, &[("x", "x")], &[], &[("k", 1.0, 0.5, 3.0)], "");
+    let spec = JobSpec::from_toml(&toml, dir.path()).unwrap();
+    let points = |n: usize| {
+        let job = spec.evaluating_points((0..n).map(|i| vec![0.5 + 2.5 * i as f64 / n as f64]).collect());
+        pb::SubmitJobRequest { spec: Some(job_to_proto(&job, std::slice::from_ref(&data), &model)) }
+    };
+    let refused = c.submit_job(points(1_000)).await.unwrap_err();
+    assert_eq!(refused.code(), tonic::Code::InvalidArgument, "{refused:?}");
+    assert!(refused.message().contains("10001000 residuals to keep, which exceeds the cap"), "{}", refused.message());
+
+    let mut worker = start_worker_with(&url, &dir.path().join("wcache"), TOKEN, &["--slots", "2"], None);
+    let job = c.submit_job(points(999)).await.unwrap().into_inner().job_id;
+    let done = wait_end(&mut c, &job).await;
+    assert_eq!(done.status, pb::JobStatus::Succeeded as i32, "{}", done.error);
+    let evaluated = done.result.unwrap().evaluated;
+    assert_eq!(evaluated.len(), 999);
+    assert!(evaluated.iter().all(|p| p.ok && p.residuals.len() == 10_001));
+    let peak = peak_rss_mb(coord.id());
+    eprintln!("coordinator peak RSS with a 999-point job of 10,001 residuals each: {peak:.0} MB");
+    assert!(peak < 1024.0, "the coordinator peaked at {peak:.0} MB");
+    let _ = worker.kill();
+    let _ = worker.wait();
+    let _ = coord.kill();
+    let _ = coord.wait();
+}
+
 /// A job store one flipped byte made unreadable (here its first, redb's magic number): the
 /// coordinator refuses to start on it, `fmucal coordinator --salvage` gives back the finished
 /// job, keeping the damaged file aside, and the coordinator then serves the job's result.

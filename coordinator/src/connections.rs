@@ -2,11 +2,15 @@
 //! [`ConnectionLimits::max_connections`] are open at once (past that, new ones wait in the
 //! kernel's backlog until one closes), a connection from which nothing has been read for
 //! [`ConnectionLimits::idle_timeout`] is closed (live HTTP/2 peers answer the server's
-//! keep-alive pings, sent three times per idle timeout, so only silent ones are), and an accept
-//! error (out of file descriptors) backs off for 100 ms instead of spinning.
+//! keep-alive pings, sent three times per idle timeout, so only silent ones are), a connection
+//! that has carried no request with a valid token within [`ConnectionLimits::auth_timeout`] of
+//! opening is closed however busily it trickles bytes (a peer without a token cannot hold a
+//! slot; the services' interceptors call [`vouch`]), and an accept error (out of file
+//! descriptors) backs off for 100 ms instead of spinning.
 
 use std::pin::Pin;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::task::{Context, Poll};
 use std::time::Duration;
 
@@ -15,26 +19,37 @@ use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore, mpsc};
 use tokio::time::{Instant, Sleep};
 use tokio_stream::wrappers::ReceiverStream;
-use tonic::transport::server::{Connected, TcpConnectInfo};
+use tonic::transport::server::{Connected, TcpConnectInfo, TlsConnectInfo};
 
 /// Default cap on open connections: with a 1024-descriptor limit, leaves room for the store,
 /// the models and the diagnoses.
 pub const DEFAULT_MAX_CONNECTIONS: usize = 512;
 /// Default time after which a connection nothing was read from is closed.
 pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(60);
+/// Default time within which a connection must carry a request with a valid token: a client
+/// sends its first request as soon as it has connected (the TLS handshake has 10 s too).
+pub const DEFAULT_AUTH_TIMEOUT: Duration = Duration::from_secs(10);
 /// Pause after an accept error.
 const ACCEPT_BACKOFF: Duration = Duration::from_millis(100);
 
 /// Limits on the coordinator's connections.
 #[derive(Debug, Clone)]
 pub struct ConnectionLimits {
+    /// Default [`DEFAULT_MAX_CONNECTIONS`].
     pub max_connections: usize,
+    /// Default [`DEFAULT_IDLE_TIMEOUT`].
     pub idle_timeout: Duration,
+    /// Default [`DEFAULT_AUTH_TIMEOUT`].
+    pub auth_timeout: Duration,
 }
 
 impl Default for ConnectionLimits {
     fn default() -> Self {
-        ConnectionLimits { max_connections: DEFAULT_MAX_CONNECTIONS, idle_timeout: DEFAULT_IDLE_TIMEOUT }
+        ConnectionLimits {
+            max_connections: DEFAULT_MAX_CONNECTIONS,
+            idle_timeout: DEFAULT_IDLE_TIMEOUT,
+            auth_timeout: DEFAULT_AUTH_TIMEOUT,
+        }
     }
 }
 
@@ -51,7 +66,7 @@ impl ConnectionLimits {
 pub fn incoming(listener: TcpListener, limits: &ConnectionLimits) -> ReceiverStream<std::io::Result<GuardedStream>> {
     let (tx, rx) = mpsc::channel(1);
     let permits = Arc::new(Semaphore::new(limits.max_connections.max(1)));
-    let idle_timeout = limits.idle_timeout;
+    let (idle_timeout, auth_timeout) = (limits.idle_timeout, limits.auth_timeout);
     tokio::spawn(async move {
         let mut failures: u64 = 0;
         loop {
@@ -67,7 +82,7 @@ pub fn incoming(listener: TcpListener, limits: &ConnectionLimits) -> ReceiverStr
                 Ok((stream, _)) => {
                     failures = 0;
                     let _ = stream.set_nodelay(true);
-                    let guarded = GuardedStream::new(stream, permit, idle_timeout);
+                    let guarded = GuardedStream::new(stream, permit, idle_timeout, auth_timeout);
                     if tx.send(Ok(guarded)).await.is_err() {
                         return;
                     }
@@ -87,31 +102,77 @@ pub fn incoming(listener: TcpListener, limits: &ConnectionLimits) -> ReceiverStr
     ReceiverStream::new(rx)
 }
 
+/// What a request learns of its connection (in its extensions, inside a [`TlsConnectInfo`]
+/// under TLS): the peer's address, and the flag [`vouch`] sets.
+#[derive(Debug, Clone)]
+pub struct PeerInfo {
+    pub tcp: TcpConnectInfo,
+    vouched: Arc<AtomicBool>,
+}
+
+/// Marks the connection `req` came on as having carried a request with a valid token, so the
+/// auth timeout no longer closes it. Call it once the token has been checked.
+pub fn vouch<T>(req: &tonic::Request<T>) {
+    let ext = req.extensions();
+    let peer = ext.get::<PeerInfo>().or_else(|| ext.get::<TlsConnectInfo<PeerInfo>>().map(TlsConnectInfo::get_ref));
+    if let Some(peer) = peer {
+        peer.vouched.store(true, Ordering::Relaxed);
+    }
+}
+
 /// An accepted connection holding one of the listener's permits, closed with an error once
-/// nothing has been read from it for the idle timeout.
+/// nothing has been read from it for the idle timeout, or once the auth timeout has passed
+/// without a request that [`vouch`]ed for it.
 pub struct GuardedStream {
     stream: TcpStream,
     _permit: OwnedSemaphorePermit,
     idle_timeout: Duration,
     idle: Pin<Box<Sleep>>,
+    vouched: Arc<AtomicBool>,
+    /// Until vouched for: when the connection is closed.
+    auth_deadline: Option<(Duration, Pin<Box<Sleep>>)>,
 }
 
 impl GuardedStream {
-    fn new(stream: TcpStream, permit: OwnedSemaphorePermit, idle_timeout: Duration) -> Self {
-        GuardedStream { stream, _permit: permit, idle_timeout, idle: Box::pin(tokio::time::sleep(idle_timeout)) }
+    fn new(stream: TcpStream, permit: OwnedSemaphorePermit, idle_timeout: Duration, auth_timeout: Duration) -> Self {
+        GuardedStream {
+            stream,
+            _permit: permit,
+            idle_timeout,
+            idle: Box::pin(tokio::time::sleep(idle_timeout)),
+            vouched: Arc::new(AtomicBool::new(false)),
+            auth_deadline: Some((auth_timeout, Box::pin(tokio::time::sleep(auth_timeout)))),
+        }
+    }
+
+    /// An error once the auth timeout has passed with no request vouching for the connection
+    /// (registering the waker until then).
+    fn check_auth_deadline(&mut self, cx: &mut Context<'_>) -> std::io::Result<()> {
+        if self.vouched.load(Ordering::Relaxed) {
+            self.auth_deadline = None;
+        }
+        let Some((timeout, deadline)) = &mut self.auth_deadline else { return Ok(()) };
+        match deadline.as_mut().poll(cx) {
+            Poll::Ready(()) => Err(std::io::Error::new(
+                std::io::ErrorKind::TimedOut,
+                format!("no request with a valid token within {:.0} s", timeout.as_secs_f64()),
+            )),
+            Poll::Pending => Ok(()),
+        }
     }
 }
 
 impl Connected for GuardedStream {
-    type ConnectInfo = TcpConnectInfo;
+    type ConnectInfo = PeerInfo;
 
     fn connect_info(&self) -> Self::ConnectInfo {
-        self.stream.connect_info()
+        PeerInfo { tcp: self.stream.connect_info(), vouched: self.vouched.clone() }
     }
 }
 
 impl AsyncRead for GuardedStream {
     fn poll_read(mut self: Pin<&mut Self>, cx: &mut Context<'_>, buf: &mut ReadBuf<'_>) -> Poll<std::io::Result<()>> {
+        self.check_auth_deadline(cx)?;
         let before = buf.filled().len();
         match Pin::new(&mut self.stream).poll_read(cx, buf) {
             Poll::Ready(Ok(())) => {

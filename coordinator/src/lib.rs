@@ -190,12 +190,12 @@ pub async fn run(
         .add_service(InterceptedService::new(
             pb::calibration_server::CalibrationServer::new(handlers.clone())
                 .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES),
-            move |r| client_auth.check(r),
+            move |r| vouched(client_auth.check(r)),
         ))
         .add_service(InterceptedService::new(
             pb::worker_pool_server::WorkerPoolServer::new(handlers)
                 .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES),
-            move |r| worker_auth.check(r),
+            move |r| vouched(worker_auth.check(r)),
         ))
         .serve_with_incoming_shutdown(connections::incoming(listener, &config.connections), stop)
         .await;
@@ -207,6 +207,15 @@ pub async fn run(
     }
     served?;
     Ok(())
+}
+
+/// A request that passed its token check vouches for its connection
+/// ([`connections::vouch`]).
+fn vouched<T>(checked: Result<tonic::Request<T>, tonic::Status>) -> Result<tonic::Request<T>, tonic::Status> {
+    if let Ok(req) = &checked {
+        connections::vouch(req);
+    }
+    checked
 }
 
 #[cfg(test)]

@@ -182,6 +182,11 @@ fn is_running(status: JobStatus) -> bool {
     status == JobStatus::Running
 }
 
+/// The write of a job's `state`; an ended job's evaluation log goes with it ([`Write::State`]).
+fn state_write(id: &str, state: &JobState) -> Result<Write, serde_json::Error> {
+    Ok(Write::State { id: id.to_owned(), json: serde_json::to_string(state)?, ended: !is_running(state.status) })
+}
+
 /// The protocol's number for `status`.
 fn wire(status: JobStatus) -> i32 {
     pb::JobStatus::from(status) as i32
@@ -239,7 +244,7 @@ impl Scheduler {
                 tracing::warn!(job = %id, model = %spec.model_id, "{problem}");
                 if is_running(state.status) {
                     state.status = JobStatus::Failed;
-                    state.result = Some(state.run.result(&job_spec, state.elapsed_s, Some("cannot resume")));
+                    state.result = Some(state.run.take_result(&job_spec, state.elapsed_s, Some("cannot resume")));
                     state.error = Some(problem);
                     s.save(&id, &state);
                 } else if state.error.is_none() {
@@ -481,10 +486,10 @@ impl Scheduler {
         if status == JobStatus::Failed {
             job.state.error = why.map(str::to_owned);
         }
-        job.state.result = Some(job.state.run.result(&job.job, elapsed, why));
+        job.state.result = Some(job.state.run.take_result(&job.job, elapsed, why));
         job.open.clear();
         job.queue.clear();
-        let state_json = serde_json::to_string(&job.state)?;
+        let write = state_write(id, &job.state)?;
         let event = progress(job, 0.0);
         for w in job.watchers.drain(..) {
             let _ = w.try_send(Ok(event.clone()));
@@ -492,8 +497,10 @@ impl Scheduler {
         for w in self.workers.values_mut() {
             w.inflight.retain(|(j, _)| j != id);
         }
+        // The ended state removes the job's log: its unwritten entries need not be written.
+        self.unlogged.retain(|(j, _, _)| j != id);
         self.flush_log();
-        self.writer.send(Write::State { id: id.to_owned(), json: state_json });
+        self.writer.send(write);
         tracing::info!(job = %id, ?status, "job finished");
         Ok(())
     }
@@ -529,10 +536,10 @@ impl Scheduler {
             }
             return;
         }
-        match serde_json::to_string(&job.state) {
-            Ok(json) => {
+        match state_write(id, &job.state) {
+            Ok(write) => {
                 self.flush_log();
-                self.writer.send(Write::State { id: id.to_owned(), json });
+                self.writer.send(write);
             }
             Err(e) => tracing::error!(job = %id, "cannot save the job state: {e}"),
         }
@@ -733,8 +740,8 @@ impl Scheduler {
     }
 
     fn save(&self, id: &str, state: &JobState) {
-        match serde_json::to_string(state) {
-            Ok(json) => self.writer.send(Write::State { id: id.to_owned(), json }),
+        match state_write(id, state) {
+            Ok(write) => self.writer.send(write),
             Err(e) => tracing::error!(job = %id, "cannot save the job state: {e}"),
         }
     }

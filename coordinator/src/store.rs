@@ -1,6 +1,6 @@
 //! Job persistence in redb under `<data-dir>/jobs.redb`: the submitted spec (protobuf bytes),
 //! the job state after every completed batch (optimizer included, as JSON), the evaluation log
-//! (one entry per told point), and the result. Submissions are written before they are
+//! of a running job (one entry per told point; removed when the job ends), and the result. Submissions are written before they are
 //! acknowledged; states and log entries go through a [`Writer`] thread that commits whatever
 //! has queued up in one durable transaction, so the scheduler never waits for a disk flush. After a restart, running jobs resume from their
 //! last completed batch and the logged points of the open batch are told again rather than
@@ -209,8 +209,10 @@ impl Store {
 
 /// A queued write.
 pub enum Write {
-    /// A job's state after a completed batch (JSON).
-    State { id: String, json: String },
+    /// A job's state after a completed batch (JSON). Once the job has `ended`, its evaluation
+    /// log is removed with it: the log only serves to resume an open batch, and the result
+    /// holds the evaluated points (a points job's residuals would otherwise be stored twice).
+    State { id: String, json: String, ended: bool },
     /// Told points: (job, point, evaluation).
     Log(Vec<(String, u64, Evaluation)>),
     /// Removes a job: its spec, state and evaluation log.
@@ -348,10 +350,13 @@ impl Store {
             let mut meta = tx.open_table(META)?;
             for w in writes {
                 match w {
-                    Write::State { id, json } => {
+                    Write::State { id, json, ended } => {
                         // A state written after its job was deleted stays deleted.
                         if specs.get(id.as_str())?.is_some() {
                             states.insert(id.as_str(), json.as_str())?;
+                        }
+                        if *ended {
+                            evals.retain_in((id.as_str(), 0)..=(id.as_str(), u64::MAX), |_, _| false)?;
                         }
                     }
                     Write::Log(entries) => {
@@ -421,7 +426,7 @@ mod tests {
         store.insert_job("job-0", b"spec", 0, &state(0, JobStatus::Running, None)).unwrap();
         let writer = Writer::spawn(store.clone());
         disk.set_full(true);
-        writer.send(Write::State { id: "job-0".into(), json: state(0, JobStatus::Succeeded, None) });
+        writer.send(Write::State { id: "job-0".into(), json: state(0, JobStatus::Succeeded, None), ended: true });
         let mut failures = vec![];
         wait_for(|| {
             failures.extend(writer.failures());
@@ -431,7 +436,7 @@ mod tests {
         assert!(failures[0].error.contains("No space left on device"), "{:?}", failures[0].error);
         // The scheduler fails the job; that state cannot be written either, for now.
         let failed = state(0, JobStatus::Failed, Some("the job's state could not be saved"));
-        writer.send(Write::State { id: "job-0".into(), json: failed.clone() });
+        writer.send(Write::State { id: "job-0".into(), json: failed.clone(), ended: true });
         std::thread::sleep(Duration::from_millis(300));
         let second = state(1, JobStatus::Running, None);
         assert!(store.insert_job("job-1", b"spec", 1, &second).is_err(), "a write went through on a full disk");
@@ -461,11 +466,34 @@ mod tests {
         let writer = Writer::spawn(store.clone());
         writer.send(Write::Log(vec![("job-7".into(), 0, Evaluation::failed("x"))]));
         writer.send(Write::Delete { id: "job-7".into() });
-        writer.send(Write::State { id: "job-7".into(), json: state(7, JobStatus::Failed, None) });
+        writer.send(Write::State { id: "job-7".into(), json: state(7, JobStatus::Failed, None), ended: true });
         drop(writer);
         assert!(store.job_ids().unwrap().is_empty());
         assert!(stored_state(&store, "job-7").is_none());
         assert!(store.evaluations("job-7").unwrap().is_empty());
         assert_eq!(store.next_seq().unwrap(), 8);
+    }
+
+    /// A running job's states keep its evaluation log (a restart tells the logged points of
+    /// the open batch again); the state it ends with removes the log, and no other job's.
+    #[test]
+    fn an_ended_job_keeps_no_evaluation_log() {
+        let disk = FillableDisk::default();
+        let store = Arc::new(store_on(&disk));
+        for (id, seq) in [("job-1", 1), ("job-2", 2)] {
+            store.insert_job(id, b"spec", seq, &state(seq, JobStatus::Running, None)).unwrap();
+        }
+        let writer = Writer::spawn(store.clone());
+        let logged = |id: &str| (0..3).map(|p| (id.to_owned(), p, Evaluation::failed("x"))).collect::<Vec<_>>();
+        writer.send(Write::Log([logged("job-1"), logged("job-2")].concat()));
+        writer.send(Write::State { id: "job-1".into(), json: state(1, JobStatus::Running, None), ended: false });
+        drop(writer);
+        assert_eq!(store.evaluations("job-1").unwrap().len(), 3);
+        let writer = Writer::spawn(store.clone());
+        writer.send(Write::State { id: "job-1".into(), json: state(1, JobStatus::Succeeded, None), ended: true });
+        drop(writer);
+        assert!(store.evaluations("job-1").unwrap().is_empty());
+        assert_eq!(store.evaluations("job-2").unwrap().len(), 3);
+        assert_eq!(stored_state(&store, "job-1"), Some(state(1, JobStatus::Succeeded, None)));
     }
 }

@@ -565,7 +565,11 @@ async fn a_job_whose_state_cannot_be_read_is_left_out_and_its_id_not_reused() {
     {
         let store = Arc::new(Store::open(dir.path()).unwrap());
         let writer = fmucal_coordinator::store::Writer::spawn(store);
-        writer.send(fmucal_coordinator::store::Write::State { id: old.clone(), json: "{\"status\":2}".into() });
+        writer.send(fmucal_coordinator::store::Write::State {
+            id: old.clone(),
+            json: "{\"status\":2}".into(),
+            ended: true,
+        });
     }
     let s = Sched::start(dir.path());
     let gone = s.call(|reply| Command::Get { job_id: old.clone(), reply }).await;

@@ -38,6 +38,10 @@ pub struct CoordinatorArgs {
     /// clients answer the coordinator's keep-alive pings, sent three times per period).
     #[arg(long, default_value_t = fmucal_coordinator::connections::DEFAULT_IDLE_TIMEOUT.as_secs_f64())]
     idle_timeout: f64,
+    /// Close a connection that has carried no request with a valid token this many seconds
+    /// after it opened, at least 1 (a peer without a token cannot hold a connection open).
+    #[arg(long, default_value_t = fmucal_coordinator::connections::DEFAULT_AUTH_TIMEOUT.as_secs_f64())]
+    auth_timeout: f64,
     /// Keep at most this many finished jobs (at least 1), deleting those that finished first
     /// (with their results and logs) once they have been finished for a minute. Default: keep
     /// every job (delete them with DeleteJob).
@@ -125,6 +129,7 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
             connections: fmucal_coordinator::connections::ConnectionLimits {
                 max_connections: args.max_connections,
                 idle_timeout: seconds("--idle-timeout", args.idle_timeout.max(1.0))?,
+                auth_timeout: seconds("--auth-timeout", args.auth_timeout.max(1.0))?,
             },
             keep_finished_jobs: args.keep_finished_jobs.map(|n| usize::try_from(n).unwrap_or(usize::MAX)),
             tls,

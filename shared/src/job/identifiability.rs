@@ -148,6 +148,6 @@ pub fn analyze(fmu: Arc<Fmu>, job: &PreparedJob, x: &[f64], pool: &EvaluatorPool
     let mut run = JobRun::new(&job)?;
     let mut backend = PoolBackend { pool, fmu, job: job.clone(), job_key: "identifiability".into() };
     execute(&mut run, &mut backend, |_| {})?;
-    let residuals = residuals_of(&run.result(&job.spec, 0.0, None).evaluated)?;
+    let residuals = residuals_of(&run.take_result(&job.spec, 0.0, None).evaluated)?;
     from_residuals(&job.parameter_names, &plan, &residuals)
 }

@@ -32,6 +32,9 @@ pub const MAX_SET_VALUES: usize = 100_000;
 /// Values one round hands out: points × fitted experiments × calibrated values (80 MB), so
 /// the caps above cannot multiply into a round no machine holds.
 pub const MAX_ROUND_VALUES: usize = 10_000_000;
+/// Residuals an evaluate-points job keeps for its result: points × residuals per point (the
+/// measured values of its fitted experiments), 80 MB of numbers.
+pub const MAX_KEPT_RESIDUALS: usize = 10_000_000;
 
 fn over(field: &str, what: &str, n: impl std::fmt::Display, cap: impl std::fmt::Display) -> JobError {
     JobError::invalid(field, format!("{n} {what} exceeds the cap of {cap}"))
@@ -136,6 +139,24 @@ fn check_optimizer(spec: &JobSpec) -> Result<(), JobError> {
     Ok(())
 }
 
+/// Checks the residuals an evaluate-points job of `points` points keeps, `per_point` each.
+///
+/// # Errors
+/// [`JobError::Invalid`] naming `points`, the product and the cap.
+pub fn check_kept_residuals(points: usize, per_point: usize) -> Result<(), JobError> {
+    let kept = points.saturating_mul(per_point);
+    if kept > MAX_KEPT_RESIDUALS {
+        return Err(JobError::invalid(
+            "points",
+            format!(
+                "{points} points × {per_point} residuals each (the measured values) is {kept} residuals to keep, \
+                 which exceeds the cap of {MAX_KEPT_RESIDUALS}"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Checks the size of a measurement table (`field` names it: `data` or `experiments[K].data`).
 ///
 /// # Errors
@@ -207,6 +228,15 @@ mod tests {
         assert!(e.to_string().contains("a round of 100000 points × 1 experiments × 1000 values"), "{e}");
         spec("algorithm = \"differential-evolution\"\npopulation = 10000").unwrap().validate().unwrap();
         spec("").unwrap().validate().unwrap();
+    }
+
+    #[test]
+    fn a_points_job_keeping_too_many_residuals_is_refused() {
+        check_kept_residuals(1_000, 10_000).unwrap();
+        let e = check_kept_residuals(4_000, 8_000).unwrap_err().to_string();
+        assert!(e.starts_with("points: 4000 points × 8000 residuals each"), "{e}");
+        assert!(e.ends_with("32000000 residuals to keep, which exceeds the cap of 10000000"), "{e}");
+        assert!(check_kept_residuals(usize::MAX, 2).is_err());
     }
 
     #[test]

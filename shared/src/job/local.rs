@@ -31,5 +31,5 @@ pub fn calibrate(
         .map_err(|e| JobError::invalid("workers", format!("cannot start evaluation threads: {e}")))?;
     let mut backend = PoolBackend { pool: &pool, fmu, job: job.clone(), job_key: "calibration".into() };
     execute(&mut run, &mut backend, on_round)?;
-    Ok(run.result(&job.spec, started.elapsed().as_secs_f64(), None))
+    Ok(run.take_result(&job.spec, started.elapsed().as_secs_f64(), None))
 }

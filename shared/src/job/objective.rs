@@ -57,6 +57,11 @@ impl Objective {
         Some(r)
     }
 
+    /// How many residuals [`Self::residuals`] gives: the measured (not missing) values.
+    pub fn residual_count(&self) -> usize {
+        self.targets.iter().map(|t| t.values.iter().filter(|v| !v.is_nan()).count()).sum()
+    }
+
     /// Σ r².
     pub fn value(residuals: &[f64]) -> f64 {
         residuals.iter().map(|r| r * r).sum()

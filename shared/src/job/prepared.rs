@@ -6,12 +6,12 @@
 //! picks the model parameters it uses out of it, so one point is evaluated on each fitted
 //! experiment and the job's objective is the sum over them.
 
-use super::JobError;
 use super::choices::ExperimentRole;
 use super::data::MeasurementTable;
 use super::experiments::{ExperimentView, Slot, position_for, prefixed};
 use super::objective::{Objective, Target};
 use super::spec::{EffectSpec, JobSpec};
+use super::{JobError, JobKind, limits};
 use crate::diagnose::effects;
 use crate::fmu::schema::{Causality, VarType};
 use crate::fmu::{Interface, ModelDescription};
@@ -97,13 +97,12 @@ impl PreparedJob {
                 PreparedExperiment::new(view, table, &context, &x0).map_err(|e| prefixed(&view.field_prefix, e))?,
             );
         }
-        Ok(PreparedJob {
-            spec: spec.clone(),
-            interface,
-            parameter_names: names,
-            experiments,
-            fitted: spec.fitted_experiments(),
-        })
+        let fitted = spec.fitted_experiments();
+        if let JobKind::EvaluatePoints(points) = &spec.kind {
+            let per_point = fitted.iter().map(|&k| experiments[k].objective.residual_count()).sum();
+            limits::check_kept_residuals(points.len(), per_point)?;
+        }
+        Ok(PreparedJob { spec: spec.clone(), interface, parameter_names: names, experiments, fitted })
     }
 
     /// The same job, asked to evaluate `points` instead of calibrating.

@@ -257,9 +257,11 @@ impl JobRun {
         self.optimizer.best().map(|(x, f)| (self.to_user(x), f))
     }
 
-    /// The result so far: the optimum (the start point if nothing succeeded), counters, history
-    /// and evaluated points. `termination` overrides the optimizer's reason (e.g. "cancelled").
-    pub fn result(&self, job: &JobSpec, elapsed_s: f64, termination: Option<&str>) -> CalibrationResult {
+    /// The result the run ends with: the optimum (the start point if nothing succeeded),
+    /// counters, history and evaluated points, which move into it (a points job's residuals are
+    /// its bulk; the run keeps no second copy). `termination` overrides the optimizer's reason
+    /// (e.g. "cancelled").
+    pub fn take_result(&mut self, job: &JobSpec, elapsed_s: f64, termination: Option<&str>) -> CalibrationResult {
         let (names, start, _, _) = job.parameter_vectors();
         let (x, f) = self.best().unwrap_or((start, f64::INFINITY));
         let termination = match (termination, self.optimizer.status()) {
@@ -277,7 +279,7 @@ impl JobRun {
             termination,
             elapsed_s,
             history: self.history.clone(),
-            evaluated: self.evaluated.values().cloned().collect(),
+            evaluated: std::mem::take(&mut self.evaluated).into_values().collect(),
             errors: None,
             identifiability: None,
             experiments: vec![],
