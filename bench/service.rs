@@ -74,6 +74,7 @@ async fn run(spec: &JobSpec, data: &MeasurementTable, workers: usize, sample_at:
         keep_finished_jobs: None,
         tls: None,
         diagnose_program: None,
+        metrics: None,
     };
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
     let server = tokio::spawn(fmucal_coordinator::run(config, listener, async {

@@ -90,6 +90,7 @@ async fn start_coordinator(data_dir: &Path) -> Coordinator {
         keep_finished_jobs: None,
         tls: None,
         diagnose_program: None,
+        metrics: None,
     };
     let task = tokio::spawn(fmucal_coordinator::run(config, listener, async {
         let _ = rx.await;

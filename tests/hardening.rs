@@ -61,6 +61,7 @@ fn config(data_dir: &Path, worker_token: Option<&str>) -> fmucal_coordinator::Co
         keep_finished_jobs: None,
         tls: None,
         diagnose_program: None,
+        metrics: None,
     }
 }
 

@@ -63,6 +63,7 @@ async fn a_job_runs_over_mutual_tls_and_plaintext_is_refused() {
             ca_pem: Some(read(&certs, "ca.pem")),
         }),
         diagnose_program: None,
+        metrics: None,
     };
     let server = tokio::spawn(fmucal_coordinator::run(config, listener, async {
         let _ = stopped.await;

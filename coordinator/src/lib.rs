@@ -9,6 +9,7 @@ pub mod connections;
 pub mod diagnoses;
 pub mod error;
 pub mod fillable_disk;
+pub mod metrics;
 pub mod models;
 pub mod salvage;
 pub mod scheduler;
@@ -51,6 +52,9 @@ pub struct Config {
     /// The fmucal binary a `Diagnose` request runs as a child process ([`diagnoses`]);
     /// `None` refuses diagnoses.
     pub diagnose_program: Option<PathBuf>,
+    /// Metrics the scheduler keeps up to date ([`metrics`]); whoever registered them serves
+    /// them. `None`: none kept.
+    pub metrics: Option<metrics::CoordinatorMetrics>,
 }
 
 impl Default for Timing {
@@ -133,9 +137,9 @@ pub async fn run(
     let (store, models2, timing) =
         (tokio::task::spawn_blocking(move || store::Store::open(&data_dir)), models.clone(), config.timing.clone());
     let store = store.await.map_err(|e| CoordinatorError::Storage(e.to_string()))??;
-    let keep = config.keep_finished_jobs;
+    let (keep, metrics) = (config.keep_finished_jobs, config.metrics.clone());
     let sched = tokio::task::spawn_blocking(move || {
-        scheduler::Scheduler::new(store, models2, timing).map(|s| s.with_retention(keep))
+        scheduler::Scheduler::new(store, models2, timing).map(|s| s.with_retention(keep).with_metrics(metrics))
     })
     .await
     .map_err(|e| CoordinatorError::Storage(e.to_string()))??;

@@ -32,6 +32,7 @@ use prost::Message;
 use tokio::sync::{mpsc, oneshot};
 
 use crate::error::CoordinatorError;
+use crate::metrics::{CoordinatorMetrics, Gauges};
 use crate::models::ModelStore;
 use crate::store::{JobState, Store, Write, Writer};
 use fmucal_proto::convert::{SubmittedJob, evaluation_from_proto, result_to_proto};
@@ -170,6 +171,7 @@ pub struct Scheduler {
     last_retention: Instant,
     /// The next job to finish gets this [`JobState::finished_seq`].
     next_finish: u64,
+    metrics: Option<CoordinatorMetrics>,
 }
 
 /// How long a finished job stays at least, whatever the retention cap.
@@ -211,6 +213,7 @@ impl Scheduler {
             keep_finished_jobs: None,
             last_retention: Instant::now(),
             next_finish: 0,
+            metrics: None,
         };
         // Past every stored id, also of jobs whose state this version cannot read, or deleted.
         s.next_seq = s.store.next_seq()?;
@@ -279,6 +282,35 @@ impl Scheduler {
         self.keep_finished_jobs = keep;
         self.apply_retention();
         self
+    }
+
+    /// Keeps `metrics` up to date (counters as results arrive, gauges every tick).
+    pub fn with_metrics(mut self, metrics: Option<CoordinatorMetrics>) -> Self {
+        self.metrics = metrics;
+        self.update_gauges();
+        self
+    }
+
+    /// Sets the metrics' gauges from the jobs and workers.
+    fn update_gauges(&self) {
+        let Some(m) = &self.metrics else { return };
+        let mut g = Gauges::default();
+        for job in self.jobs.values() {
+            let state = match job.state.status {
+                JobStatus::Running => 0,
+                JobStatus::Succeeded => 1,
+                JobStatus::Failed => 2,
+                JobStatus::Cancelled => 3,
+            };
+            g.jobs[state] += 1;
+            if is_running(job.state.status) {
+                g.points_queued += job.queue.len() as i64;
+                g.points_leased += job.open.values().filter(|p| p.assigned.is_some()).count() as i64;
+            }
+        }
+        g.workers = self.workers.len() as i64;
+        g.slots = self.workers.values().map(|w| w.slots as i64).sum();
+        m.set(&g);
     }
 
     /// Runs until the command channel closes.
@@ -655,6 +687,11 @@ impl Scheduler {
                 continue;
             }
             let evaluation = evaluation_from_proto(&r);
+            if let Some(m) = &self.metrics {
+                let job = self.jobs.get(&r.job_id);
+                let leased_at = job.and_then(|j| j.open.get(&r.point_id)).and_then(|p| p.assigned.as_ref());
+                m.result(evaluation.value.is_none(), leased_at.map(|(_, at)| at.elapsed()));
+            }
             if evaluation.value.is_some() {
                 self.tell(&r.job_id, r.point_id, evaluation);
             } else {
@@ -748,6 +785,7 @@ impl Scheduler {
 
     fn on_tick(&mut self) {
         self.flush_log();
+        self.update_gauges();
         if self.last_retention.elapsed() >= Duration::from_secs(1) {
             self.apply_retention();
         }

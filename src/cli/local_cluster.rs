@@ -36,6 +36,7 @@ pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>)
         keep_finished_jobs: None,
         tls: None,
         diagnose_program: None,
+        metrics: None,
     };
     let server = tokio::spawn(fmucal_coordinator::run(config, listener, async {
         let _ = stop_rx.await;

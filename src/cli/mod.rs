@@ -7,6 +7,7 @@ mod client;
 mod diagnose;
 mod inspect;
 mod local_cluster;
+mod metrics_http;
 mod model_arg;
 mod outputs;
 mod servers;
@@ -15,6 +16,7 @@ mod tls;
 mod token;
 
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
@@ -22,8 +24,45 @@ use clap::{Parser, Subcommand};
 #[derive(Parser)]
 #[command(name = "fmucal", version, about = "Calibrate FMU parameters against measurements")]
 struct Cli {
+    /// How logs are written to stderr: `text`, or `json` (one JSON object per line, for log
+    /// collectors; status lines such as the listening address become info events, and the
+    /// default level is info instead of warn). FMUCAL_LOG sets the level either way.
+    #[arg(long, global = true, value_enum, default_value_t = LogFormat::Text)]
+    log_format: LogFormat,
     #[command(subcommand)]
     command: Command,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum LogFormat {
+    Text,
+    Json,
+}
+
+/// Whether logs are JSON lines (`--log-format json`).
+static JSON_LOGS: AtomicBool = AtomicBool::new(false);
+
+/// A status line for the person at the terminal (the address a server listens on): on stderr,
+/// or as an info event when logs are JSON, so that every line stays JSON.
+pub(crate) fn status(line: &str) {
+    if JSON_LOGS.load(Ordering::Relaxed) {
+        tracing::info!("{line}");
+    } else {
+        eprintln!("{line}");
+    }
+}
+
+fn init_logs(format: LogFormat) {
+    let json = format == LogFormat::Json;
+    JSON_LOGS.store(json, Ordering::Relaxed);
+    let default_level = if json { "info" } else { "warn" };
+    let filter = tracing_subscriber::EnvFilter::try_from_env("FMUCAL_LOG").unwrap_or_else(|_| default_level.into());
+    let logs = tracing_subscriber::fmt().with_writer(std::io::stderr).with_env_filter(filter);
+    if json {
+        logs.json().init();
+    } else {
+        logs.with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr())).init();
+    }
 }
 
 #[derive(Subcommand)]
@@ -60,11 +99,7 @@ pub(crate) struct Interrupted;
 /// Runs the CLI with the process arguments.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
-    tracing_subscriber::fmt()
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_env("FMUCAL_LOG").unwrap_or_else(|_| "warn".into()))
-        .init();
+    init_logs(cli.log_format);
     let result = match cli.command {
         Command::Inspect(args) => inspect::run(args),
         Command::Simulate(args) => simulate::run(args),
@@ -90,11 +125,16 @@ pub fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if e.is::<Interrupted>() => {
-            eprintln!("interrupted");
+            status("interrupted");
             ExitCode::from(130)
         }
         Err(e) => {
-            eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            let line = format!("{e:#}").replace('\n', " ");
+            if JSON_LOGS.load(Ordering::Relaxed) {
+                tracing::error!("{line}");
+            } else {
+                eprintln!("error: {line}");
+            }
             ExitCode::FAILURE
         }
     }

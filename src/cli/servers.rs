@@ -52,6 +52,10 @@ pub struct CoordinatorArgs {
     /// coordinator first.
     #[arg(long)]
     salvage: bool,
+    /// Serve Prometheus metrics at http://ADDR/metrics (plain HTTP, no token: bind it where
+    /// only the scraper reaches it). Default: not served.
+    #[arg(long)]
+    metrics_listen: Option<SocketAddr>,
     #[command(flatten)]
     tls: super::tls::ServerArgs,
 }
@@ -80,6 +84,10 @@ pub struct WorkerArgs {
     /// On SIGTERM or Ctrl-C, wait at most this many seconds for the points being evaluated.
     #[arg(long, default_value_t = fmucal_worker::DEFAULT_STOP_GRACE.as_secs_f64())]
     stop_grace: f64,
+    /// Serve Prometheus metrics at http://ADDR/metrics (plain HTTP, no token). Default: not
+    /// served.
+    #[arg(long)]
+    metrics_listen: Option<SocketAddr>,
     #[command(flatten)]
     tls: super::tls::ClientArgs,
 }
@@ -112,7 +120,7 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
         let listener = tokio::net::TcpListener::bind(args.listen)
             .await
             .with_context(|| format!("cannot listen on {}", args.listen))?;
-        eprintln!("coordinator listening on {}", listener.local_addr()?);
+        super::status(&format!("coordinator listening on {}", listener.local_addr()?));
         let timing = fmucal_coordinator::Timing {
             worker_expiry: std::time::Duration::from_secs_f64(args.worker_expiry),
             evaluation_timeout: std::time::Duration::from_secs_f64(args.evaluation_timeout),
@@ -120,6 +128,16 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
         };
         // A Diagnose request runs this binary as `fmucal diagnose --coordinator <here>`.
         let diagnose_program = std::env::current_exe().ok();
+        let mut registry = prometheus_client::registry::Registry::default();
+        let metrics = fmucal_coordinator::metrics::CoordinatorMetrics::register(&mut registry);
+        let metrics = match args.metrics_listen {
+            Some(addr) => {
+                let bound = super::metrics_http::spawn(addr, registry).await?;
+                super::status(&format!("metrics on http://{bound}/metrics"));
+                Some(metrics)
+            }
+            None => None,
+        };
         let config = fmucal_coordinator::Config {
             data_dir: args.data_dir,
             token,
@@ -134,6 +152,7 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
             keep_finished_jobs: args.keep_finished_jobs.map(|n| usize::try_from(n).unwrap_or(usize::MAX)),
             tls,
             diagnose_program,
+            metrics,
         };
         fmucal_coordinator::run(config, listener, terminate_signal()).await?;
         Ok(())
@@ -144,6 +163,8 @@ pub fn worker(args: WorkerArgs) -> Result<()> {
     let token = super::token::load_for_worker(args.token_file.as_deref())?;
     let cache_dir = args.cache_dir.unwrap_or_else(fmucal_shared::fmu::archive::default_cache_dir);
     let name = format!("{}-{}", std::env::var("HOSTNAME").unwrap_or_else(|_| "worker".into()), std::process::id());
+    let mut registry = prometheus_client::registry::Registry::default();
+    let metrics = args.metrics_listen.map(|_| fmucal_worker::metrics::WorkerMetrics::register(&mut registry));
     let config = fmucal_worker::Config {
         coordinator: args.coordinator,
         token,
@@ -154,11 +175,18 @@ pub fn worker(args: WorkerArgs) -> Result<()> {
         tls: args.tls.load()?,
         evaluation_deadline: args.evaluation_deadline.map(|s| seconds("--evaluation-deadline", s)).transpose()?,
         stop_grace: seconds("--stop-grace", args.stop_grace)?,
+        metrics,
     };
     // Evaluations run on the slots' own threads; the runtime only does I/O, and one thread is
     // enough (a pool of many workers on few cores then switches less).
     let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
-    let outcome = rt.block_on(fmucal_worker::run(config, terminate_signal()));
+    let outcome = rt.block_on(async {
+        if let Some(addr) = args.metrics_listen {
+            let bound = super::metrics_http::spawn(addr, registry).await?;
+            super::status(&format!("metrics on http://{bound}/metrics"));
+        }
+        anyhow::Ok(fmucal_worker::run(config, terminate_signal()).await)
+    })?;
     // A model being loaded (a blocking task) must not hold the exit.
     rt.shutdown_timeout(std::time::Duration::from_secs(1));
     match outcome {

@@ -157,6 +157,11 @@ pub struct Servers {
 #[allow(dead_code)]
 impl Servers {
     pub fn start(dir: &Path, slots: usize) -> Servers {
+        Self::start_with(dir, slots, &[], &[])
+    }
+
+    /// [`Self::start`] with more arguments for the coordinator and the worker.
+    pub fn start_with(dir: &Path, slots: usize, coordinator_args: &[&str], worker_args: &[&str]) -> Servers {
         let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
         let url = format!("http://127.0.0.1:{port}");
         let spawn = |args: &[&str]| {
@@ -169,18 +174,19 @@ impl Servers {
                 .unwrap()
         };
         let data_dir = dir.join("coord");
-        let coord =
-            spawn(&["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir", data_dir.to_str().unwrap()]);
+        let listen = format!("127.0.0.1:{port}");
+        let coord = spawn(
+            &[&["coordinator", "--listen", &listen, "--data-dir", data_dir.to_str().unwrap()], coordinator_args]
+                .concat(),
+        );
         let cache = dir.join("worker-cache");
-        let worker = spawn(&[
-            "worker",
-            "--coordinator",
-            &url,
-            "--slots",
-            &slots.to_string(),
-            "--cache-dir",
-            cache.to_str().unwrap(),
-        ]);
+        let worker = spawn(
+            &["worker", "--coordinator", &url, "--slots", &slots.to_string(), "--cache-dir", cache.to_str().unwrap()]
+                .iter()
+                .chain(worker_args)
+                .copied()
+                .collect::<Vec<_>>(),
+        );
         Servers { url, children: vec![worker, coord] }
     }
 

@@ -15,6 +15,7 @@
 
 mod hung;
 mod jobs;
+pub mod metrics;
 mod slot;
 
 use std::future::Future;
@@ -58,6 +59,9 @@ pub struct Config {
     pub evaluation_deadline: Option<Duration>,
     /// After a stop is asked, how long the slots may take to finish their points.
     pub stop_grace: Duration,
+    /// Metrics the slots keep up to date ([`metrics`]); whoever registered them serves them.
+    /// `None`: none kept.
+    pub metrics: Option<metrics::WorkerMetrics>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -163,6 +167,7 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
             deadline,
             hung: hung.clone(),
             give_up: give_up_rx.clone(),
+            metrics: config.metrics.clone(),
         };
         slots.spawn(slot::run(ctx));
     }

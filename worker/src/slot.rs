@@ -32,6 +32,7 @@ pub struct SlotContext {
     pub hung: Arc<Hung>,
     /// Turns true when the worker stops waiting for its evaluations.
     pub give_up: watch::Receiver<bool>,
+    pub metrics: Option<crate::metrics::WorkerMetrics>,
 }
 
 pub async fn run(mut s: SlotContext) {
@@ -94,6 +95,9 @@ pub async fn run(mut s: SlotContext) {
             };
             let point = match evaluation {
                 Some(e) => {
+                    if let Some(m) = &s.metrics {
+                        m.evaluated(e.value.is_none(), e.wall);
+                    }
                     let point = point_result(&a, e);
                     tracing::debug!(job = %point.job_id, point = point.point_id, status = point.status, "point evaluated");
                     point
