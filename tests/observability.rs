@@ -200,3 +200,60 @@ fn with_log_format_json_every_stderr_line_is_one_json_object() {
         .collect();
     assert!(messages.iter().any(|m| m == &format!("coordinator listening on {listen}")), "{messages:?}");
 }
+
+/// `fmucal health URL` (what container healthchecks and probes run): exit 1 with a one-line
+/// reason while a worker waits for its coordinator, exit 0 ("is SERVING") for the coordinator
+/// and, once it has registered, for the worker; exit 1 where nothing listens.
+#[test]
+fn fmucal_health_answers_for_a_coordinator_and_a_registered_worker() {
+    let dir = tempfile::tempdir().unwrap();
+    let health = |url: &str| {
+        let out = Command::new(env!("CARGO_BIN_EXE_fmucal")).args(["health", url, "--timeout", "2"]).output().unwrap();
+        (out.status.code(), String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr))
+    };
+    let (coord_port, health_port) = (free_port(), free_port());
+    let coordinator = format!("http://127.0.0.1:{coord_port}");
+    let worker_health = format!("http://127.0.0.1:{health_port}");
+    let spawn = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_fmucal"))
+            .args(args)
+            .env("FMUCAL_TOKEN", "health-test-token")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    let listen = format!("127.0.0.1:{health_port}");
+    let cache = dir.path().join("cache");
+    let mut worker = spawn(&[
+        "worker",
+        "--coordinator",
+        &coordinator,
+        "--health-listen",
+        &listen,
+        "--cache-dir",
+        cache.to_str().unwrap(),
+    ]);
+    let (code, said) = health(&worker_health);
+    assert_eq!(code, Some(1), "a worker without a coordinator passed: {said}");
+    assert_eq!(said.trim().lines().count(), 1, "not one line: {said}");
+
+    let data = dir.path().join("coord");
+    let mut coord =
+        spawn(&["coordinator", "--listen", &format!("127.0.0.1:{coord_port}"), "--data-dir", data.to_str().unwrap()]);
+    let end = Instant::now() + Duration::from_secs(60);
+    while health(&worker_health).0 != Some(0) {
+        assert!(Instant::now() < end, "the worker never became SERVING: {}", health(&worker_health).1);
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let (code, said) = health(&coordinator);
+    assert_eq!(code, Some(0), "{said}");
+    assert!(said.contains("is SERVING"), "{said}");
+    let (code, said) = health(&format!("http://127.0.0.1:{}", free_port()));
+    assert_eq!(code, Some(1), "nothing listens there: {said}");
+    assert!(said.contains("cannot reach") || said.contains("did not answer"), "{said}");
+    for child in [&mut worker, &mut coord] {
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+}

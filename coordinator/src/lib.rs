@@ -120,7 +120,10 @@ async fn supervise_scheduler(
     Some(why)
 }
 
-/// Serves until `shutdown` resolves.
+/// How long open calls may go on once the coordinator is told to stop.
+const SHUTDOWN_GRACE: Duration = Duration::from_secs(2);
+
+/// Serves until `shutdown` resolves (open calls then have [`SHUTDOWN_GRACE`] to end).
 ///
 /// # Errors
 /// [`CoordinatorError`] if the store cannot be opened, there is no token, the TLS settings are
@@ -169,11 +172,13 @@ pub async fn run(
             let _ = fatal_tx.send(());
         }
     });
+    let (stopping_tx, stopping_rx) = tokio::sync::oneshot::channel::<()>();
     let stop = async move {
         tokio::select! {
             () = shutdown => {}
             _ = fatal_rx => {}
         }
+        let _ = stopping_tx.send(());
     };
     tracing::info!(%addr, tls = config.tls.is_some(), "coordinator listening");
     let keepalive = config.connections.keepalive_interval();
@@ -201,8 +206,23 @@ pub async fn run(
                 .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES),
             move |r| vouched(worker_auth.check(r)),
         ))
-        .serve_with_incoming_shutdown(connections::incoming(listener, &config.connections), stop)
-        .await;
+        .serve_with_incoming_shutdown(connections::incoming(listener, &config.connections), stop);
+    // A graceful stop waits for every open call, and a client's WatchJob stream or a worker's
+    // long poll may stay open for good: past SHUTDOWN_GRACE the connections are dropped (their
+    // clients and workers reconnect to the next coordinator; the store holds every batch).
+    let grace_over = async move {
+        if stopping_rx.await.is_err() {
+            std::future::pending::<()>().await;
+        }
+        tokio::time::sleep(SHUTDOWN_GRACE).await;
+    };
+    let served = tokio::select! {
+        served = served => served,
+        () = grace_over => {
+            tracing::info!("closing the connections still open {} s after the stop", SHUTDOWN_GRACE.as_secs());
+            Ok(())
+        }
+    };
     abort_scheduler.abort();
     // Once the scheduler has ended, its store is closed: a new coordinator may open it.
     let _ = supervisor.await;

@@ -12,6 +12,7 @@
 //! | `fmucal_worker_slots` | gauge | their evaluation slots |
 //! | `fmucal_evaluations_total` | counter | results received from workers (evaluations per second: `rate()`) |
 //! | `fmucal_failed_evaluations_total` | counter | those whose simulation failed |
+//! | `fmucal_ignored_results_total` | counter | results for points not leased to their worker (late after the worker expired, or forged): not told |
 //! | `fmucal_evaluation_latency_seconds` | histogram | from a point's lease to its result |
 
 use std::time::Duration;
@@ -38,6 +39,7 @@ pub struct CoordinatorMetrics {
     slots: Gauge,
     evaluations: Counter,
     failed_evaluations: Counter,
+    ignored_results: Counter,
     latency: Histogram,
 }
 
@@ -63,6 +65,7 @@ impl CoordinatorMetrics {
             slots: Gauge::default(),
             evaluations: Counter::default(),
             failed_evaluations: Counter::default(),
+            ignored_results: Counter::default(),
             // 1 ms to about 9 minutes.
             latency: Histogram::new(exponential_buckets(0.001, 2.0, 20)),
         };
@@ -77,6 +80,11 @@ impl CoordinatorMetrics {
         registry.register("fmucal_worker_slots", "Evaluation slots of the live workers", m.slots.clone());
         registry.register("fmucal_evaluations", "Results received from workers", m.evaluations.clone());
         registry.register("fmucal_failed_evaluations", "Results whose simulation failed", m.failed_evaluations.clone());
+        registry.register(
+            "fmucal_ignored_results",
+            "Results for points not leased to their worker, not told",
+            m.ignored_results.clone(),
+        );
         registry.register(
             "fmucal_evaluation_latency_seconds",
             "Time from a point's lease to its result",
@@ -97,6 +105,11 @@ impl CoordinatorMetrics {
         if let Some(l) = latency {
             self.latency.observe(l.as_secs_f64());
         }
+    }
+
+    /// A result for a point not leased to the worker that sent it, ignored.
+    pub fn ignored_result(&self) {
+        self.ignored_results.inc();
     }
 
     /// Sets the gauges.
@@ -122,6 +135,7 @@ mod tests {
         m.set(&Gauges { jobs: [1, 2, 0, 3], points_queued: 7, points_leased: 4, workers: 2, slots: 5 });
         m.result(false, Some(Duration::from_millis(3)));
         m.result(true, None);
+        m.ignored_result();
         let mut text = String::new();
         prometheus_client::encoding::prometheus_text::encode(&mut text, &registry).unwrap();
         for line in [
@@ -134,6 +148,7 @@ mod tests {
             "fmucal_worker_slots 5",
             "fmucal_evaluations_total 2",
             "fmucal_failed_evaluations_total 1",
+            "fmucal_ignored_results_total 1",
             "fmucal_evaluation_latency_seconds_count 1",
             "fmucal_evaluation_latency_seconds_bucket{le=\"0.004\"} 1",
             "fmucal_evaluation_latency_seconds_bucket{le=\"0.002\"} 0",

@@ -669,6 +669,10 @@ impl Scheduler {
         let wid = req.worker_id.clone();
         match self.workers.get_mut(&wid) {
             None => {
+                // An expired worker's results: their points were sent again to others.
+                if let Some(m) = &self.metrics {
+                    req.results.iter().for_each(|_| m.ignored_result());
+                }
                 let _ = reply.send(pb::PollWorkResponse { assignments: vec![], known: false });
                 return;
             }
@@ -680,6 +684,9 @@ impl Scheduler {
             let leased = self.workers.get_mut(&wid).is_some_and(|w| w.inflight.remove(&(r.job_id.clone(), r.point_id)));
             if !leased {
                 tracing::warn!(job = %r.job_id, point = r.point_id, worker = %wid, "result for a point not leased to this worker ignored");
+                if let Some(m) = &self.metrics {
+                    m.ignored_result();
+                }
                 continue;
             }
             if r.status == pb::PointStatus::NotEvaluated as i32 {

@@ -27,8 +27,11 @@ pub struct ServerTls {
     pub ca_pem: Option<Vec<u8>>,
 }
 
+/// How often every fmucal client pings its coordinator, and how long it waits for the answer.
+pub const KEEP_ALIVE: Duration = Duration::from_secs(5);
+
 /// An endpoint for `url`, with TLS when it is `https://`, and the timeouts every fmucal client
-/// uses (2 s to connect).
+/// uses (2 s to connect, HTTP/2 pings every [`KEEP_ALIVE`]).
 ///
 /// # Errors
 /// A one-line reason: a malformed URL, an `https://` URL without `tls` (or TLS settings for
@@ -37,7 +40,13 @@ pub fn endpoint(url: &str, tls: Option<&ClientTls>) -> Result<Endpoint, String> 
     let endpoint = Endpoint::from_shared(url.to_owned())
         .map_err(|e| format!("{url:?} is not a coordinator URL: {e}"))?
         .tcp_nodelay(true)
-        .connect_timeout(Duration::from_secs(2));
+        .connect_timeout(Duration::from_secs(2))
+        // A connection whose peer vanished without closing it (a network partition, a
+        // coordinator container replaced) is found dead within 10 s, so the channel reconnects
+        // instead of waiting on TCP's retransmission timeout for minutes.
+        .http2_keep_alive_interval(KEEP_ALIVE)
+        .keep_alive_timeout(KEEP_ALIVE)
+        .keep_alive_while_idle(true);
     if !url.starts_with("https://") {
         if tls.is_some() {
             return Err(format!("TLS settings were given but {url} is not https://"));

@@ -219,6 +219,9 @@ impl Client {
 
     /// Follows a job's `WatchJob` stream (one event per completed batch, the first at once),
     /// handing each event to `on_event`, until the job has ended; then returns its final state.
+    /// A coordinator that goes away meanwhile (restarted, say: it resumes its jobs from its
+    /// store) is waited for, for [`RECONNECT_FOR`], and the job followed again from where it
+    /// was; events of batches already seen are not handed on twice.
     async fn wait_for_end(
         &mut self,
         job_id: &str,
@@ -229,14 +232,59 @@ impl Client {
                 .iter()
                 .any(|s| *s as i32 == status)
         };
+        let mut last_rounds = None;
+        let mut lost_since: Option<tokio::time::Instant> = None;
+        loop {
+            let watched = self.watch_until_end(job_id, &mut last_rounds, &ended, &mut on_event).await;
+            let status = match watched {
+                Ok(()) => match self.inner.get_job(pb::GetJobRequest { job_id: job_id.to_owned() }).await {
+                    Ok(job) => return Ok(job.into_inner()),
+                    Err(status) => status,
+                },
+                Err(status) => status,
+            };
+            if !coordinator_unreachable(&status) {
+                return Err(status.into());
+            }
+            let since = *lost_since.get_or_insert_with(tokio::time::Instant::now);
+            if since.elapsed() > RECONNECT_FOR {
+                return Err(anyhow::Error::new(status)
+                    .context(format!("lost the coordinator for more than {} s", RECONNECT_FOR.as_secs())));
+            }
+            tracing::warn!(job_id, "lost the coordinator ({}); following the job again", status.message());
+            tokio::time::sleep(Duration::from_millis(500)).await;
+        }
+    }
+
+    /// One `WatchJob` stream, until the job ends (`Ok`) or the stream fails.
+    async fn watch_until_end(
+        &mut self,
+        job_id: &str,
+        last_rounds: &mut Option<u64>,
+        ended: &impl Fn(i32) -> bool,
+        on_event: &mut impl FnMut(&pb::WatchJobResponse),
+    ) -> Result<(), tonic::Status> {
         let mut stream = self.inner.watch_job(pb::WatchJobRequest { job_id: job_id.to_owned() }).await?.into_inner();
         // The stream also ends when the coordinator has sent the last event of a finished job.
         while let Some(ev) = stream.message().await? {
-            on_event(&ev);
+            let repeated = last_rounds.is_some_and(|r| ev.rounds <= r) && !ended(ev.status);
+            if !repeated {
+                on_event(&ev);
+                *last_rounds = Some(ev.rounds);
+            }
             if ended(ev.status) {
                 break;
             }
         }
-        Ok(self.inner.get_job(pb::GetJobRequest { job_id: job_id.to_owned() }).await?.into_inner())
+        Ok(())
     }
+}
+
+/// How long a client waits for a coordinator that went away while it followed a job.
+const RECONNECT_FOR: Duration = Duration::from_secs(120);
+
+/// Whether a failed call means the coordinator is not there (restarting, or the connection
+/// dropped), rather than an answer.
+fn coordinator_unreachable(status: &tonic::Status) -> bool {
+    matches!(status.code(), tonic::Code::Unavailable | tonic::Code::Unknown | tonic::Code::Cancelled)
 }

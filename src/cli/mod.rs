@@ -5,6 +5,7 @@
 mod calibrate;
 mod client;
 mod diagnose;
+mod health;
 mod inspect;
 mod local_cluster;
 mod metrics_http;
@@ -84,6 +85,9 @@ enum Command {
     Worker(servers::WorkerArgs),
     /// Make a private CA with a coordinator and a client certificate, for TLS.
     Certs(tls::CertsArgs),
+    /// Ask a coordinator or worker for its gRPC health; exit 0 only when SERVING (for
+    /// container healthchecks and probes).
+    Health(health::Args),
     /// Redraw the plots of a calibration result folder.
     Plot {
         /// A folder written by `fmucal calibrate --out`.
@@ -108,6 +112,7 @@ pub fn main() -> ExitCode {
         Command::Coordinator(args) => servers::coordinator(args),
         Command::Worker(args) => servers::worker(args),
         Command::Certs(args) => tls::certs(args),
+        Command::Health(args) => health::run(args),
         Command::Plot { dir } => outputs::read(&dir).and_then(|(result, fits)| {
             for (k, (folder, fit)) in fits.iter().enumerate() {
                 let errors = result.experiments.get(k).map(|e| &e.errors).or(result.errors.as_ref());

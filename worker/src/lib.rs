@@ -93,7 +93,7 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
     // Health is reported under the name of the service the worker takes part in, though it
     // serves only the health check itself.
     let (health_reporter, health_service) = tonic_health::server::health_reporter();
-    health_reporter.set_service_status(pb::worker_pool_server::SERVICE_NAME, ServingStatus::NotServing).await;
+    set_health(&health_reporter, ServingStatus::NotServing).await;
     if let Some(addr) = config.health_listen {
         tokio::spawn(async move {
             if let Err(e) = tonic::transport::Server::builder().add_service(health_service).serve(addr).await {
@@ -104,7 +104,7 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
 
     let reg = register(&mut client, &config).await?;
     let worker_id = Arc::new(tokio::sync::RwLock::new(reg.worker_id));
-    health_reporter.set_service_status(pb::worker_pool_server::SERVICE_NAME, ServingStatus::Serving).await;
+    set_health(&health_reporter, ServingStatus::Serving).await;
     let (stop_tx, stop_rx) = watch::channel(false);
     let stop_tx = Arc::new(stop_tx);
     // Whether the stop came from `shutdown` (then the worker exits, even if it also wanted a
@@ -173,7 +173,7 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
     }
     hung::join_within_grace(&mut slots, stop_rx.clone(), config.stop_grace, &give_up_tx, &pool).await;
     let _ = slots_done_tx.send(true);
-    health_reporter.set_service_status(pb::worker_pool_server::SERVICE_NAME, ServingStatus::NotServing).await;
+    set_health(&health_reporter, ServingStatus::NotServing).await;
     if let Some(why) = hung.restart_reason()
         && !terminated.load(std::sync::atomic::Ordering::SeqCst)
     {
@@ -181,6 +181,13 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
     }
     tracing::info!("worker stopped");
     Ok(())
+}
+
+/// Sets the worker's health, under the name of the service it takes part in and for the server
+/// as a whole (the empty name, what `fmucal health URL` and most probes ask about).
+async fn set_health(reporter: &tonic_health::server::HealthReporter, status: ServingStatus) {
+    reporter.set_service_status(pb::worker_pool_server::SERVICE_NAME, status).await;
+    reporter.set_service_status("", status).await;
 }
 
 async fn connect(url: &str, tls: Option<&fmucal_proto::tls::ClientTls>) -> Result<Channel, WorkerError> {

@@ -1,0 +1,60 @@
+//! `fmucal health URL`: asks a coordinator or a worker's `--health-listen` address for its
+//! `grpc.health.v1` status and exits 0 only when it is SERVING. Container healthchecks and
+//! Kubernetes exec probes use it, so they speak TLS to a coordinator as every client does.
+
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use tonic_health::pb::HealthCheckRequest;
+use tonic_health::pb::health_check_response::ServingStatus;
+use tonic_health::pb::health_client::HealthClient;
+
+use super::tls::ClientArgs;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The coordinator (`https://HOST:PORT` with --tls-ca, or `http://`) or a worker's
+    /// `--health-listen` address (`http://HOST:PORT`).
+    url: String,
+    /// The service to ask about; empty asks about the server as a whole.
+    #[arg(long, default_value = "")]
+    service: String,
+    /// Give up after this many seconds.
+    #[arg(long, default_value_t = 5.0)]
+    timeout: f64,
+    #[command(flatten)]
+    tls: ClientArgs,
+}
+
+/// Checks the server's health.
+///
+/// # Errors
+/// The server cannot be reached within the timeout, or its status is not SERVING.
+pub fn run(args: Args) -> Result<()> {
+    if !(args.timeout.is_finite() && args.timeout > 0.0) {
+        bail!("--timeout must be a positive number of seconds, not {}", args.timeout);
+    }
+    let tls = args.tls.load()?;
+    let endpoint = fmucal_proto::tls::endpoint(&args.url, tls.as_ref()).map_err(anyhow::Error::msg)?;
+    let timeout = Duration::from_secs_f64(args.timeout);
+    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
+    let status = rt.block_on(async {
+        tokio::time::timeout(timeout, async {
+            let channel = endpoint.connect().await.with_context(|| format!("cannot reach {}", args.url))?;
+            let request = HealthCheckRequest { service: args.service.clone() };
+            let response = HealthClient::new(channel)
+                .check(request)
+                .await
+                .with_context(|| format!("{} did not answer the health check", args.url))?;
+            anyhow::Ok(response.into_inner().status)
+        })
+        .await
+        .with_context(|| format!("{} did not answer within {} s", args.url, args.timeout))?
+    })?;
+    let status = ServingStatus::try_from(status).unwrap_or(ServingStatus::Unknown);
+    if status != ServingStatus::Serving {
+        bail!("{} is {}", args.url, status.as_str_name());
+    }
+    println!("{} is SERVING", args.url);
+    Ok(())
+}
