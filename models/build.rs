@@ -3,9 +3,10 @@
 //! sources/ and resources/). Also builds the fixture FMUs the tests need: broken ones
 //! (MissingSymbol.fmu, ResetFails.fmu), ones that behave as tool-exported FMUs do
 //! (StickSlip.fmu, InputKinds.fmu, Threshold.fmu, DerivativeAttributes.fmu), a spring–mass–damper
-//! with an injection port (SpringMass.fmu), and hidden-effect fixtures: a model's C source built
-//! with a define that adds physics its (unchanged) description does not mention, each exactly
-//! one of fmucal's effect formulas (shared/src/diagnose/effects.rs):
+//! with an injection port (SpringMass.fmu), an array parameter's elements as scalars
+//! (ArrayParams.fmu), FMI 3.0 builds of the same C sources (below), and hidden-effect fixtures: a
+//! model's C source built with a define that adds physics its (unchanged) description does not
+//! mention, each exactly one of fmucal's effect formulas (shared/src/diagnose/effects.rs):
 //!
 //! | fixture | base | define | effect |
 //! |---|---|---|---|
@@ -19,6 +20,11 @@
 //! input profile of the diagnosis grid, each effect changes the outputs (RMS over them) by at
 //! least the grid's largest noise floor (2 % of each output's range); each is the smallest
 //! 1-2-5 value that does.
+//!
+//! FMI 3.0 fixtures (`<Identifier>Fmi3.fmu`): the same model source compiled with `-DFMUCAL_FMI3`,
+//! which makes models/c/fmu_framework.c export the FMI 3.0 API (fmu_framework3.c) instead of
+//! 2.0's, packaged with `xml/fmi3/<Identifier>.xml`, the binary in `binaries/x86_64-linux/` (the
+//! FMI 3.0 platform tuple) and a `sources/buildDescription.xml` that names the define.
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -48,7 +54,12 @@ const FIXTURES: &[Model] = &[
     Model { identifier: "InputKinds", source: "input_kinds.c", resources: &[], extra_platforms: false },
     Model { identifier: "Threshold", source: "threshold.c", resources: &[], extra_platforms: false },
     Model { identifier: "SpringMass", source: "spring_mass.c", resources: &[], extra_platforms: false },
+    Model { identifier: "ArrayParams", source: "array_params.c", resources: &[], extra_platforms: false },
 ];
+
+/// Models also built for FMI 3.0 (identifiers of [`MODELS`] or [`FIXTURES`]), packaged as
+/// `<Identifier>Fmi3.fmu` with `xml/fmi3/<Identifier>.xml`.
+const FMI3: &[&str] = &["Furuta", "BouncingBall", "Robertson", "ArrayParams"];
 
 /// Hidden-effect fixtures: (file name, identifier of the base model, define). Each is the base
 /// model's source compiled with the define and packaged with the base model's description.
@@ -74,7 +85,30 @@ const HIDDEN: &[(&str, &str, &str)] = &[
     ("ExhaustPipeHiddenRadiation", "ExhaustPipe", "-DHIDDEN_RADIATION_AREA=0.2"),
 ];
 
-const FRAMEWORK: &[&str] = &["fmi2.h", "fmu_framework.h", "fmu_framework.c"];
+/// The FMI version an archive is built for.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Fmi {
+    V2,
+    V3,
+}
+
+impl Fmi {
+    /// Folder of the binary under `binaries/`: FMI 2.0's platform name or FMI 3.0's tuple.
+    fn platform(self) -> &'static str {
+        match self {
+            Fmi::V2 => "linux64",
+            Fmi::V3 => "x86_64-linux",
+        }
+    }
+
+    /// The skeleton's files a model source includes, shipped under `sources/`.
+    fn framework(self) -> &'static [&'static str] {
+        match self {
+            Fmi::V2 => &["fmi2.h", "fmu_framework.h", "fmu_framework.c", "fmu_cosim.c", "fmu_framework2.c"],
+            Fmi::V3 => &["fmi2.h", "fmi3.h", "fmu_framework.h", "fmu_framework.c", "fmu_cosim.c", "fmu_framework3.c"],
+        }
+    }
+}
 
 fn main() {
     let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
@@ -88,7 +122,16 @@ fn main() {
         let so = out.join(format!("{}.so", model.identifier));
         compile(&root.join("c").join(model.source), &so, &[]);
         let xml = fs::read(root.join("xml").join(format!("{}.xml", model.identifier))).unwrap();
-        package(&root, model, &xml, &so, &out.join(format!("{}.fmu", model.identifier)));
+        package(&root, model, Fmi::V2, &xml, &so, &out.join(format!("{}.fmu", model.identifier)));
+    }
+
+    // FMI 3.0 builds of the same sources.
+    for id in FMI3 {
+        let model = MODELS.iter().chain(FIXTURES).find(|m| m.identifier == *id).unwrap();
+        let so = out.join(format!("{id}Fmi3.so"));
+        compile(&root.join("c").join(model.source), &so, &["-DFMUCAL_FMI3"]);
+        let xml = fs::read(root.join("xml").join("fmi3").join(format!("{id}.xml"))).unwrap();
+        package(&root, model, Fmi::V3, &xml, &so, &out.join(format!("{id}Fmi3.fmu")));
     }
 
     // Fixture: Decay built without the fmi2GetReal export (renamed by the preprocessor).
@@ -96,12 +139,12 @@ fn main() {
     let so = out.join("MissingSymbol.so");
     compile(&root.join("c").join(decay.source), &so, &["-Dfmi2GetReal=fmucal_hidden_fmi2GetReal"]);
     let xml = fs::read(root.join("xml").join("Decay.xml")).unwrap();
-    package(&root, decay, &xml, &so, &out.join("MissingSymbol.fmu"));
+    package(&root, decay, Fmi::V2, &xml, &so, &out.join("MissingSymbol.fmu"));
 
     // Fixture: Decay whose fmi2Reset always fails (exercises re-instantiation).
     let so = out.join("ResetFails.so");
     compile(&root.join("c").join(decay.source), &so, &["-DFMUCAL_RESET_FAILS"]);
-    package(&root, decay, &xml, &so, &out.join("ResetFails.fmu"));
+    package(&root, decay, Fmi::V2, &xml, &so, &out.join("ResetFails.fmu"));
 
     // Hidden-effect fixtures: the base model's source with a define, its description unchanged.
     for (name, base, define) in HIDDEN {
@@ -109,7 +152,7 @@ fn main() {
         let so = out.join(format!("{name}.so"));
         compile(&root.join("c").join(model.source), &so, &[define]);
         let xml = fs::read(root.join("xml").join(format!("{base}.xml"))).unwrap();
-        package(&root, model, &xml, &so, &out.join(format!("{name}.fmu")));
+        package(&root, model, Fmi::V2, &xml, &so, &out.join(format!("{name}.fmu")));
     }
 
     // Fixture: the bouncing ball described as tools export it, with `derivative` attributes on
@@ -117,7 +160,7 @@ fn main() {
     // ModelStructure/Derivatives defines the states).
     let ball = &MODELS[1];
     let xml = fs::read(root.join("xml").join("DerivativeAttributes.xml")).unwrap();
-    package(&root, ball, &xml, &out.join("BouncingBall.so"), &out.join("DerivativeAttributes.fmu"));
+    package(&root, ball, Fmi::V2, &xml, &out.join("BouncingBall.so"), &out.join("DerivativeAttributes.fmu"));
 }
 
 fn compile(source: &Path, output: &Path, defines: &[&str]) {
@@ -133,7 +176,7 @@ fn compile(source: &Path, output: &Path, defines: &[&str]) {
     assert!(status.success(), "compiling {} failed", source.display());
 }
 
-fn package(root: &Path, model: &Model, xml: &[u8], so: &Path, fmu: &Path) {
+fn package(root: &Path, model: &Model, fmi: Fmi, xml: &[u8], so: &Path, fmu: &Path) {
     let mut zip = zip::ZipWriter::new(File::create(fmu).unwrap());
     let opts = SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
     let mut add = |name: String, bytes: &[u8]| {
@@ -141,7 +184,7 @@ fn package(root: &Path, model: &Model, xml: &[u8], so: &Path, fmu: &Path) {
         zip.write_all(bytes).unwrap();
     };
     add("modelDescription.xml".into(), xml);
-    add(format!("binaries/linux64/{}.so", model.identifier), &fs::read(so).unwrap());
+    add(format!("binaries/{}/{}.so", fmi.platform(), model.identifier), &fs::read(so).unwrap());
     if model.extra_platforms {
         let note = b"placeholder: fmucal's examples ship only a linux64 binary";
         add(format!("binaries/win64/{}.dll", model.identifier), note);
@@ -149,11 +192,34 @@ fn package(root: &Path, model: &Model, xml: &[u8], so: &Path, fmu: &Path) {
         add(format!("binaries/darwin64/{}.dylib", model.identifier), note);
     }
     add(format!("sources/{}", model.source), &fs::read(root.join("c").join(model.source)).unwrap());
-    for file in FRAMEWORK {
+    for file in fmi.framework() {
         add(format!("sources/{file}"), &fs::read(root.join("c").join(file)).unwrap());
+    }
+    if fmi == Fmi::V3 {
+        add("sources/buildDescription.xml".into(), build_description(model).as_bytes());
     }
     for res in model.resources {
         add(format!("resources/{res}"), &fs::read(root.join("resources").join(res)).unwrap());
     }
     zip.finish().unwrap();
+}
+
+/// FMI 3.0's `sources/buildDescription.xml`: compile the model file (it includes the skeleton)
+/// with `FMUCAL_FMI3` defined, and link the C math library.
+fn build_description(model: &Model) -> String {
+    format!(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<fmiBuildDescription fmiVersion="3.0">
+  <BuildConfiguration modelIdentifier="{id}">
+    <SourceFileSet language="C99">
+      <SourceFile name="{source}"/>
+      <PreprocessorDefinition name="FMUCAL_FMI3" description="export the FMI 3.0 API (without it: FMI 2.0)"/>
+    </SourceFileSet>
+    <Library name="m" external="true" description="the C math library"/>
+  </BuildConfiguration>
+</fmiBuildDescription>
+"#,
+        id = model.identifier,
+        source = model.source
+    )
 }

@@ -1,4 +1,11 @@
-/* Shared skeleton of fmucal's example FMUs (FMI 2.0, Model Exchange + Co-Simulation).
+/* Shared skeleton of fmucal's example FMUs: Model Exchange + Co-Simulation in one binary, for
+ * FMI 2.0 by default and for FMI 3.0 when compiled with -DFMUCAL_FMI3, from the same model file.
+ * The model hooks declared below, the Model struct and the Co-Simulation integrator
+ * (fmu_cosim.c) are the same in every build; only the exported API differs (fmu_framework2.c
+ * or fmu_framework3.c, chosen in fmu_framework.c). The hooks speak FMI 2.0's types (fmi2Status,
+ * fmi2ValueReference, fmi2Type) in every build: fmi2.h declares only types, and the 3.0 skeleton
+ * converts statuses (fmi2OK..fmi2Fatal have the numeric values of fmi3OK..fmi3Fatal). Another
+ * version (FMI 1.0, say) would be one more define, fmu_frameworkN.c and callback member here.
  *
  * A model file defines, before including this header:
  *   MODEL_IDENTIFIER, MODEL_GUID   strings matching modelDescription.xml
@@ -6,7 +13,9 @@
  *   NX, NZ                          number of continuous states and event indicators
  *   CS_STEP                         internal step of the Co-Simulation integrator
  *   CS_IMPLICIT                     1: L-stable SDIRK2 (stiff models), 0: classic RK4
- * and optionally, to behave as some exporting tools do:
+ * and optionally, to behave as some exporting tools do (named after the FMI 2.0 functions; the
+ * 3.0 skeleton applies them in fmi3EnterInitializationMode, fmi3CompletedIntegratorStep and
+ * fmi3GetFloat64/fmi3SetFloat64):
  *   IS_DISCRETE_REAL(vr)            1 for Real value references of variability "discrete";
  *                                   setting them in Continuous-Time Mode is an error (FMI 2.0
  *                                   section 3.2.3), as it always is for Integer and Boolean
@@ -19,11 +28,27 @@
  *   REPORTED_REAL(m, vr)            the value fmi2GetReal reports for Real value reference vr
  *                                   (default m->r[vr]); the equations and fmi2GetContinuousStates
  *                                   still use m->r, so a sensor error can be built in
- * then implements the model_* hooks declared below and includes fmu_framework.c. */
+ *   FMI3_FLOAT64_SIZE(vr)           FMI 3.0 builds: number of elements of the Float64 variable
+ *                                   with value reference vr (default 1). An array of n elements
+ *                                   is m->r[vr..vr+n-1]; FMI 3.0 gives it the one value reference
+ *                                   vr (the macro is 0 for vr+1..vr+n-1, which name nothing),
+ *                                   FMI 2.0 describes its elements as n scalars
+ * then implements the model_* hooks declared below and includes fmu_framework.c.
+ *
+ * FMI 3.0 value references are unique across all types, so the 3.0 skeleton numbers them from
+ * the 2.0 ones (the placeholders of N_INTEGER and N_BOOLEAN >= 1 keep their numbers):
+ *   Float64 m->r[k]                 k                                  (2.0's Real k)
+ *   Int32 m->i[k]                   N_REAL + k                         (2.0's Integer k)
+ *   Boolean m->b[k]                 N_REAL + N_INTEGER + k             (2.0's Boolean k)
+ *   time (causality independent)    N_REAL + N_INTEGER + N_BOOLEAN
+ *   event indicator k (local, read) N_REAL + N_INTEGER + N_BOOLEAN + 1 + k */
 #ifndef FMUCAL_FMU_FRAMEWORK_H
 #define FMUCAL_FMU_FRAMEWORK_H
 
-#include "fmi2.h"
+#include "fmi2.h" /* the hooks' types, in every build */
+#if defined(FMUCAL_FMI3)
+#include "fmi3.h"
+#endif
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -58,7 +83,13 @@ typedef struct Model {
     double time;
     fmi2Type type;
     Mode mode;
+#if defined(FMUCAL_FMI3)
+    fmi3InstanceEnvironment instanceEnvironment;
+    fmi3LogMessageCallback logMessage;
+    int earlyReturnAllowed;
+#else
     fmi2CallbackFunctions cb;
+#endif
     char instanceName[256];
     char resourceDir[4096];
     int loggingOn;

@@ -4,10 +4,13 @@
 //! Each offers Model Exchange and Co-Simulation with a linux64 binary.
 //!
 //! It also builds the test [`Fixture`]s: broken FMUs, FMUs that behave as tool-exported ones
-//! do, a spring–mass–damper, and hidden-effect variants of Furuta, SpringMass and ExhaustPipe
-//! whose C code has physics their description does not mention, each exactly one of fmucal's
-//! effect formulas, so that simulating the base model with that effect injected reproduces
-//! them (the truth for discrepancy diagnosis).
+//! do, a spring–mass–damper, a model with an array parameter, hidden-effect variants of Furuta,
+//! SpringMass and ExhaustPipe whose C code has physics their description does not mention, each
+//! exactly one of fmucal's effect formulas, so that simulating the base model with that effect
+//! injected reproduces them (the truth for discrepancy diagnosis), and FMI 3.0 builds of Furuta,
+//! BouncingBall, Robertson and the array model: the same C sources compiled with
+//! `-DFMUCAL_FMI3` (the FMI 3.0 skeleton, `models/c/fmu_framework3.c`) with descriptions in
+//! `models/xml/fmi3/` and the binary in `binaries/x86_64-linux/`.
 //!
 //! The examples' bytes are embedded in every binary that links this crate, so `example:NAME`
 //! works from `cargo install` or a container image: [`install_example`] writes one into a
@@ -77,9 +80,11 @@ pub fn example(name: &str) -> Option<PathBuf> {
 }
 
 /// The test fixtures: FMUs built like the examples but not listed as examples: broken ones,
-/// ones behaving as tool-exported FMUs do, and hidden-effect variants (a base model's C code
+/// ones behaving as tool-exported FMUs do, hidden-effect variants (a base model's C code
 /// built with a define that adds an effect, packaged with the base model's unchanged
-/// description).
+/// description), and FMI 3.0 builds (`*Fmi3`: a model's C code built with `-DFMUCAL_FMI3`,
+/// packaged with its description in `models/xml/fmi3/`). Each FMI 3.0 build simulates exactly
+/// as its FMI 2.0 build in FMPy (`tests/fmpy/compare_versions.py`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Fixture {
     /// The Decay FMU with `fmi2GetReal` missing from its binary.
@@ -125,6 +130,23 @@ pub enum Fixture {
     /// Stefan–Boltzmann constant (fmucal's `radiation`, port `rightVolume.wallQext`): on the
     /// exhaust example's inputs it lowers `outlet.T` by up to 3.8 K, 2.9 % of its range.
     ExhaustPipeHiddenRadiation,
+    /// A damped oscillator x'' = k[3] − k[1]·x − k[2]·x' (x(0) = 1, x'(0) = 0; outputs `x`,
+    /// `v`) whose coefficients are the elements of one array parameter, described for FMI 2.0 as
+    /// the scalars `k[1]`, `k[2]`, `k[3]` (starts 1, 2, 3: critically damped,
+    /// x(t) = 3 − 2·(1 + t)·e^(−t)).
+    ArrayParams,
+    /// FMI 3.0 build of the Furuta example from the same C source (value references as in 2.0;
+    /// `time` is 20). Model Exchange and Co-Simulation (without Event Mode).
+    FurutaFmi3,
+    /// FMI 3.0 build of the bouncing ball: the Boolean `resting` has value reference 8 (0 in
+    /// 2.0), the event indicator is the local Float64 `floorIndicator` (10), `time` is 9.
+    BouncingBallFmi3,
+    /// FMI 3.0 build of Robertson's stiff kinetics (value references as in 2.0; `time` is 11).
+    RobertsonFmi3,
+    /// FMI 3.0 build of [`Fixture::ArrayParams`]: `k` is one Float64 array parameter with
+    /// `<Dimension start="3"/>` and `start="1 2 3"` (value reference 4; `k[2]` is its second
+    /// element).
+    ArrayParamsFmi3,
 }
 
 impl Fixture {
@@ -143,6 +165,11 @@ impl Fixture {
             Fixture::SpringMass => "SpringMass.fmu",
             Fixture::SpringMassHiddenCubic => "SpringMassHiddenCubic.fmu",
             Fixture::ExhaustPipeHiddenRadiation => "ExhaustPipeHiddenRadiation.fmu",
+            Fixture::ArrayParams => "ArrayParams.fmu",
+            Fixture::FurutaFmi3 => "FurutaFmi3.fmu",
+            Fixture::BouncingBallFmi3 => "BouncingBallFmi3.fmu",
+            Fixture::RobertsonFmi3 => "RobertsonFmi3.fmu",
+            Fixture::ArrayParamsFmi3 => "ArrayParamsFmi3.fmu",
         };
         fmu_dir().join(file)
     }

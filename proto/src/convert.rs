@@ -391,6 +391,7 @@ pub fn result_from_proto(r: pb::JobResult, history: Vec<HistoryPoint>) -> Calibr
         errors: None,
         identifiability: None,
         experiments: vec![],
+        fmi_version: None,
     }
 }
 

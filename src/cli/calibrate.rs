@@ -100,6 +100,7 @@ pub fn run(args: Args) -> Result<()> {
         Err(e) => tracing::warn!("no identifiability analysis: {e:#}"),
     }
 
+    result.fmi_version = Some(fmu.description.fmi_version.clone());
     let x_opt = result.x_opt_in(&prepared.parameter_names);
     let mut fits = vec![];
     for (k, table) in data.iter().enumerate() {

@@ -5,7 +5,7 @@
 
 use anyhow::{Context, Result};
 use fmucal_shared::fmu::schema::{Causality, ModelDescription, ScalarVariable};
-use fmucal_shared::fmu::{Described, LoadOptions, PLATFORM, describe};
+use fmucal_shared::fmu::{Described, LoadOptions, describe, platform_folder};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -51,7 +51,8 @@ fn render(fmu: &Described) -> String {
         line(
             "Binaries",
             format!(
-                "{platforms} (no {PLATFORM} binary {}: it cannot be simulated on this machine)",
+                "{platforms} (no {} binary {}: it cannot be simulated on this machine)",
+                platform_folder(md),
                 fmu.missing_binaries.join(", ")
             ),
         );
@@ -86,7 +87,7 @@ fn render(fmu: &Described) -> String {
             s.push_str(&format!(
                 "  {:<28} {:<12} {:<12} {:<10} {}\n",
                 v.name,
-                format!("{:?}", v.var_type),
+                type_cell(v),
                 v.start.as_ref().map(|x| x.to_string()).unwrap_or_else(|| "-".into()),
                 v.unit.clone().unwrap_or_else(|| "-".into()),
                 v.description.clone().unwrap_or_default()
@@ -94,4 +95,17 @@ fn render(fmu: &Described) -> String {
         }
     }
     s
+}
+
+/// The type column: FMI 2.0's base type, or FMI 3.0's exact type with the dimensions of the
+/// array an element belongs to (`Float64[2×3]`).
+fn type_cell(v: &ScalarVariable) -> String {
+    match &v.fmi3 {
+        Some(s) if !s.dimensions.is_empty() => {
+            let dims: Vec<String> = s.dimensions.iter().map(usize::to_string).collect();
+            format!("{:?}[{}]", s.ty, dims.join("×"))
+        }
+        Some(s) => format!("{:?}", s.ty),
+        None => format!("{:?}", v.var_type),
+    }
 }

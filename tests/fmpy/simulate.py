@@ -1,7 +1,10 @@
 """Simulates an FMU with FMPy on a given grid and writes CSV (time first), for fmucal's
 cross-checks. Exits with status 3 and prints the problems if FMPy's validation fails.
 FMPy's recorder keeps every row it samples: on the grid, at input events in Co-Simulation,
-and at the last successful time of a terminated Co-Simulation; all are written."""
+and at the last successful time of a terminated Co-Simulation; all are written.
+FMI 1.0, 2.0 and 3.0 FMUs alike. FMI 3.0 arrays: a start value of several numbers separated by
+spaces (--set "k=1 2 3") sets an array, and an array output NAME is written as the columns
+NAME[1], NAME[2], ... (the element names of FMI's structured naming convention)."""
 import argparse
 import sys
 
@@ -18,7 +21,8 @@ def main():
     p.add_argument("--interval", type=float, required=True)
     p.add_argument("--stop", type=float, required=True)
     p.add_argument("--input", help="CSV with a time column and one column per input")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="start value (repeatable)")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="start value (repeatable); several space-separated numbers set an array")
     p.add_argument("--output", action="append", required=True)
     p.add_argument("--out", required=True)
     a = p.parse_args()
@@ -36,7 +40,8 @@ def main():
     start_values = {}
     for item in a.set:
         name, value = item.split("=", 1)
-        start_values[name] = float(value)
+        numbers = [float(v) for v in value.split()]
+        start_values[name] = numbers[0] if len(numbers) == 1 else numbers
     result = simulate_fmu(
         a.fmu,
         fmi_type="ModelExchange" if a.interface == "me" else "CoSimulation",
@@ -50,9 +55,17 @@ def main():
         record_events=False,
         validate=True,
     )
-    names = ["time"] + a.output
-    np.savetxt(a.out, np.column_stack([np.asarray(result[n], dtype=np.float64) for n in names]), delimiter=",",
-               header=",".join(names), comments="", fmt="%.17g")
+    header, columns = [], []
+    for name in ["time"] + a.output:
+        values = np.asarray(result[name], dtype=np.float64)
+        if values.ndim == 1:
+            header.append(name)
+            columns.append(values)
+        else:  # an FMI 3.0 array: one column per element, row-major
+            values = values.reshape(values.shape[0], -1)
+            header += [f"{name}[{k + 1}]" for k in range(values.shape[1])]
+            columns += list(values.T)
+    np.savetxt(a.out, np.column_stack(columns), delimiter=",", header=",".join(header), comments="", fmt="%.17g")
 
 
 if __name__ == "__main__":

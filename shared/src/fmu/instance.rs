@@ -1,6 +1,7 @@
-//! A safe FMU instance: owns one [`ffi::Component`], frees it on drop, maps FMI status codes to
-//! `Result`, enforces `canBeInstantiatedOnlyOncePerProcess`, and is reused across simulations
-//! with [`Instance::reset`] (falling back to a fresh `fmi2Instantiate` if the reset fails).
+//! A safe FMU instance of any FMI version: owns one [`ffi::Component`], frees it on drop, maps
+//! FMI status codes to `Result`, enforces `canBeInstantiatedOnlyOncePerProcess`, and is reused
+//! across simulations with [`Instance::reset`] (falling back to a fresh instantiation if the
+//! reset fails).
 //! An instance is not `Send`: it stays on the thread that created it.
 #![deny(unsafe_code)]
 
@@ -41,11 +42,11 @@ pub struct Instance {
     // `None` only after a failed re-instantiation.
     component: Option<Component>,
     _once: Option<OnceGuard>,
-    api: Arc<ffi::Api>,
+    api: ffi::Api,
     description: Arc<ModelDescription>,
     interface: Interface,
     name: String,
-    resource_uri: String,
+    resources: PathBuf,
     time: f64,
 }
 
@@ -75,7 +76,7 @@ impl Instance {
             description: md,
             interface,
             name: name.to_owned(),
-            resource_uri: fmu.resource_uri(),
+            resources: fmu.resources_dir(),
             time: 0.0,
         };
         inst.component = Some(inst.instantiate()?);
@@ -113,7 +114,7 @@ impl Instance {
                 self.time = 0.0;
                 return Ok(());
             }
-            tracing::warn!(model = %self.description.model_name, ?status, "fmi2Reset failed; instantiating again");
+            tracing::warn!(model = %self.description.model_name, ?status, "reset failed; instantiating again");
         }
         self.reinstantiate()
     }
@@ -131,6 +132,7 @@ impl Instance {
     }
 
     /// Calls `f` on the component and maps the status: `Ok`/`Warning`/`Discard` are returned,
+    /// `function` is the FMI 2.0 name of what `f` calls (errors name this version's function);
     /// `Error`/`Fatal`/`Pending` become [`FmuError::Call`] with the FMU's logged messages.
     ///
     /// # Errors
@@ -141,11 +143,12 @@ impl Instance {
         f: impl FnOnce(&mut Component) -> Status,
     ) -> Result<Status, FmuError> {
         let time = self.time;
+        let api = self.api.clone();
         let c = self.component()?;
         let status = f(c);
         match status {
             Status::Ok | Status::Warning | Status::Discard => Ok(status),
-            _ => Err(FmuError::Call { function, status, time, messages: c.take_log() }),
+            _ => Err(FmuError::Call { function: api.function_name(function), status, time, messages: c.take_log() }),
         }
     }
 
@@ -155,7 +158,9 @@ impl Instance {
     /// [`FmuError::Instantiate`] if a failed re-instantiation left no component.
     pub fn component(&mut self) -> Result<&mut Component, FmuError> {
         let model = &self.description.model_name;
+        let function = self.api.instantiate_function(self.interface);
         self.component.as_mut().ok_or_else(|| FmuError::Instantiate {
+            function,
             model: model.clone(),
             messages: vec!["the instance was lost after a failed re-instantiation".into()],
         })
@@ -166,7 +171,12 @@ impl Instance {
             Interface::ModelExchange => FmuType::ModelExchange,
             Interface::CoSimulation => FmuType::CoSimulation,
         };
-        Component::instantiate(self.api.clone(), &self.name, kind, &self.description.guid, &self.resource_uri, false)
-            .map_err(|messages| FmuError::Instantiate { model: self.description.model_name.clone(), messages })
+        self.api
+            .instantiate(&self.description, &self.name, kind, &self.resources, false)
+            .map_err(|messages| FmuError::Instantiate {
+                function: self.api.instantiate_function(self.interface),
+                model: self.description.model_name.clone(),
+                messages,
+            })
     }
 }

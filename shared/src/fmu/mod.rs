@@ -1,5 +1,6 @@
-//! Loading FMI 2.0 FMUs: [`archive`] unpacks the zip safely, [`schema`] reads
-//! `modelDescription.xml`, [`ffi`] loads the platform binary and holds every `unsafe` call,
+//! Loading FMI 2.0 and 3.0 FMUs: [`archive`] unpacks the zip safely, [`schema`] reads
+//! `modelDescription.xml` of either version into one [`ModelDescription`], [`ffi`] loads the
+//! platform binary and holds every `unsafe` call behind one instance trait ([`ffi::FmiCalls`]),
 //! [`log`] takes what an instance logs, and [`instance`] wraps one live FMU instance with `Drop`
 //! and `reset()`.
 
@@ -52,8 +53,8 @@ pub enum FmuError {
     NeedsExecutionTool { model: String },
     #[error("FMU {model} can be instantiated only once per process and an instance is already live")]
     OnlyOncePerProcess { model: String },
-    #[error("fmi2Instantiate of {model} failed{}", fmt_messages(.messages))]
-    Instantiate { model: String, messages: Vec<String> },
+    #[error("{function} of {model} failed{}", fmt_messages(.messages))]
+    Instantiate { function: &'static str, model: String, messages: Vec<String> },
     #[error("{function} returned {status:?} at t={time}{}", fmt_messages(.messages))]
     Call { function: &'static str, status: Status, time: f64, messages: Vec<String> },
 }
@@ -105,8 +106,8 @@ pub struct Fmu {
     pub sha256: String,
     /// Directory the archive was unpacked into.
     pub dir: PathBuf,
-    me: Option<Arc<ffi::Api>>,
-    cs: Option<Arc<ffi::Api>>,
+    me: Option<ffi::Api>,
+    cs: Option<ffi::Api>,
 }
 
 impl std::fmt::Debug for Fmu {
@@ -146,9 +147,9 @@ impl Fmu {
         }
         let me_id = description.model_exchange.as_ref().map(|i| i.model_identifier.clone());
         let cs_id = description.co_simulation.as_ref().map(|i| i.model_identifier.clone());
-        let load = |id: &str, me: bool, cs: bool| -> Result<Arc<ffi::Api>, FmuError> {
-            let bin = binary_path(&unpacked.dir, id)?;
-            Ok(ffi::Api::load(&bin, id, me, cs)?)
+        let load = |id: &str, me: bool, cs: bool| -> Result<ffi::Api, FmuError> {
+            let bin = binary_path(&unpacked.dir, &description, id)?;
+            Ok(ffi::Api::load(&bin, &description, id, me, cs)?)
         };
         let (me, cs) = match (&me_id, &cs_id) {
             (Some(a), Some(b)) if a == b => {
@@ -175,7 +176,7 @@ impl Fmu {
         v
     }
 
-    pub(crate) fn api(&self, interface: Interface) -> Result<Arc<ffi::Api>, FmuError> {
+    pub(crate) fn api(&self, interface: Interface) -> Result<ffi::Api, FmuError> {
         match interface {
             Interface::ModelExchange => self.me.clone(),
             Interface::CoSimulation => self.cs.clone(),
@@ -183,16 +184,14 @@ impl Fmu {
         .ok_or(FmuError::NoInterface(interface))
     }
 
+    /// The unpacked `resources/` folder.
+    pub fn resources_dir(&self) -> PathBuf {
+        self.dir.join("resources")
+    }
+
     /// `file://` URI of the unpacked `resources/` folder, as `fmi2Instantiate` expects.
     pub fn resource_uri(&self) -> String {
-        let mut uri = String::from("file://");
-        for b in self.dir.join("resources").to_string_lossy().bytes() {
-            match b {
-                b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'/' | b'-' | b'_' | b'.' | b'~' => uri.push(b as char),
-                _ => uri.push_str(&format!("%{b:02X}")),
-            }
-        }
-        uri
+        ffi::file_uri(&self.resources_dir())
     }
 }
 
@@ -233,7 +232,7 @@ pub fn describe(path: &Path, opts: &LoadOptions) -> Result<Described, FmuError> 
     let mut missing_binaries: Vec<String> = [&description.model_exchange, &description.co_simulation]
         .into_iter()
         .flatten()
-        .map(|info| binary_in_archive(&info.model_identifier))
+        .map(|info| binary_in_archive(&description, &info.model_identifier))
         .filter(|rel| !unpacked.dir.join(rel).is_file())
         .collect();
     missing_binaries.dedup();
@@ -260,18 +259,41 @@ fn platforms(dir: &Path) -> Vec<String> {
     found
 }
 
-/// Where the binary this build loads for `identifier` sits inside an FMU archive.
-fn binary_in_archive(identifier: &str) -> String {
-    format!("binaries/{PLATFORM}/{identifier}.{LIB_EXT}")
+/// The platform folder under `binaries/` of this build for an FMU of `description`'s version:
+/// FMI 2.0's `linux64`, or FMI 3.0's platform tuple (`x86_64-linux`).
+pub fn platform_folder(description: &ModelDescription) -> &'static str {
+    if description.fmi_version.starts_with("3.") { PLATFORM_TUPLE } else { PLATFORM }
 }
 
-fn binary_path(dir: &Path, identifier: &str) -> Result<PathBuf, FmuError> {
-    let expected = binary_in_archive(identifier);
+/// The FMI 3.0 platform tuple of this build.
+pub const PLATFORM_TUPLE: &str = if cfg!(all(target_arch = "x86_64", target_os = "linux")) {
+    "x86_64-linux"
+} else if cfg!(all(target_arch = "aarch64", target_os = "linux")) {
+    "aarch64-linux"
+} else if cfg!(all(target_arch = "x86", target_os = "linux")) {
+    "x86-linux"
+} else if cfg!(all(target_arch = "x86_64", target_os = "macos")) {
+    "x86_64-darwin"
+} else if cfg!(all(target_arch = "aarch64", target_os = "macos")) {
+    "aarch64-darwin"
+} else if cfg!(all(target_arch = "x86_64", windows)) {
+    "x86_64-windows"
+} else {
+    "x86-windows"
+};
+
+/// Where the binary this build loads for `identifier` sits inside an FMU archive.
+fn binary_in_archive(description: &ModelDescription, identifier: &str) -> String {
+    format!("binaries/{}/{identifier}.{LIB_EXT}", platform_folder(description))
+}
+
+fn binary_path(dir: &Path, description: &ModelDescription, identifier: &str) -> Result<PathBuf, FmuError> {
+    let expected = binary_in_archive(description, identifier);
     let path = dir.join(&expected);
     if path.is_file() {
         return Ok(path);
     }
     let present = platforms(dir);
     let present = if present.is_empty() { "none".to_owned() } else { present.join(", ") };
-    Err(FmuError::NoPlatformBinary { platform: PLATFORM, expected, present })
+    Err(FmuError::NoPlatformBinary { platform: platform_folder(description), expected, present })
 }

@@ -148,7 +148,7 @@ impl PreparedExperiment {
             let field = format!("parameters[{k}].name");
             let v = md
                 .variable(&p.name)
-                .ok_or_else(|| JobError::invalid(&field, format!("unknown variable {:?}", p.name)))?;
+                .ok_or_else(|| JobError::invalid(&field, md.unknown_variable(&p.name)))?;
             if v.var_type != VarType::Real {
                 return Err(JobError::invalid(
                     &field,
@@ -179,17 +179,20 @@ impl PreparedExperiment {
             }
         }
         for (k, o) in spec.outputs.iter().enumerate() {
-            let v = md.variable(&o.variable).ok_or_else(|| {
-                JobError::invalid(format!("outputs[{k}].variable"), format!("unknown variable {:?}", o.variable))
-            })?;
-            if v.var_type == VarType::String {
-                return Err(JobError::invalid(format!("outputs[{k}].variable"), format!("{} is a String", o.variable)));
+            let v = md
+                .variable(&o.variable)
+                .ok_or_else(|| JobError::invalid(format!("outputs[{k}].variable"), md.unknown_variable(&o.variable)))?;
+            if matches!(v.var_type, VarType::String | VarType::Binary | VarType::Clock) {
+                return Err(JobError::invalid(
+                    format!("outputs[{k}].variable"),
+                    format!("{} is a {:?}", o.variable, v.var_type),
+                ));
             }
         }
         for (k, i) in spec.inputs.iter().enumerate() {
-            let v = md.variable(&i.variable).ok_or_else(|| {
-                JobError::invalid(format!("inputs[{k}].variable"), format!("unknown variable {:?}", i.variable))
-            })?;
+            let v = md
+                .variable(&i.variable)
+                .ok_or_else(|| JobError::invalid(format!("inputs[{k}].variable"), md.unknown_variable(&i.variable)))?;
             if v.causality != Causality::Input {
                 return Err(JobError::invalid(
                     format!("inputs[{k}].variable"),

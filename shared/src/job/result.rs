@@ -81,6 +81,9 @@ pub struct CalibrationResult {
     /// For a job with `[[experiments]]`: each experiment's RMS errors, when the CLI computed them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub experiments: Vec<ExperimentErrors>,
+    /// The FMI version of the model (`fmiVersion` of its description), when the CLI wrote it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fmi_version: Option<String>,
 }
 
 /// One experiment's RMS errors in `result.json`.
@@ -155,6 +158,7 @@ mod tests {
             errors: Some(report),
             identifiability: None,
             experiments: vec![],
+            fmi_version: None,
         };
         let json = serde_json::to_string(&result).unwrap();
         // The optimum and the best value so far keep their infinity (a job with no successful

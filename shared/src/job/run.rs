@@ -283,6 +283,7 @@ impl JobRun {
             errors: None,
             identifiability: None,
             experiments: vec![],
+            fmi_version: None,
         }
     }
 }

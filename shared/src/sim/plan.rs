@@ -592,6 +592,8 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
             _ => Err(invalid(format!("{name} = {text:?} is not a boolean (true/false)"))),
         },
         VarType::String => Err(invalid(format!("setting String variable {name:?} is not supported"))),
+        VarType::Binary => Err(invalid(format!("setting Binary variable {name:?} is not supported"))),
+        VarType::Clock => Err(invalid(format!("setting Clock variable {name:?} is not supported"))),
     }
 }
 

@@ -449,6 +449,7 @@ async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &Candida
         errors: None,
         identifiability: None,
         experiments: vec![],
+        fmi_version: None,
     };
     Ok(Fitted { job: job.clone(), result: Ok((result, id)), elapsed, simulations })
 }

@@ -1,56 +1,13 @@
-//! The FMI 2.0 C boundary: every `extern "C"` type, the libloading symbol table, the C logger
-//! shim, and [`Component`], the thin wrapper whose methods are the only calls into FMU code.
-//! All of the project's `unsafe` lives in this module. Status codes are returned raw here and
-//! mapped to `Result` by [`crate::fmu::instance`].
+//! FMI 2.0: the libloading symbol table, the C logger shim (the 2.0 logger is variadic), and
+//! [`Component`], the wrapper of one `fmi2Component` whose methods are the only calls into
+//! FMI 2.0 FMU code.
 
-use std::ffi::{CStr, CString, c_char, c_int, c_uint, c_void};
+use std::ffi::{CString, c_char, c_int, c_uint, c_void};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Once};
 
-use super::log::InstanceLog;
-
-/// FMI 2.0 status code (`fmi2Status`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Status {
-    Ok,
-    Warning,
-    Discard,
-    Error,
-    Fatal,
-    Pending,
-}
-
-impl Status {
-    fn from_raw(v: c_int) -> Self {
-        match v {
-            0 => Status::Ok,
-            1 => Status::Warning,
-            2 => Status::Discard,
-            3 => Status::Error,
-            5 => Status::Pending,
-            _ => Status::Fatal,
-        }
-    }
-}
-
-/// Which interface an instance is created for (`fmi2Type`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FmuType {
-    ModelExchange = 0,
-    CoSimulation = 1,
-}
-
-/// `fmi2EventInfo`.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Default)]
-pub struct EventInfo {
-    pub new_discrete_states_needed: c_int,
-    pub terminate_simulation: c_int,
-    pub nominals_of_continuous_states_changed: c_int,
-    pub values_of_continuous_states_changed: c_int,
-    pub next_event_time_defined: c_int,
-    pub next_event_time: f64,
-}
+use super::{EventInfo, FfiError, FmiCalls, FmuType, Status, lossy};
+use crate::fmu::log::InstanceLog;
 
 #[repr(C)]
 struct CallbackFunctions {
@@ -77,14 +34,6 @@ unsafe extern "C" {
     fn fmucal_free(p: *mut c_void);
 }
 
-fn lossy(p: *const c_char) -> String {
-    if p.is_null() {
-        return String::new();
-    }
-    // SAFETY: the shim passes NUL-terminated strings that live for the duration of the call.
-    unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
-}
-
 extern "C" fn log_sink(
     env: *mut c_void,
     instance: *const c_char,
@@ -96,7 +45,7 @@ extern "C" fn log_sink(
     let status = Status::from_raw(status);
     if env.is_null() {
         // The FMU did not pass back our environment: no per-instance log to count repeats in.
-        super::log::emit(status, &instance, &category, &message);
+        crate::fmu::log::emit(status, &instance, &category, &message);
         return;
     }
     // SAFETY: env is the InstanceLog owned by the Component that is calling into the FMU; it
@@ -109,15 +58,6 @@ fn install_log_sink() {
     static ONCE: Once = Once::new();
     // SAFETY: stores a function pointer in the shim; no other state is touched.
     ONCE.call_once(|| unsafe { fmucal_set_log_sink(log_sink) });
-}
-
-/// Why a binary could not be loaded.
-#[derive(Debug, thiserror::Error)]
-pub enum FfiError {
-    #[error("cannot load FMU binary {path}: {message}")]
-    Load { path: PathBuf, message: String },
-    #[error("FMU binary {path} does not export {symbol}")]
-    MissingSymbol { path: PathBuf, symbol: String },
 }
 
 macro_rules! fmi_api {
@@ -352,16 +292,18 @@ impl Component {
         Ok(Component { api, raw, log, _callbacks: callbacks })
     }
 
-    /// Messages the FMU logged at warning level or worse since the last call.
-    pub fn take_log(&self) -> Vec<String> {
+}
+
+impl FmiCalls for Component {
+    fn take_log(&self) -> Vec<String> {
         self.log.drain()
     }
 
-    pub fn set_debug_logging(&mut self, on: bool) -> Status {
+    fn set_debug_logging(&mut self, on: bool) -> Status {
         call!(self, set_debug_logging, on as c_int, 0, std::ptr::null())
     }
 
-    pub fn setup_experiment(&mut self, tolerance: Option<f64>, start: f64, stop: Option<f64>) -> Status {
+    fn setup_experiment(&mut self, tolerance: Option<f64>, start: f64, stop: Option<f64>) -> Status {
         call!(
             self,
             setup_experiment,
@@ -373,89 +315,89 @@ impl Component {
         )
     }
 
-    pub fn enter_initialization_mode(&mut self) -> Status {
+    fn enter_initialization_mode(&mut self) -> Status {
         call!(self, enter_initialization_mode)
     }
-    pub fn exit_initialization_mode(&mut self) -> Status {
+    fn exit_initialization_mode(&mut self) -> Status {
         call!(self, exit_initialization_mode)
     }
-    pub fn terminate(&mut self) -> Status {
+    fn terminate(&mut self) -> Status {
         call!(self, terminate)
     }
-    pub fn reset(&mut self) -> Status {
+    fn reset(&mut self) -> Status {
         call!(self, reset)
     }
 
-    pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Status {
+    fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Status {
         assert_eq!(vrs.len(), out.len());
         call!(self, get_real, vrs.as_ptr(), vrs.len(), out.as_mut_ptr())
     }
-    pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Status {
+    fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Status {
         assert_eq!(vrs.len(), values.len());
         call!(self, set_real, vrs.as_ptr(), vrs.len(), values.as_ptr())
     }
-    pub fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Status {
+    fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Status {
         assert_eq!(vrs.len(), out.len());
         call!(self, get_integer, vrs.as_ptr(), vrs.len(), out.as_mut_ptr())
     }
-    pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Status {
+    fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Status {
         assert_eq!(vrs.len(), values.len());
         call!(self, set_integer, vrs.as_ptr(), vrs.len(), values.as_ptr())
     }
-    pub fn get_boolean(&mut self, vrs: &[u32], out: &mut [i32]) -> Status {
+    fn get_boolean(&mut self, vrs: &[u32], out: &mut [i32]) -> Status {
         assert_eq!(vrs.len(), out.len());
         call!(self, get_boolean, vrs.as_ptr(), vrs.len(), out.as_mut_ptr())
     }
-    pub fn set_boolean(&mut self, vrs: &[u32], values: &[i32]) -> Status {
+    fn set_boolean(&mut self, vrs: &[u32], values: &[i32]) -> Status {
         assert_eq!(vrs.len(), values.len());
         call!(self, set_boolean, vrs.as_ptr(), vrs.len(), values.as_ptr())
     }
 
-    pub fn enter_event_mode(&mut self) -> Status {
+    fn enter_event_mode(&mut self) -> Status {
         call!(self, enter_event_mode)
     }
-    pub fn new_discrete_states(&mut self, info: &mut EventInfo) -> Status {
+    fn new_discrete_states(&mut self, info: &mut EventInfo) -> Status {
         call!(self, new_discrete_states, info as *mut EventInfo)
     }
-    pub fn enter_continuous_time_mode(&mut self) -> Status {
+    fn enter_continuous_time_mode(&mut self) -> Status {
         call!(self, enter_continuous_time_mode)
     }
     /// Returns (status, enterEventMode, terminateSimulation).
-    pub fn completed_integrator_step(&mut self) -> (Status, bool, bool) {
+    fn completed_integrator_step(&mut self) -> (Status, bool, bool) {
         let (mut enter, mut term): (c_int, c_int) = (0, 0);
         let s = call!(self, completed_integrator_step, 1, &mut enter, &mut term);
         (s, enter != 0, term != 0)
     }
-    pub fn set_time(&mut self, t: f64) -> Status {
+    fn set_time(&mut self, t: f64) -> Status {
         call!(self, set_time, t)
     }
-    pub fn set_continuous_states(&mut self, x: &[f64]) -> Status {
+    fn set_continuous_states(&mut self, x: &[f64]) -> Status {
         call!(self, set_continuous_states, x.as_ptr(), x.len())
     }
-    pub fn get_derivatives(&mut self, dx: &mut [f64]) -> Status {
+    fn get_derivatives(&mut self, dx: &mut [f64]) -> Status {
         call!(self, get_derivatives, dx.as_mut_ptr(), dx.len())
     }
-    pub fn get_event_indicators(&mut self, z: &mut [f64]) -> Status {
+    fn get_event_indicators(&mut self, z: &mut [f64]) -> Status {
         call!(self, get_event_indicators, z.as_mut_ptr(), z.len())
     }
-    pub fn get_continuous_states(&mut self, x: &mut [f64]) -> Status {
+    fn get_continuous_states(&mut self, x: &mut [f64]) -> Status {
         call!(self, get_continuous_states, x.as_mut_ptr(), x.len())
     }
-    pub fn get_nominals_of_continuous_states(&mut self, x: &mut [f64]) -> Status {
+    fn get_nominals_of_continuous_states(&mut self, x: &mut [f64]) -> Status {
         call!(self, get_nominals_of_continuous_states, x.as_mut_ptr(), x.len())
     }
 
-    pub fn do_step(&mut self, t: f64, h: f64) -> Status {
+    fn do_step(&mut self, t: f64, h: f64) -> Status {
         call!(self, do_step, t, h, 1)
     }
     /// `fmi2GetBooleanStatus(fmi2Terminated)`, if the FMU exports it.
-    pub fn terminated(&mut self) -> Option<bool> {
+    fn terminated(&mut self) -> Option<bool> {
         self.api.get_boolean_status?;
         let mut v: c_int = 0;
         (call!(self, get_boolean_status, 3, &mut v) == Status::Ok).then_some(v != 0)
     }
     /// `fmi2GetRealStatus(fmi2LastSuccessfulTime)`, if the FMU exports it.
-    pub fn last_successful_time(&mut self) -> Option<f64> {
+    fn last_successful_time(&mut self) -> Option<f64> {
         self.api.get_real_status?;
         let mut v = 0.0;
         (call!(self, get_real_status, 2, &mut v) == Status::Ok).then_some(v)

@@ -1,8 +1,12 @@
-//! Parses an FMI 2.0 `modelDescription.xml` into plain structs (FMI 2.0 specification, section
-//! 2.2). Pure code with no `unsafe`: attributes, capability flags, units, type definitions,
-//! scalar variables (with declared types resolved), model structure and default experiment.
-//! FMI 1.0 and 3.0 descriptions are recognised and rejected with [`SchemaError::UnsupportedVersion`].
+//! Parses a `modelDescription.xml` into plain structs, one [`ModelDescription`] whatever the FMI
+//! version: FMI 2.0 here (specification section 2.2), FMI 3.0 in [`fmi3`], which maps its typed
+//! variables, arrays and value-reference-based model structure onto the same structs. Pure code
+//! with no `unsafe`: attributes, capability flags, units, type definitions, scalar variables
+//! (with declared types resolved), model structure and default experiment. FMI 1.0 descriptions
+//! are recognised and rejected with [`SchemaError::UnsupportedVersion`].
 #![deny(unsafe_code)]
+
+mod fmi3;
 
 use quick_xml::Reader;
 use quick_xml::events::{BytesStart, Event};
@@ -17,9 +21,12 @@ pub enum SchemaError {
     /// The description is valid XML but breaks an FMI 2.0 rule.
     #[error("invalid modelDescription.xml: {0}")]
     Invalid(String),
-    /// `fmiVersion` is not 2.0.
-    #[error("FMI {0} FMUs are not supported yet (fmucal reads FMI 2.0)")]
+    /// `fmiVersion` is not 2.0 or 3.0.
+    #[error("FMI {0} FMUs are not supported yet (fmucal reads FMI 2.0 and 3.0)")]
     UnsupportedVersion(String),
+    /// The FMU needs an FMI feature fmucal does not implement.
+    #[error("{0}")]
+    UnsupportedFeature(String),
 }
 
 /// Where a variable's value comes from (FMI 2.0 section 2.2.7, `causality`).
@@ -54,7 +61,8 @@ pub enum Initial {
     Calculated,
 }
 
-/// The base type of a scalar variable.
+/// The base type of a scalar variable (FMI 3.0's types by kind: Float32 and Float64 are Real,
+/// every integer width is Integer; [`ScalarVariable::fmi3`] keeps the exact type).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum VarType {
     Real,
@@ -62,6 +70,59 @@ pub enum VarType {
     Boolean,
     String,
     Enumeration,
+    /// FMI 3.0 only.
+    Binary,
+    /// FMI 3.0 only.
+    Clock,
+}
+
+/// The exact type of an FMI 3.0 variable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Fmi3Type {
+    Float32,
+    Float64,
+    Int8,
+    UInt8,
+    Int16,
+    UInt16,
+    Int32,
+    UInt32,
+    Int64,
+    UInt64,
+    Boolean,
+    String,
+    Binary,
+    Enumeration,
+    Clock,
+}
+
+/// How fmucal reaches a variable of an FMI 3.0 FMU. An array is listed as one variable per
+/// element (`k[2]`, `m[1,3]`), each with a value reference of fmucal's own
+/// ([`ScalarVariable::value_reference`]); this says which array it belongs to and where.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Fmi3Storage {
+    /// The FMI 3.0 type.
+    #[serde(rename = "type")]
+    pub ty: Fmi3Type,
+    /// The value reference in the FMU (the whole array's, for an element).
+    pub value_reference: u32,
+    /// For an element: its position in the array, flattened in row-major order (0-based).
+    pub element: Option<usize>,
+    /// The array's dimensions (empty for a scalar).
+    pub dimensions: Vec<usize>,
+}
+
+impl Fmi3Storage {
+    /// How many values the variable holds (1 for a scalar).
+    pub fn len(&self) -> usize {
+        self.dimensions.iter().product()
+    }
+
+    /// Whether the variable holds no value (an array with a zero dimension).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
 }
 
 /// A start value, typed by the variable's base type.
@@ -106,6 +167,9 @@ pub struct ScalarVariable {
     /// 1-based index of the state this variable is the derivative of.
     pub derivative: Option<usize>,
     pub reinit: bool,
+    /// FMI 3.0 only: the exact type, and the array an element belongs to.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fmi3: Option<Fmi3Storage>,
 }
 
 impl ScalarVariable {
@@ -264,12 +328,33 @@ impl ModelDescription {
     /// [`SchemaError::Xml`] for malformed XML, [`SchemaError::UnsupportedVersion`] for FMI 1.0/3.0,
     /// [`SchemaError::Invalid`] for a description that breaks FMI 2.0's rules.
     pub fn parse(xml: &str) -> Result<Self, SchemaError> {
+        if fmi3::is_fmi3(xml) {
+            return fmi3::parse(xml);
+        }
         Parser::default().run(xml)
     }
 
     /// The variable with this name.
     pub fn variable(&self, name: &str) -> Option<&ScalarVariable> {
         self.variables.iter().find(|v| v.name == name)
+    }
+
+    /// Why no variable is called `name`, for an error message: "unknown variable …", or, for
+    /// an FMI 3.0 array, that it must be named by element or that the index is out of range.
+    pub fn unknown_variable(&self, name: &str) -> String {
+        let base = name.split_once('[').map_or(name, |(b, _)| b);
+        let prefix = format!("{base}[");
+        let elements: Vec<&ScalarVariable> = self.variables.iter().filter(|v| v.name.starts_with(&prefix)).collect();
+        let (Some(first), Some(last)) = (elements.first(), elements.last()) else {
+            return format!("unknown variable {name:?}");
+        };
+        let dims = first.fmi3.as_ref().map(|s| s.dimensions.clone()).unwrap_or_default();
+        let shape = dims.iter().map(usize::to_string).collect::<Vec<_>>().join("×");
+        if base == name {
+            format!("{name} is an array of {shape}: name one element, {} to {}", first.name, last.name)
+        } else {
+            format!("{name}: index out of range; {base} is an array of {shape} ({} to {})", first.name, last.name)
+        }
     }
 
     /// A variable's unit: its own, else its declared type's.
@@ -646,6 +731,7 @@ fn scalar_variable(a: &Attrs) -> Result<ScalarVariable, SchemaError> {
         unit: None,
         derivative: None,
         reinit: false,
+        fmi3: None,
     })
 }
 
@@ -682,6 +768,7 @@ fn apply_type_element(var: &mut ScalarVariable, elem: &str, a: &Attrs) -> Result
                 }
             }),
             VarType::String => Value::String(s.to_owned()),
+            VarType::Binary | VarType::Clock => return Ok(()),
         }),
     };
     Ok(())
@@ -775,8 +862,8 @@ mod tests {
     }
 
     #[test]
-    fn fmi1_and_fmi3_are_rejected_as_unsupported() {
-        for (v, want) in [("1.0", "1.0"), ("3.0", "3.0"), ("3.0-beta", "3.0")] {
+    fn fmi1_and_later_versions_are_rejected_as_unsupported() {
+        for (v, want) in [("1.0", "1.0"), ("4.0", "4.0"), ("1.0-beta", "1.0")] {
             let xml = MINIMAL.replace("fmiVersion=\"2.0\"", &format!("fmiVersion=\"{v}\""));
             match ModelDescription::parse(&xml) {
                 Err(SchemaError::UnsupportedVersion(got)) => assert_eq!(got, want),

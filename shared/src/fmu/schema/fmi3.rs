@@ -1,0 +1,670 @@
+//! FMI 3.0 `modelDescription.xml` (FMI 3.0 specification, section 2.4) onto the version-free
+//! [`ModelDescription`]: typed variables (`Float64`, `Float32`, `Int8` … `UInt64`, `Boolean`,
+//! `String`, `Binary`, `Enumeration`, `Clock`) become [`ScalarVariable`]s of the matching
+//! [`VarType`] with their exact [`Fmi3Storage`]; an array becomes one variable per element,
+//! named `name[i]` or `name[i,j]` (1-based, as FMPy and Modelica write them) with a value
+//! reference of fmucal's own past the FMU's largest; the model structure, which 3.0 writes with
+//! value references, is turned into the 1-based variable indices of FMI 2.0; the instantiation
+//! token is kept as the GUID. FMUs that need Scheduled Execution or clocks are refused with
+//! [`SchemaError::UnsupportedFeature`].
+
+use std::collections::HashMap;
+
+use quick_xml::Reader;
+use quick_xml::events::Event;
+
+use super::{
+    Attrs, BaseUnit, Causality, DefaultExperiment, DisplayUnit, EnumItem, Fmi3Storage, Fmi3Type, Initial,
+    InterfaceInfo, ModelDescription, ModelStructure, ScalarVariable, SchemaError, SimpleType, Unit, Unknown, Value,
+    VarType, Variability, err_invalid,
+};
+
+/// Whether the root element says `fmiVersion="3.…"` (read from the first element only).
+pub(super) fn is_fmi3(xml: &str) -> bool {
+    let mut reader = Reader::from_str(xml);
+    loop {
+        match reader.read_event() {
+            Ok(Event::Start(e) | Event::Empty(e)) => {
+                return e
+                    .try_get_attribute("fmiVersion")
+                    .ok()
+                    .flatten()
+                    .is_some_and(|a| a.value.starts_with("3."));
+            }
+            Ok(Event::Eof) | Err(_) => return false,
+            Ok(_) => {}
+        }
+    }
+}
+
+/// A variable as written, before its array is expanded.
+struct RawVariable {
+    var: ScalarVariable,
+    ty: Fmi3Type,
+    /// `Dimension` elements: a fixed size, or the value reference of a structural parameter.
+    dimensions: Vec<DimensionSize>,
+    /// The start attribute, or the `Start value=…` children of a String/Binary, as written.
+    start: Vec<String>,
+    /// The value reference of the state this is the derivative of.
+    derivative_of: Option<u32>,
+}
+
+enum DimensionSize {
+    Fixed(usize),
+    Parameter(u32),
+}
+
+#[derive(Default)]
+struct Parser {
+    md: Option<ModelDescription>,
+    path: Vec<String>,
+    raw: Vec<RawVariable>,
+    scheduled_execution: bool,
+    /// ModelStructure lists, by value reference: (list, value reference, dependencies).
+    structure: Vec<(&'static str, u32, Option<Vec<u32>>)>,
+    event_indicators: Vec<u32>,
+}
+
+/// Parses an FMI 3.0 description.
+///
+/// # Errors
+/// [`SchemaError::Xml`] for malformed XML, [`SchemaError::Invalid`] for a description that
+/// breaks FMI 3.0's rules, [`SchemaError::UnsupportedFeature`] for Scheduled Execution only, or
+/// clocks.
+pub(super) fn parse(xml: &str) -> Result<ModelDescription, SchemaError> {
+    let mut p = Parser::default();
+    let mut reader = Reader::from_str(xml);
+    reader.config_mut().trim_text(true);
+    loop {
+        let position = reader.buffer_position();
+        let event = reader.read_event().map_err(|e| SchemaError::Xml { position, message: e.to_string() })?;
+        match event {
+            Event::Start(e) => {
+                let name = e.name().as_ref().to_string();
+                let attrs = Attrs::read(&e, position)?;
+                p.open(&name, &attrs)?;
+                p.path.push(name);
+            }
+            Event::Empty(e) => {
+                let name = e.name().as_ref().to_string();
+                let attrs = Attrs::read(&e, position)?;
+                p.open(&name, &attrs)?;
+            }
+            Event::End(_) => {
+                p.path.pop();
+            }
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    if !p.path.is_empty() {
+        return Err(SchemaError::Xml {
+            position: xml.len() as u64,
+            message: format!("document ends inside <{}>", p.path.join("/")),
+        });
+    }
+    p.finish()
+}
+
+fn fmi3_type(elem: &str) -> Option<Fmi3Type> {
+    Some(match elem {
+        "Float32" => Fmi3Type::Float32,
+        "Float64" => Fmi3Type::Float64,
+        "Int8" => Fmi3Type::Int8,
+        "UInt8" => Fmi3Type::UInt8,
+        "Int16" => Fmi3Type::Int16,
+        "UInt16" => Fmi3Type::UInt16,
+        "Int32" => Fmi3Type::Int32,
+        "UInt32" => Fmi3Type::UInt32,
+        "Int64" => Fmi3Type::Int64,
+        "UInt64" => Fmi3Type::UInt64,
+        "Boolean" => Fmi3Type::Boolean,
+        "String" => Fmi3Type::String,
+        "Binary" => Fmi3Type::Binary,
+        "Enumeration" => Fmi3Type::Enumeration,
+        "Clock" => Fmi3Type::Clock,
+        _ => return None,
+    })
+}
+
+fn var_type(ty: Fmi3Type) -> VarType {
+    match ty {
+        Fmi3Type::Float32 | Fmi3Type::Float64 => VarType::Real,
+        Fmi3Type::Boolean => VarType::Boolean,
+        Fmi3Type::String => VarType::String,
+        Fmi3Type::Binary => VarType::Binary,
+        Fmi3Type::Enumeration => VarType::Enumeration,
+        Fmi3Type::Clock => VarType::Clock,
+        _ => VarType::Integer,
+    }
+}
+
+fn value_references(list: &str, what: &str) -> Result<Vec<u32>, SchemaError> {
+    list.split_whitespace()
+        .map(|x| x.parse().map_err(|_| err_invalid(format!("{what}: {x:?} is not a value reference"))))
+        .collect()
+}
+
+fn interface(elem: &str, a: &Attrs) -> Result<InterfaceInfo, SchemaError> {
+    Ok(InterfaceInfo {
+        model_identifier: a.required(elem, "modelIdentifier")?,
+        needs_execution_tool: a.bool(elem, "needsExecutionTool")?,
+        can_be_instantiated_only_once_per_process: a.bool(elem, "canBeInstantiatedOnlyOncePerProcess")?,
+        can_not_use_memory_management_functions: false,
+        can_get_and_set_fmu_state: a.bool(elem, "canGetAndSetFMUState")?,
+        can_serialize_fmu_state: a.bool(elem, "canSerializeFMUState")?,
+        provides_directional_derivative: a.bool(elem, "providesDirectionalDerivatives")?,
+        completed_integrator_step_not_needed: elem == "ModelExchange" && !a.bool(elem, "needsCompletedIntegratorStep")?,
+        can_handle_variable_communication_step_size: a.bool(elem, "canHandleVariableCommunicationStepSize")?,
+        can_interpolate_inputs: a.bool(elem, "canInterpolateInputs")?,
+        max_output_derivative_order: a.int(elem, "maxOutputDerivativeOrder")?.unwrap_or(0),
+        can_run_asynchronuously: false,
+    })
+}
+
+impl Parser {
+    fn md(&mut self, elem: &str) -> Result<&mut ModelDescription, SchemaError> {
+        self.md.as_mut().ok_or_else(|| err_invalid(format!("<{elem}> outside <fmiModelDescription>")))
+    }
+
+    fn parent(&self) -> Option<&str> {
+        self.path.last().map(String::as_str)
+    }
+
+    fn open(&mut self, name: &str, a: &Attrs) -> Result<(), SchemaError> {
+        match (self.parent(), name) {
+            (None, "fmiModelDescription") => {
+                self.md = Some(ModelDescription {
+                    fmi_version: a.required(name, "fmiVersion")?,
+                    model_name: a.required(name, "modelName")?,
+                    guid: a.required(name, "instantiationToken")?,
+                    description: a.string("description"),
+                    generation_tool: a.string("generationTool"),
+                    generation_date_and_time: a.string("generationDateAndTime"),
+                    variable_naming_convention: a.string("variableNamingConvention"),
+                    number_of_event_indicators: 0,
+                    model_exchange: None,
+                    co_simulation: None,
+                    unit_definitions: vec![],
+                    type_definitions: vec![],
+                    log_categories: vec![],
+                    default_experiment: None,
+                    variables: vec![],
+                    model_structure: ModelStructure::default(),
+                });
+            }
+            (None, other) => {
+                return Err(err_invalid(format!("root element is <{other}>, expected <fmiModelDescription>")));
+            }
+            (Some("fmiModelDescription"), "ModelExchange" | "CoSimulation") => {
+                let info = interface(name, a)?;
+                let md = self.md(name)?;
+                if name == "ModelExchange" {
+                    md.model_exchange = Some(info);
+                } else {
+                    md.co_simulation = Some(info);
+                }
+            }
+            (Some("fmiModelDescription"), "ScheduledExecution") => self.scheduled_execution = true,
+            (Some("UnitDefinitions"), "Unit") => {
+                let unit = Unit { name: a.required(name, "name")?, base_unit: None, display_units: vec![] };
+                self.md(name)?.unit_definitions.push(unit);
+            }
+            (Some("Unit"), "BaseUnit") => {
+                let base = BaseUnit {
+                    kg: a.int(name, "kg")?.unwrap_or(0),
+                    m: a.int(name, "m")?.unwrap_or(0),
+                    s: a.int(name, "s")?.unwrap_or(0),
+                    a: a.int(name, "A")?.unwrap_or(0),
+                    k: a.int(name, "K")?.unwrap_or(0),
+                    mol: a.int(name, "mol")?.unwrap_or(0),
+                    cd: a.int(name, "cd")?.unwrap_or(0),
+                    rad: a.int(name, "rad")?.unwrap_or(0),
+                    factor: a.f64(name, "factor")?.unwrap_or(1.0),
+                    offset: a.f64(name, "offset")?.unwrap_or(0.0),
+                };
+                if let Some(unit) = self.md(name)?.unit_definitions.last_mut() {
+                    unit.base_unit = Some(base);
+                }
+            }
+            (Some("Unit"), "DisplayUnit") => {
+                let du = DisplayUnit {
+                    name: a.required(name, "name")?,
+                    factor: a.f64(name, "factor")?.unwrap_or(1.0),
+                    offset: a.f64(name, "offset")?.unwrap_or(0.0),
+                };
+                if let Some(unit) = self.md(name)?.unit_definitions.last_mut() {
+                    unit.display_units.push(du);
+                }
+            }
+            (Some("TypeDefinitions"), type_elem) if type_elem.ends_with("Type") => {
+                let Some(ty) = fmi3_type(type_elem.trim_end_matches("Type")) else { return Ok(()) };
+                let st = SimpleType {
+                    name: a.required(name, "name")?,
+                    description: a.string("description"),
+                    base_type: var_type(ty),
+                    quantity: a.string("quantity"),
+                    unit: a.string("unit"),
+                    min: a.f64(name, "min")?,
+                    max: a.f64(name, "max")?,
+                    nominal: a.f64(name, "nominal")?,
+                    items: vec![],
+                };
+                self.md(name)?.type_definitions.push(st);
+            }
+            (Some("EnumerationType"), "Item") => {
+                let item = EnumItem {
+                    name: a.required(name, "name")?,
+                    value: a.int(name, "value")?.ok_or_else(|| err_invalid("<Item> has no value attribute"))?,
+                    description: a.string("description"),
+                };
+                if let Some(st) = self.md(name)?.type_definitions.last_mut() {
+                    st.items.push(item);
+                }
+            }
+            (Some("LogCategories"), "Category") => {
+                let cat = a.required(name, "name")?;
+                self.md(name)?.log_categories.push(cat);
+            }
+            (Some("fmiModelDescription"), "DefaultExperiment") => {
+                let de = DefaultExperiment {
+                    start_time: a.f64(name, "startTime")?,
+                    stop_time: a.f64(name, "stopTime")?,
+                    tolerance: a.f64(name, "tolerance")?,
+                    step_size: a.f64(name, "stepSize")?,
+                };
+                self.md(name)?.default_experiment = Some(de);
+            }
+            (Some("ModelVariables"), elem) => {
+                let ty = fmi3_type(elem).ok_or_else(|| err_invalid(format!("unknown variable element <{elem}>")))?;
+                let raw = variable(ty, a)?;
+                self.raw.push(raw);
+            }
+            (Some(var_elem), "Dimension") if fmi3_type(var_elem).is_some() => {
+                let raw = self.raw.last_mut().ok_or_else(|| err_invalid("<Dimension> outside a variable"))?;
+                let size = match (a.int::<usize>(name, "start")?, a.int::<u32>(name, "valueReference")?) {
+                    (Some(n), _) => DimensionSize::Fixed(n),
+                    (None, Some(vr)) => DimensionSize::Parameter(vr),
+                    (None, None) => {
+                        return Err(err_invalid(format!(
+                            "variable {:?}: <Dimension> has neither start nor valueReference",
+                            raw.var.name
+                        )));
+                    }
+                };
+                raw.dimensions.push(size);
+            }
+            (Some("String" | "Binary"), "Start") => {
+                let raw = self.raw.last_mut().ok_or_else(|| err_invalid("<Start> outside a variable"))?;
+                raw.start.push(a.string("value").unwrap_or_default());
+            }
+            (Some("ModelStructure"), list @ ("Output" | "ContinuousStateDerivative" | "InitialUnknown")) => {
+                let vr = a.int(name, "valueReference")?.ok_or_else(|| err_invalid(format!("<{list}> has no valueReference")))?;
+                let deps = a.get("dependencies").map(|d| value_references(d, &format!("<{list}> dependencies"))).transpose()?;
+                let list = match list {
+                    "Output" => "Outputs",
+                    "ContinuousStateDerivative" => "Derivatives",
+                    _ => "InitialUnknowns",
+                };
+                self.structure.push((list, vr, deps));
+            }
+            (Some("ModelStructure"), "EventIndicator") => {
+                let vr = a.int(name, "valueReference")?.ok_or_else(|| err_invalid("<EventIndicator> has no valueReference"))?;
+                self.event_indicators.push(vr);
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> Result<ModelDescription, SchemaError> {
+        let mut md = self.md.ok_or_else(|| err_invalid("no <fmiModelDescription> root element"))?;
+        if md.model_exchange.is_none() && md.co_simulation.is_none() {
+            return Err(if self.scheduled_execution {
+                SchemaError::UnsupportedFeature(format!(
+                    "FMU {} offers only Scheduled Execution, which fmucal does not support (it simulates Model Exchange and Co-Simulation FMUs)",
+                    md.model_name
+                ))
+            } else {
+                err_invalid("none of <ModelExchange>, <CoSimulation> is present")
+            });
+        }
+        if let Some(clock) = self.raw.iter().find(|r| r.ty == Fmi3Type::Clock) {
+            return Err(SchemaError::UnsupportedFeature(format!(
+                "FMU {} has clocks (Clock variable {:?}), which fmucal does not support",
+                md.model_name, clock.var.name
+            )));
+        }
+        let by_vr: HashMap<u32, usize> = self.raw.iter().enumerate().map(|(i, r)| (r.var.value_reference, i)).collect();
+        if by_vr.len() != self.raw.len() {
+            let mut seen = std::collections::HashSet::new();
+            let dup = self.raw.iter().find(|r| !seen.insert(r.var.value_reference)).expect("a duplicate exists");
+            return Err(err_invalid(format!(
+                "variable {:?}: valueReference {} is used by another variable",
+                dup.var.name, dup.var.value_reference
+            )));
+        }
+        // Array sizes: fixed, or a structural parameter's start value.
+        let sizes: Vec<Vec<usize>> = self
+            .raw
+            .iter()
+            .map(|r| {
+                r.dimensions
+                    .iter()
+                    .map(|d| match d {
+                        DimensionSize::Fixed(n) => Ok(*n),
+                        DimensionSize::Parameter(vr) => by_vr
+                            .get(vr)
+                            .and_then(|i| self.raw[*i].start.first())
+                            .and_then(|s| s.trim().parse::<usize>().ok())
+                            .ok_or_else(|| {
+                                err_invalid(format!(
+                                    "variable {:?}: its dimension refers to valueReference {vr}, which is not a structural parameter with a start value",
+                                    r.var.name
+                                ))
+                            }),
+                    })
+                    .collect::<Result<Vec<usize>, SchemaError>>()
+            })
+            .collect::<Result<_, _>>()?;
+        // Expand arrays: each element gets a value reference of fmucal's past the FMU's largest.
+        let mut next_vr = self.raw.iter().map(|r| r.var.value_reference).max().map_or(0, |m| u64::from(m) + 1);
+        let mut indices_of: HashMap<u32, Vec<usize>> = HashMap::new();
+        // Per expanded variable: the value reference of the state it is the derivative of.
+        let mut derivative_of: Vec<Option<u32>> = vec![];
+        for (raw, dims) in self.raw.iter().zip(&sizes) {
+            let base = raw.var.value_reference;
+            let n: usize = dims.iter().product();
+            let elements: Vec<(Option<usize>, String, u32)> = if dims.is_empty() {
+                vec![(None, raw.var.name.clone(), base)]
+            } else {
+                (0..n)
+                    .map(|k| {
+                        let vr = u32::try_from(next_vr).map_err(|_| {
+                            err_invalid("too many array elements to give each a value reference".to_owned())
+                        })?;
+                        next_vr += 1;
+                        Ok((Some(k), format!("{}[{}]", raw.var.name, subscript(k, dims)), vr))
+                    })
+                    .collect::<Result<_, SchemaError>>()?
+            };
+            for (element, name, vr) in elements {
+                let mut var = raw.var.clone();
+                var.name = name;
+                var.value_reference = vr;
+                var.start = start_value(raw, element.unwrap_or(0), n)?;
+                var.fmi3 = Some(Fmi3Storage { ty: raw.ty, value_reference: base, element, dimensions: dims.clone() });
+                indices_of.entry(base).or_default().push(md.variables.len() + 1);
+                md.variables.push(var);
+                derivative_of.push(raw.derivative_of);
+            }
+        }
+        // derivative="vr of the state": the state's index, element by element.
+        for (k, state_vr) in derivative_of.into_iter().enumerate() {
+            let Some(state_vr) = state_vr else { continue };
+            let states = indices_of.get(&state_vr).ok_or_else(|| {
+                err_invalid(format!(
+                    "variable {:?}: derivative refers to valueReference {state_vr}, which no variable has",
+                    md.variables[k].name
+                ))
+            })?;
+            let var = &md.variables[k];
+            let position = var.fmi3.as_ref().and_then(|s| s.element).unwrap_or(0);
+            md.variables[k].derivative = Some(*states.get(position).unwrap_or(&states[0]));
+        }
+        let to_indices = |vr: u32, what: &str| -> Result<Vec<usize>, SchemaError> {
+            indices_of
+                .get(&vr)
+                .cloned()
+                .ok_or_else(|| err_invalid(format!("ModelStructure/{what}: no variable has valueReference {vr}")))
+        };
+        for (list, vr, deps) in &self.structure {
+            let dependencies = deps
+                .as_ref()
+                .map(|d| d.iter().map(|v| to_indices(*v, list)).collect::<Result<Vec<_>, _>>().map(|v| v.concat()))
+                .transpose()?;
+            for index in to_indices(*vr, list)? {
+                let unknown = Unknown { index, dependencies: dependencies.clone() };
+                match *list {
+                    "Outputs" => md.model_structure.outputs.push(unknown),
+                    "Derivatives" => md.model_structure.derivatives.push(unknown),
+                    _ => md.model_structure.initial_unknowns.push(unknown),
+                }
+            }
+        }
+        for vr in &self.event_indicators {
+            md.number_of_event_indicators += to_indices(*vr, "EventIndicator")?.len();
+        }
+        super::finish(&mut md)?;
+        Ok(md)
+    }
+}
+
+/// `2` or `1,3`: the 1-based subscripts of the flattened (row-major) position `k`.
+fn subscript(mut k: usize, dims: &[usize]) -> String {
+    let mut subs = vec![0; dims.len()];
+    for (d, n) in dims.iter().enumerate().rev() {
+        subs[d] = k % n + 1;
+        k /= n;
+    }
+    subs.iter().map(usize::to_string).collect::<Vec<_>>().join(",")
+}
+
+/// The start value of element `k` of `n` (or of the scalar), typed.
+fn start_value(raw: &RawVariable, k: usize, n: usize) -> Result<Option<Value>, SchemaError> {
+    let name = &raw.var.name;
+    let values: Vec<&str> = match raw.ty {
+        Fmi3Type::String | Fmi3Type::Binary => raw.start.iter().map(String::as_str).collect(),
+        _ => raw.start.iter().flat_map(|s| s.split_whitespace()).collect(),
+    };
+    if values.is_empty() {
+        return Ok(None);
+    }
+    // One start value for a whole array applies to every element.
+    let text = if values.len() == 1 {
+        values[0]
+    } else if values.len() == n.max(1) {
+        values[k]
+    } else {
+        return Err(err_invalid(format!("variable {name:?}: {} start values for {n} elements", values.len())));
+    };
+    let bad = |what: &str| err_invalid(format!("variable {name:?}: start {text:?} is not {what}"));
+    Ok(match var_type(raw.ty) {
+        VarType::Real => Some(Value::Real(text.parse().map_err(|_| bad("a number"))?)),
+        VarType::Integer | VarType::Enumeration => Some(Value::Integer(text.parse().map_err(|_| bad("an integer"))?)),
+        VarType::Boolean => Some(Value::Boolean(match text {
+            "true" | "1" => true,
+            "false" | "0" => false,
+            _ => return Err(bad("a boolean")),
+        })),
+        VarType::String => Some(Value::String(text.to_owned())),
+        VarType::Binary | VarType::Clock => None,
+    })
+}
+
+fn variable(ty: Fmi3Type, a: &Attrs) -> Result<RawVariable, SchemaError> {
+    let elem = format!("{ty:?}");
+    let name = a.required(&elem, "name")?;
+    let ctx = |msg: String| err_invalid(format!("variable {name:?}: {msg}"));
+    let value_reference = a
+        .get("valueReference")
+        .ok_or_else(|| ctx("no valueReference".into()))?
+        .trim()
+        .parse::<u32>()
+        .map_err(|_| ctx("valueReference is not an unsigned integer".into()))?;
+    let causality = match a.get("causality").unwrap_or("local") {
+        // A structural parameter is a parameter that may also size arrays; fmucal never changes
+        // array sizes, so it is set like any parameter.
+        "parameter" | "structuralParameter" => Causality::Parameter,
+        "calculatedParameter" => Causality::CalculatedParameter,
+        "input" => Causality::Input,
+        "output" => Causality::Output,
+        "local" => Causality::Local,
+        "independent" => Causality::Independent,
+        other => return Err(ctx(format!("unknown causality {other:?}"))),
+    };
+    let default_variability =
+        if matches!(ty, Fmi3Type::Float32 | Fmi3Type::Float64) { "continuous" } else { "discrete" };
+    let variability = match a.get("variability").unwrap_or(default_variability) {
+        "constant" => Variability::Constant,
+        "fixed" => Variability::Fixed,
+        "tunable" => Variability::Tunable,
+        "discrete" => Variability::Discrete,
+        "continuous" => Variability::Continuous,
+        other => return Err(ctx(format!("unknown variability {other:?}"))),
+    };
+    let initial = match a.get("initial") {
+        None => None,
+        Some("exact") => Some(Initial::Exact),
+        Some("approx") => Some(Initial::Approx),
+        Some("calculated") => Some(Initial::Calculated),
+        Some(other) => return Err(ctx(format!("unknown initial {other:?}"))),
+    };
+    let ectx = |e: SchemaError| match e {
+        SchemaError::Invalid(msg) => err_invalid(format!("variable {name:?}: {msg}")),
+        other => other,
+    };
+    let var = ScalarVariable {
+        name: name.clone(),
+        value_reference,
+        description: a.string("description"),
+        causality,
+        variability,
+        initial,
+        var_type: var_type(ty),
+        declared_type: a.string("declaredType"),
+        start: None,
+        min: a.f64(&elem, "min").map_err(ectx)?,
+        max: a.f64(&elem, "max").map_err(ectx)?,
+        nominal: a.f64(&elem, "nominal").map_err(ectx)?,
+        unit: a.string("unit"),
+        derivative: None,
+        reinit: a.bool(&elem, "reinit").map_err(ectx)?,
+        fmi3: None,
+    };
+    Ok(RawVariable {
+        var,
+        ty,
+        dimensions: vec![],
+        start: a.string("start").into_iter().collect(),
+        derivative_of: a.int(&elem, "derivative").map_err(ectx)?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="3.0" modelName="M" instantiationToken="{t}">
+  <ModelExchange modelIdentifier="M"/>
+  <CoSimulation modelIdentifier="M" canHandleVariableCommunicationStepSize="true"/>
+  <TypeDefinitions>
+    <Float64Type name="Length" unit="m" min="-10"/>
+    <EnumerationType name="Mode"><Item name="off" value="1"/><Item name="on" value="2"/></EnumerationType>
+  </TypeDefinitions>
+  <ModelVariables>
+    <Float64 name="time" valueReference="0" causality="independent" variability="continuous"/>
+    <Float64 name="x" valueReference="1" causality="output" initial="exact" start="2" declaredType="Length"/>
+    <Float64 name="der(x)" valueReference="2" derivative="1"/>
+    <Float64 name="k" valueReference="3" causality="parameter" variability="tunable" start="1 2 3">
+      <Dimension start="3"/>
+    </Float64>
+    <Float32 name="y" valueReference="4" causality="output"/>
+    <Int8 name="n" valueReference="5" causality="parameter" variability="fixed" start="-3"/>
+    <Enumeration name="mode" valueReference="6" declaredType="Mode" causality="parameter" variability="fixed" start="2"/>
+    <Float64 name="z" valueReference="7"/>
+    <UInt64 name="rows" valueReference="8" causality="structuralParameter" variability="fixed" start="2"/>
+    <Float64 name="m" valueReference="9" causality="parameter" variability="fixed" start="11 12 13 21 22 23">
+      <Dimension valueReference="8"/><Dimension start="3"/>
+    </Float64>
+    <String name="label" valueReference="10" causality="parameter" variability="fixed"><Start value="hi"/></String>
+  </ModelVariables>
+  <ModelStructure>
+    <Output valueReference="1"/>
+    <Output valueReference="4" dependencies="1 3"/>
+    <ContinuousStateDerivative valueReference="2"/>
+    <InitialUnknown valueReference="2"/>
+    <EventIndicator valueReference="7"/>
+  </ModelStructure>
+</fmiModelDescription>"#;
+
+    #[test]
+    fn a_3_0_description_maps_onto_the_version_free_structs() {
+        let md = ModelDescription::parse(MINIMAL).unwrap();
+        assert_eq!(md.fmi_version, "3.0");
+        assert_eq!(md.guid, "{t}");
+        let states = md.states();
+        assert_eq!(states.len(), 1);
+        assert_eq!((states[0].0.name.as_str(), states[0].1.name.as_str()), ("x", "der(x)"));
+        assert_eq!(md.number_of_event_indicators, 1);
+        let outputs: Vec<&str> = md.outputs().iter().map(|v| v.name.as_str()).collect();
+        assert_eq!(outputs, ["x", "y"]);
+        let x = md.variable("x").unwrap();
+        assert_eq!((x.unit.as_deref(), x.min), (Some("m"), Some(-10.0)));
+        let y = md.variable("y").unwrap();
+        assert_eq!((y.var_type, y.fmi3.as_ref().unwrap().ty), (VarType::Real, Fmi3Type::Float32));
+        let n = md.variable("n").unwrap();
+        assert_eq!((n.var_type, n.start.clone()), (VarType::Integer, Some(Value::Integer(-3))));
+        assert_eq!(md.variable("mode").unwrap().var_type, VarType::Enumeration);
+        assert_eq!(md.variable("label").unwrap().start, Some(Value::String("hi".into())));
+        // The dependencies of y name k's three elements.
+        let y_deps = md.model_structure.outputs[1].dependencies.clone().unwrap();
+        assert_eq!(y_deps.len(), 4);
+    }
+
+    #[test]
+    fn arrays_become_one_variable_per_element_with_values_references_of_their_own() {
+        let md = ModelDescription::parse(MINIMAL).unwrap();
+        for (i, want) in [1.0, 2.0, 3.0].iter().enumerate() {
+            let k = md.variable(&format!("k[{}]", i + 1)).unwrap();
+            assert_eq!(k.start, Some(Value::Real(*want)));
+            let s = k.fmi3.as_ref().unwrap();
+            assert_eq!((s.value_reference, s.element, s.dimensions.clone()), (3, Some(i), vec![3]));
+            assert!(k.value_reference > 10, "element {i} kept the array's value reference");
+        }
+        assert!(md.variable("k").is_none(), "the array itself is not a variable");
+        // Two rows (a structural parameter) of three: row-major, 1-based subscripts.
+        let m = md.variable("m[2,1]").unwrap();
+        assert_eq!(m.start, Some(Value::Real(21.0)));
+        assert_eq!(m.fmi3.as_ref().unwrap().element, Some(3));
+        assert!(md.variable("m[2,3]").is_some() && md.variable("m[3,1]").is_none());
+        let mut vrs: Vec<u32> = md.variables.iter().map(|v| v.value_reference).collect();
+        let n = vrs.len();
+        vrs.sort_unstable();
+        vrs.dedup();
+        assert_eq!(vrs.len(), n, "value references are not unique");
+    }
+
+    #[test]
+    fn clocks_and_scheduled_execution_alone_are_refused_naming_the_feature() {
+        let clocked = MINIMAL.replace(
+            "</ModelVariables>",
+            r#"<Clock name="tick" valueReference="20" causality="input" variability="discrete" intervalVariability="constant"/></ModelVariables>"#,
+        );
+        let err = ModelDescription::parse(&clocked).unwrap_err();
+        assert!(matches!(err, SchemaError::UnsupportedFeature(_)), "{err:?}");
+        assert!(err.to_string().contains("clocks (Clock variable \"tick\")"), "{err}");
+        let scheduled = MINIMAL
+            .replace(r#"<ModelExchange modelIdentifier="M"/>"#, r#"<ScheduledExecution modelIdentifier="M"/>"#)
+            .replace(r#"<CoSimulation modelIdentifier="M" canHandleVariableCommunicationStepSize="true"/>"#, "");
+        let err = ModelDescription::parse(&scheduled).unwrap_err().to_string();
+        assert!(err.contains("offers only Scheduled Execution"), "{err}");
+    }
+
+    #[test]
+    fn broken_references_are_invalid_with_the_variable_named() {
+        let cases = [
+            (r#"derivative="1""#, r#"derivative="99""#, "derivative refers to valueReference 99"),
+            (r#"<Output valueReference="4" dependencies="1 3"/>"#, r#"<Output valueReference="42"/>"#, "no variable has valueReference 42"),
+            (r#"valueReference="4""#, r#"valueReference="3""#, "valueReference 3 is used by another variable"),
+            (r#"start="1 2 3""#, r#"start="1 2""#, "2 start values for 3 elements"),
+            (r#"<Dimension valueReference="8"/>"#, r#"<Dimension valueReference="4"/>"#, "not a structural parameter"),
+        ];
+        for (from, to, want) in cases {
+            let xml = MINIMAL.replacen(from, to, 1);
+            let err = ModelDescription::parse(&xml).unwrap_err().to_string();
+            assert!(err.contains(want), "{from} -> {to}: {err}");
+        }
+    }
+}
