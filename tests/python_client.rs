@@ -1,0 +1,423 @@
+//! The Python client (`clients/python`, package `fmucal_client`) against real processes.
+//!
+//! The venv of `tests/fmpy/ensure_venv.sh` gets the client installed (its build generates the
+//! gRPC stubs from `proto/`); then:
+//! - its pytest suite (`clients/python/tests/`) runs against a coordinator and two worker
+//!   processes: a job submitted from Python gives the CLI's result bit for bit, progress events
+//!   arrive in order, refused jobs and bad tokens come back as exceptions naming the field, and
+//!   cancelling stops a job. The suite also compares the client's TOML → `SubmitJobRequest`
+//!   conversion with Rust's `job_to_proto`, whose requests this test writes for every job file
+//!   under `examples/` and for a job that uses every field;
+//! - `examples/python/calibrate_furuta.py` recovers the Furuta frictions and writes its plot.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+use fmucal_proto::convert::{job_to_proto, result_from_proto};
+use fmucal_proto::v1 as pb;
+use fmucal_shared::job::JobSpec;
+use prost::Message;
+
+/// The client token of [`common::Servers`].
+const TOKEN: &str = "cli-test-token";
+
+fn repo() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The venv's python, with `clients/python` installed. Installing is idempotent, and a lock
+/// beside the venv keeps two installs (other test binaries, other runs) from overlapping.
+fn python() -> &'static Path {
+    static PY: OnceLock<PathBuf> = OnceLock::new();
+    PY.get_or_init(|| {
+        let out =
+            Command::new("bash").arg(repo().join("tests/fmpy/ensure_venv.sh")).output().expect("run ensure_venv.sh");
+        // ensure_venv.sh says in one line why it failed (for example: PyPI unreachable).
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr).trim());
+        let py = PathBuf::from(String::from_utf8(out.stdout).unwrap().trim());
+        let venv = py.parent().and_then(Path::parent).expect("python is VENV/bin/python");
+        // Reinstalled when its sources or the proto changed (a stamp in the venv names their
+        // hash); setuptools' build folder goes first, so no deleted module is packaged.
+        let install = r#"
+            set -euo pipefail
+            exec 9>"$1"; flock 9
+            sum=$( { find "$3/src" "$3/setup.py" "$3/pyproject.toml" -type f -name '*.*' \
+                       ! -name 'fmucal_pb2*' ! -path '*.egg-info*' ! -path '*__pycache__*' -print0 \
+                     | sort -z | xargs -0 sha256sum; sha256sum < "$4"; } | sha256sum | cut -c1-16 )
+            stamp="$5/.fmucal-client-$sum"
+            if [ ! -f "$stamp" ]; then
+              rm -rf "$3/build"
+              "$2" -m pip install --no-deps --no-build-isolation --disable-pip-version-check --quiet "$3"
+              rm -f "$5"/.fmucal-client-*
+              touch "$stamp"
+            fi"#;
+        let out = Command::new("bash")
+            .args(["-c", install, "install"])
+            .arg(venv.with_extension("client.lock"))
+            .arg(&py)
+            .arg(repo().join("clients/python"))
+            .arg(repo().join("proto/fmucal/v1/fmucal.proto"))
+            .arg(venv)
+            .env("PYTHONDONTWRITEBYTECODE", "1")
+            .output()
+            .expect("run pip");
+        assert!(
+            out.status.success(),
+            "installing clients/python into {} failed:\n{}{}",
+            venv.display(),
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        py
+    })
+}
+
+/// Runs `cmd` with its output in files, killing it after `limit`; returns (success, output).
+fn run_with_limit(mut cmd: Command, dir: &Path, limit: Duration) -> (bool, String) {
+    let (out, err) = (dir.join("run.out"), dir.join("run.err"));
+    let mut child = cmd
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(&out).unwrap())
+        .stderr(std::fs::File::create(&err).unwrap())
+        .spawn()
+        .expect("spawn");
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break Some(status);
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let text = std::fs::read_to_string(out).unwrap() + &std::fs::read_to_string(err).unwrap();
+    match status {
+        Some(s) => (s.success(), text),
+        None => panic!("still running after {limit:?}, killed:\n{text}"),
+    }
+}
+
+/// A second worker process for [`common::Servers`], stopped (SIGTERM) when dropped.
+struct ExtraWorker(Child);
+
+impl ExtraWorker {
+    fn start(url: &str, cache: &Path) -> Self {
+        let child = Command::new(env!("CARGO_BIN_EXE_fmucal"))
+            .args(["worker", "--coordinator", url, "--slots", "1", "--cache-dir"])
+            .arg(cache)
+            .env("FMUCAL_TOKEN", TOKEN)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        ExtraWorker(child)
+    }
+}
+
+impl Drop for ExtraWorker {
+    fn drop(&mut self) {
+        let _ = Command::new("kill").args(["-TERM", &self.0.id().to_string()]).status();
+        let _ = self.0.wait();
+    }
+}
+
+/// Every `*.toml` under `dir`, recursively, sorted.
+fn job_files(dir: &Path) -> Vec<PathBuf> {
+    let mut found = vec![];
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            found.extend(job_files(&path));
+        } else if path.extension().is_some_and(|e| e == "toml") {
+            found.push(path);
+        }
+    }
+    found.sort();
+    found
+}
+
+/// Copies the files (not the folders) of `from` into `to`.
+fn copy_files(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_file() {
+            std::fs::copy(&path, to.join(path.file_name().unwrap())).unwrap();
+        }
+    }
+}
+
+/// An earlier calibration's `result.json` as the CLI writes it, for `set_from`.
+fn earlier_result(path: &Path) {
+    let result = result_from_proto(
+        pb::JobResult {
+            names: vec!["rightVolume.wallCapacity".into(), "rightVolume.wallConductance".into()],
+            x_opt: vec![12345.678, 87.654_321],
+            f_opt: 1.5,
+            termination: "x_tol reached".into(),
+            ..Default::default()
+        },
+        vec![],
+    );
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    std::fs::write(path, serde_json::to_string_pretty(&result).unwrap()).unwrap();
+}
+
+/// The `SubmitJobRequest` the CLI sends for the job file `toml` (as `fmucal calibrate
+/// --coordinator` builds it), with the model's SHA-256 as its id.
+fn rust_request(toml: &Path) -> pb::SubmitJobRequest {
+    let spec = JobSpec::from_toml_file(toml).unwrap_or_else(|e| panic!("{}: {e}", toml.display()));
+    spec.validate().unwrap_or_else(|e| panic!("{}: {e}", toml.display()));
+    let model = spec.model.path.clone().unwrap();
+    let model = match model.to_str().and_then(|p| p.strip_prefix("example:")) {
+        Some(name) => common::example(name),
+        None => model,
+    };
+    let id = fmucal_shared::fmu::archive::sha256_hex(&std::fs::read(&model).unwrap());
+    let data = fmucal_shared::job::data::read_all(&spec).unwrap_or_else(|e| panic!("{}: {e}", toml.display()));
+    pb::SubmitJobRequest { spec: Some(job_to_proto(&spec, &data, &id)) }
+}
+
+/// A job that sets every field of the job file, with CSV cells of every kind and a `.mat`.
+const EVERY_FIELD: &str = r#"
+[model]
+path = "model/furuta.fmu"
+interface = "cs"
+
+[data]
+path = "shared.csv"
+time_column = "t"
+
+[[outputs]]
+variable = "armJoint.phi"
+column = "phi"
+weight = 2
+
+[[outputs]]
+variable = "pendulumJoint.phi"
+column = "theta"
+weight = 0.0
+
+[[inputs]]
+column = "u"
+variable = "u"
+
+[[parameters]]
+name = "armFriction"
+start = 0.012
+lower = 0.001
+upper = 0.022
+scale = "log"
+
+[[parameters]]
+name = "pendulumFriction"
+start = 2e-3
+lower = 0
+upper = inf
+scale = "linear"
+
+[[parameters]]
+name = "pendulumJoint.phi"
+per_experiment = true
+start = -0.0
+lower = -1.5
+upper = 1.5
+
+[[effects]]
+kind = "coulomb_friction"
+port = "pendulumJoint.tauExt"
+signal = "pendulumJoint.w"
+parameters = { force = { start = 0.0, lower = 0.0, upper = 0.05 } }
+
+[[effects]]
+kind = "stribeck_friction"
+port = "armJoint.tauExt"
+signal = "armJoint.w"
+parameters = { coulomb = { start = 0.001, lower = 0, upper = 0.01 }, static = { start = 0.002, lower = 0, upper = 0.02 }, stribeck_velocity = { start = 0.1, lower = 0.01, upper = 1 } }
+
+[[effects]]
+kind = "sensor_offset"
+output = "armJoint.phi"
+parameters = { offset = { start = -0.0, lower = -0.1, upper = 0.1 } }
+
+[simulation]
+start_time = 0.5
+stop_time = 9
+tolerance = 1e-7
+solver = "TRBDF2"
+validation_stop_time = 10.0
+set = { g = 9.81, "some.flag" = true, mode = "fast", quoted = "1.50", plain = "2.5", big = 1e21, tiny = 1e-7, count = 3, negzero = -0.0, word = "true", third = 0.1 }
+
+[optimizer]
+algorithm = "cma-es"
+parallel = false
+x_tol = 0
+f_tol = 1e-9
+max_iters = 77
+max_fevals = 999
+seed = 42
+initial_step = 0.2
+population = 12
+restarts = 2
+weight = 0.7
+crossover = 0.9
+bits = 16
+crossover_rate = 0.8
+mutation_rate = 0.05
+elitism = 2
+
+[workers]
+count = 3
+
+[[experiments]]
+name = "own-mat"
+data = { path = "FurutaData.mat" }
+outputs = [{ variable = "armJoint.phi", column = "phi", weight = 0.5 }]
+set = { g = 9.7, "some.flag" = false }
+start_time = 0.0
+stop_time = 5.0
+validation_stop_time = 6.0
+starts = { "pendulumJoint.phi" = 0.2 }
+
+[[experiments]]
+name = "shared_1"
+inputs = []
+starts = { "pendulumJoint.phi" = -0.0 }
+role = "fit"
+
+[[experiments]]
+name = "held-out"
+role = "validation"
+data = { path = "other.csv", time_column = "time" }
+starts = { "pendulumJoint.phi" = -0.3 }
+"#;
+
+/// Writes the every-field job and its files into `dir`; returns the job file.
+fn write_every_field_job(dir: &Path) -> PathBuf {
+    std::fs::create_dir_all(dir.join("model")).unwrap();
+    std::fs::copy(common::example("furuta"), dir.join("model/furuta.fmu")).unwrap();
+    std::fs::copy(repo().join("examples/furuta/FurutaData.mat"), dir.join("FurutaData.mat")).unwrap();
+    // The time column second and quoted, CRLF and LF lines, a blank line, spaces around cells,
+    // empty and NaN cells, signs (-0 too), exponents and infinities.
+    let shared = "phi,\"t\",theta,u,extra\r\n0.1,0,0.2,0,1\r\n\r\n ,0.5, NaN ,1e-3,+2\n.25,1,-0.5,-.5,inf\n1.5e0,1.5,,0,-inf\n3,2,7,-0,nan\n";
+    std::fs::write(dir.join("shared.csv"), shared).unwrap();
+    std::fs::write(dir.join("other.csv"), "time,phi,theta,u\n0,0.5,-0.3,0\n0.25,0.4,-0.25,0.125\n").unwrap();
+    let job = dir.join("job.toml");
+    std::fs::write(&job, EVERY_FIELD).unwrap();
+    job
+}
+
+/// Writes Rust's `SubmitJobRequest` for every job file under `examples/` (each run on a copy of
+/// its folder, with an earlier result where it fixes one with `set_from`) and for the
+/// every-field job, and `manifest.json` listing them; returns the folder.
+fn write_rust_requests(out: &Path) -> PathBuf {
+    let mut manifest = vec![];
+    let mut jobs: Vec<(String, PathBuf)> = vec![];
+    for toml in job_files(&repo().join("examples")) {
+        let name = toml.strip_prefix(repo()).unwrap().to_str().unwrap().to_owned();
+        let copy = out.join("jobs").join(&name);
+        copy_files(toml.parent().unwrap(), copy.parent().unwrap());
+        let table: toml::Table = std::fs::read_to_string(&copy).unwrap().parse().unwrap();
+        let set_from = table.get("simulation").and_then(|s| s.get("set_from")).and_then(|s| s.as_str());
+        if let Some(set_from) = set_from {
+            earlier_result(&copy.parent().unwrap().join(set_from));
+        }
+        jobs.push((name, copy));
+    }
+    assert!(jobs.len() >= 6, "job files under examples/: {jobs:?}");
+    jobs.push(("every-field".into(), write_every_field_job(&out.join("every-field"))));
+    for (name, toml) in &jobs {
+        let request = out.join(format!("{}.bin", name.replace('/', "_")));
+        std::fs::write(&request, rust_request(toml).encode_to_vec()).unwrap();
+        manifest.push(serde_json::json!({ "name": name, "toml": toml, "request": request }));
+    }
+    std::fs::write(out.join("manifest.json"), serde_json::to_string_pretty(&manifest).unwrap()).unwrap();
+    out.to_owned()
+}
+
+/// The environment every Python run gets: no token or TLS settings of the caller's, examples
+/// written into `cache`, and no bytecode in the source tree.
+fn python_command(cache: &Path) -> Command {
+    let mut cmd = Command::new(python());
+    for var in ["FMUCAL_TOKEN", "FMUCAL_WORKER_TOKEN", "FMUCAL_TLS_CA", "FMUCAL_TLS_CERT", "FMUCAL_TLS_KEY"] {
+        cmd.env_remove(var);
+    }
+    cmd.env("FMUCAL_BIN", env!("CARGO_BIN_EXE_fmucal"))
+        .env("FMUCAL_CACHE_DIR", cache)
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .env("MPLBACKEND", "Agg");
+    cmd
+}
+
+#[test]
+fn python_client_suite_passes_against_a_coordinator_and_workers() {
+    let dir = tempfile::tempdir().unwrap();
+    let requests = write_rust_requests(&dir.path().join("requests"));
+    // Rust's conversion of the every-field job holds what the suite compares: own and shared
+    // tables, an empty input list, every optimizer setting.
+    let every = pb::SubmitJobRequest::decode(&*std::fs::read(requests.join("every-field.bin")).unwrap());
+    let every = every.unwrap().spec.unwrap();
+    assert_eq!(every.experiments.len(), 3);
+    assert!(every.data.is_some() && every.experiments[0].data.is_some() && every.experiments[1].data.is_none());
+    assert_eq!(every.experiments[1].inputs.as_ref().map(|l| l.items.len()), Some(0));
+    assert_eq!(every.simulation.as_ref().unwrap().set["negzero"], "-0");
+
+    let servers = common::Servers::start(dir.path(), 2);
+    let worker = ExtraWorker::start(&servers.url, &dir.path().join("worker2-cache"));
+    let mut cmd = python_command(&dir.path().join("cache"));
+    cmd.args(["-m", "pytest", "-p", "no:cacheprovider", "-q", "-rfEs", "tests"])
+        .current_dir(repo().join("clients/python"))
+        .env("FMUCAL_TEST_URL", &servers.url)
+        .env("FMUCAL_TEST_TOKEN", TOKEN)
+        .env("FMUCAL_TEST_RUST_REQUESTS", &requests);
+    let started = Instant::now();
+    let (ok, output) = run_with_limit(cmd, dir.path(), Duration::from_secs(900));
+    drop(worker);
+    let stopped = servers.stop();
+    println!("pytest ({:.1} s):\n{output}", started.elapsed().as_secs_f64());
+    assert!(ok, "the Python client's tests failed:\n{output}");
+    assert!(stopped, "a server did not exit cleanly on SIGTERM");
+    let summary = output.lines().rev().find(|l| l.contains(" passed")).unwrap_or_default();
+    let passed: usize = summary.split_whitespace().next().and_then(|n| n.parse().ok()).unwrap_or(0);
+    assert!(passed >= 60, "too few tests ran: {summary:?}");
+    assert!(!summary.contains("skipped") && !summary.contains("deselected"), "{summary}");
+}
+
+#[test]
+fn example_script_calibrates_furuta_from_python() {
+    let dir = tempfile::tempdir().unwrap();
+    let servers = common::Servers::start(dir.path(), 2);
+    let token_file = dir.path().join("token");
+    std::fs::write(&token_file, format!("{TOKEN}\n")).unwrap();
+    let png = dir.path().join("furuta.png");
+    let mut cmd = python_command(&dir.path().join("cache"));
+    cmd.arg(repo().join("examples/python/calibrate_furuta.py"))
+        .args(["--coordinator", &servers.url, "--token-file"])
+        .arg(&token_file)
+        .arg("--out")
+        .arg(&png)
+        .current_dir(dir.path());
+    let (ok, output) = run_with_limit(cmd, dir.path(), Duration::from_secs(300));
+    let stopped = servers.stop();
+    assert!(ok, "calibrate_furuta.py failed:\n{output}");
+    assert!(stopped, "a server did not exit cleanly on SIGTERM");
+    let value = |name: &str| -> f64 {
+        let line = output.lines().find(|l| l.trim_start().starts_with(&format!("{name} ="))).unwrap_or_else(|| {
+            panic!("no line `{name} = ...` in:\n{output}");
+        });
+        line.split('=').nth(1).unwrap().split_whitespace().next().unwrap().parse().unwrap()
+    };
+    // Generated with 0.010 and 0.0010; the README's recovered values are 0.0099987 and 0.00099754.
+    let (arm, pendulum) = (value("armFriction"), value("pendulumFriction"));
+    assert!((arm - 0.010).abs() < 1e-4, "armFriction = {arm}\n{output}");
+    assert!((pendulum - 0.0010).abs() < 2e-5, "pendulumFriction = {pendulum}\n{output}");
+    let bytes = std::fs::read(&png).unwrap_or_else(|e| panic!("{}: {e}\n{output}", png.display()));
+    assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n") && bytes.len() > 10_000, "{} bytes", bytes.len());
+}
