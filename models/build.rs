@@ -4,7 +4,7 @@
 //! (MissingSymbol.fmu, ResetFails.fmu), ones that behave as tool-exported FMUs do
 //! (StickSlip.fmu, InputKinds.fmu, Threshold.fmu, DerivativeAttributes.fmu), a spring–mass–damper
 //! with an injection port (SpringMass.fmu), an array parameter's elements as scalars
-//! (ArrayParams.fmu), FMI 3.0 builds of the same C sources (below), and hidden-effect fixtures: a
+//! (ArrayParams.fmu), FMI 3.0 and FMI 1.0 builds of the same C sources (below), and hidden-effect fixtures: a
 //! model's C source built with a define that adds physics its (unchanged) description does not
 //! mention, each exactly one of fmucal's effect formulas (shared/src/diagnose/effects.rs):
 //!
@@ -25,6 +25,14 @@
 //! which makes models/c/fmu_framework.c export the FMI 3.0 API (fmu_framework3.c) instead of
 //! 2.0's, packaged with `xml/fmi3/<Identifier>.xml`, the binary in `binaries/x86_64-linux/` (the
 //! FMI 3.0 platform tuple) and a `sources/buildDescription.xml` that names the define.
+//!
+//! FMI 1.0 fixtures: FMI 1.0's Model Exchange and Co-Simulation are separate FMUs with different
+//! function sets, so each model is built twice, `<Identifier>Fmi1Me.fmu` with `-DFMUCAL_FMI1=1`
+//! and `<Identifier>Fmi1Cs.fmu` with `-DFMUCAL_FMI1=2` (models/c/fmu_framework1.c), packaged with
+//! `xml/fmi1/<Identifier>Me.xml` or `<Identifier>Cs.xml`, the binary in `binaries/linux64/`. The
+//! exported names carry the model identifier as their prefix (`Furuta_fmiGetReal`), as FMI 1.0
+//! requires; UnprefixedFmi1.fmu is the Furuta Model Exchange FMU built with
+//! `-DFMUCAL_FMI1_UNPREFIXED`, whose binary exports the plain names (`fmiGetReal`) instead.
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -61,6 +69,11 @@ const FIXTURES: &[Model] = &[
 /// `<Identifier>Fmi3.fmu` with `xml/fmi3/<Identifier>.xml`.
 const FMI3: &[&str] = &["Furuta", "BouncingBall", "Robertson", "ArrayParams"];
 
+/// Models also built for FMI 1.0 (identifiers of [`MODELS`]; each model file defines
+/// `FMI1_PREFIX`), packaged as `<Identifier>Fmi1Me.fmu` and `<Identifier>Fmi1Cs.fmu` with
+/// `xml/fmi1/<Identifier>Me.xml` and `xml/fmi1/<Identifier>Cs.xml`.
+const FMI1: &[&str] = &["Furuta", "BouncingBall", "Robertson"];
+
 /// Hidden-effect fixtures: (file name, identifier of the base model, define). Each is the base
 /// model's source compiled with the define and packaged with the base model's description.
 const HIDDEN: &[(&str, &str, &str)] = &[
@@ -88,6 +101,8 @@ const HIDDEN: &[(&str, &str, &str)] = &[
 /// The FMI version an archive is built for.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Fmi {
+    /// FMI 1.0, one interface per FMU (Model Exchange or Co-Simulation).
+    V1,
     V2,
     V3,
 }
@@ -96,7 +111,7 @@ impl Fmi {
     /// Folder of the binary under `binaries/`: FMI 2.0's platform name or FMI 3.0's tuple.
     fn platform(self) -> &'static str {
         match self {
-            Fmi::V2 => "linux64",
+            Fmi::V1 | Fmi::V2 => "linux64",
             Fmi::V3 => "x86_64-linux",
         }
     }
@@ -104,6 +119,7 @@ impl Fmi {
     /// The skeleton's files a model source includes, shipped under `sources/`.
     fn framework(self) -> &'static [&'static str] {
         match self {
+            Fmi::V1 => &["fmi2.h", "fmi1.h", "fmu_framework.h", "fmu_framework.c", "fmu_cosim.c", "fmu_framework1.c"],
             Fmi::V2 => &["fmi2.h", "fmu_framework.h", "fmu_framework.c", "fmu_cosim.c", "fmu_framework2.c"],
             Fmi::V3 => &["fmi2.h", "fmi3.h", "fmu_framework.h", "fmu_framework.c", "fmu_cosim.c", "fmu_framework3.c"],
         }
@@ -133,6 +149,25 @@ fn main() {
         let xml = fs::read(root.join("xml").join("fmi3").join(format!("{id}.xml"))).unwrap();
         package(&root, model, Fmi::V3, &xml, &so, &out.join(format!("{id}Fmi3.fmu")));
     }
+
+    // FMI 1.0 builds of the same sources: Model Exchange and Co-Simulation are separate FMUs.
+    for id in FMI1 {
+        let model = MODELS.iter().find(|m| m.identifier == *id).unwrap();
+        for (suffix, define) in [("Me", "-DFMUCAL_FMI1=1"), ("Cs", "-DFMUCAL_FMI1=2")] {
+            let so = out.join(format!("{id}Fmi1{suffix}.so"));
+            compile(&root.join("c").join(model.source), &so, &[define]);
+            let xml = fs::read(root.join("xml").join("fmi1").join(format!("{id}{suffix}.xml"))).unwrap();
+            package(&root, model, Fmi::V1, &xml, &so, &out.join(format!("{id}Fmi1{suffix}.fmu")));
+        }
+    }
+
+    // Fixture: the Furuta FMI 1.0 Model Exchange FMU whose binary exports the functions without
+    // the model identifier prefix (fmiGetReal instead of Furuta_fmiGetReal).
+    let furuta = &MODELS[0];
+    let so = out.join("UnprefixedFmi1.so");
+    compile(&root.join("c").join(furuta.source), &so, &["-DFMUCAL_FMI1=1", "-DFMUCAL_FMI1_UNPREFIXED"]);
+    let xml = fs::read(root.join("xml").join("fmi1").join("FurutaMe.xml")).unwrap();
+    package(&root, furuta, Fmi::V1, &xml, &so, &out.join("UnprefixedFmi1.fmu"));
 
     // Fixture: Decay built without the fmi2GetReal export (renamed by the preprocessor).
     let decay = &MODELS[2];

@@ -1,8 +1,9 @@
 //! Cross-checks against Python references (FMPy and SciPy, installed from PyPI into a venv by
 //! `tests/fmpy/ensure_venv.sh`). MATLAB v5 files written by SciPy's `savemat` are read back.
 //! FMPy:
-//! every example and conformance fixture FMU, and the FMI 3.0 builds of Furuta, the bouncing
-//! ball, Robertson and the array-parameter model, passes FMPy's validation, and FMPy and fmucal
+//! every example and conformance fixture FMU, the FMI 3.0 builds of Furuta, the bouncing ball,
+//! Robertson and the array-parameter model, and the FMI 1.0 ME and CS builds of the first three,
+//! passes FMPy's validation, and FMPy and fmucal
 //! simulate it to the same outputs and states, ending at the same time: Model Exchange at rtol
 //! 1e-8 to 1e-4 relative, Co-Simulation at the same communication step to 1e-9. "Relative" is
 //! the largest difference over the grid divided by the largest magnitude of the FMPy result.
@@ -199,11 +200,29 @@ fn fmi3_builds_match_fmpy_in_both_interfaces() {
     }
 }
 
-/// FMPy alone, on each pair of builds of one C source: the FMI 3.0 FMU simulates as the FMI 2.0
-/// one does (`tests/fmpy/compare_versions.py`: ME to 1e-6, CS to 1e-9, with inputs and start
+#[test]
+fn fmi1_builds_match_fmpy() {
+    use fmucal_models::Fixture;
+    let tmp = tempfile::tempdir().unwrap();
+    let (me, cs) = ((Interface::ModelExchange, 1e-4), (Interface::CoSimulation, 1e-9));
+    let fixtures = [
+        (Fixture::FurutaFmi1Me, me, 0.01, 40.0),
+        (Fixture::FurutaFmi1Cs, cs, 0.01, 40.0),
+        (Fixture::BouncingBallFmi1Me, me, 0.01, 3.0),
+        (Fixture::BouncingBallFmi1Cs, cs, 0.01, 3.0),
+        (Fixture::RobertsonFmi1Me, me, 0.1, 40.0),
+        (Fixture::RobertsonFmi1Cs, cs, 0.1, 40.0),
+    ];
+    for (fixture, (interface, bound), interval, stop) in fixtures {
+        check(Case::new(fixture.path(), interface, interval, stop), bound, tmp.path());
+    }
+}
+
+/// FMPy alone, on each pair of builds of one C source: the FMI 1.0 and 3.0 FMUs simulate as the
+/// FMI 2.0 one does (`tests/fmpy/compare_versions.py`: ME to 1e-6, CS to 1e-9, with inputs and start
 /// values, arrays included), so what fmucal is compared with above is the same model.
 #[test]
-fn fmpy_simulates_the_fmi3_builds_as_the_fmi2_builds() {
+fn fmpy_simulates_the_fmi1_and_fmi3_builds_as_the_fmi2_builds() {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmpy/compare_versions.py");
     let fmus = fmucal_models::fmu_dir();
     let out = Command::new(python()).arg(&script).args(["--fmu-dir", fmus.to_str().unwrap()]).output().unwrap();

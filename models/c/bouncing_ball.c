@@ -1,6 +1,7 @@
 /* Bouncing ball: free fall with a state event at the floor, where the velocity is reversed and
  * scaled by the restitution coefficient e. Once a bounce leaves less than vMin, the ball rests. */
 #define MODEL_IDENTIFIER "BouncingBall"
+#define FMI1_PREFIX BouncingBall /* FMI 1.0 builds: the exported names' prefix */
 #define MODEL_GUID "{6a1f3c2e-3b44-4d1c-9a43-f0a1c0de0002}"
 #define N_REAL 7
 #define N_INTEGER 1

@@ -1,21 +1,27 @@
 /* Shared skeleton of fmucal's example FMUs: Model Exchange + Co-Simulation in one binary, for
- * FMI 2.0 by default and for FMI 3.0 when compiled with -DFMUCAL_FMI3, from the same model file.
+ * FMI 2.0 by default and for FMI 3.0 when compiled with -DFMUCAL_FMI3, from the same model file;
+ * for FMI 1.0, whose Model Exchange and Co-Simulation are separate FMUs with different function
+ * sets, one of them per binary: -DFMUCAL_FMI1=1 (Model Exchange) or -DFMUCAL_FMI1=2
+ * (Co-Simulation), with FMI1_PREFIX (the model identifier as a C token) defined by the model.
  * The model hooks declared below, the Model struct and the Co-Simulation integrator
- * (fmu_cosim.c) are the same in every build; only the exported API differs (fmu_framework2.c
- * or fmu_framework3.c, chosen in fmu_framework.c). The hooks speak FMI 2.0's types (fmi2Status,
- * fmi2ValueReference, fmi2Type) in every build: fmi2.h declares only types, and the 3.0 skeleton
- * converts statuses (fmi2OK..fmi2Fatal have the numeric values of fmi3OK..fmi3Fatal). Another
- * version (FMI 1.0, say) would be one more define, fmu_frameworkN.c and callback member here.
+ * (fmu_cosim.c) are the same in every build; only the exported API differs (fmu_framework1.c,
+ * fmu_framework2.c or fmu_framework3.c, chosen in fmu_framework.c). The hooks speak FMI 2.0's
+ * types (fmi2Status, fmi2ValueReference, fmi2Type) in every build: fmi2.h declares only types,
+ * and the 1.0 and 3.0 skeletons convert statuses (fmi2OK..fmi2Fatal have the numeric values of
+ * fmiOK..fmiFatal and fmi3OK..fmi3Fatal).
  *
  * A model file defines, before including this header:
  *   MODEL_IDENTIFIER, MODEL_GUID   strings matching modelDescription.xml
+ *   FMI1_PREFIX                     FMI 1.0 builds only: MODEL_IDENTIFIER as a C token (the
+ *                                   prefix of the exported function names, Furuta_fmiGetReal)
  *   N_REAL, N_INTEGER, N_BOOLEAN   number of value references of each type (>= 1)
  *   NX, NZ                          number of continuous states and event indicators
  *   CS_STEP                         internal step of the Co-Simulation integrator
  *   CS_IMPLICIT                     1: L-stable SDIRK2 (stiff models), 0: classic RK4
  * and optionally, to behave as some exporting tools do (named after the FMI 2.0 functions; the
  * 3.0 skeleton applies them in fmi3EnterInitializationMode, fmi3CompletedIntegratorStep and
- * fmi3GetFloat64/fmi3SetFloat64):
+ * fmi3GetFloat64/fmi3SetFloat64; the 1.0 skeleton in fmiInitialize, fmiCompletedIntegratorStep
+ * and fmiGetReal, but not IS_DISCRETE_REAL, as FMI 1.0 has no Continuous-Time Mode):
  *   IS_DISCRETE_REAL(vr)            1 for Real value references of variability "discrete";
  *                                   setting them in Continuous-Time Mode is an error (FMI 2.0
  *                                   section 3.2.3), as it always is for Integer and Boolean
@@ -46,8 +52,16 @@
 #define FMUCAL_FMU_FRAMEWORK_H
 
 #include "fmi2.h" /* the hooks' types, in every build */
+#if defined(FMUCAL_FMI3) && defined(FMUCAL_FMI1)
+#error "FMUCAL_FMI1 and FMUCAL_FMI3 exclude each other"
+#endif
 #if defined(FMUCAL_FMI3)
 #include "fmi3.h"
+#elif defined(FMUCAL_FMI1)
+#if FMUCAL_FMI1 != 1 && FMUCAL_FMI1 != 2
+#error "FMUCAL_FMI1 is 1 (Model Exchange) or 2 (Co-Simulation)"
+#endif
+#include "fmi1.h"
 #endif
 #include <math.h>
 #include <stdarg.h>
@@ -87,6 +101,8 @@ typedef struct Model {
     fmi3InstanceEnvironment instanceEnvironment;
     fmi3LogMessageCallback logMessage;
     int earlyReturnAllowed;
+#elif defined(FMUCAL_FMI1)
+    fmiCallbackLogger logger; /* called with the instance itself */
 #else
     fmi2CallbackFunctions cb;
 #endif

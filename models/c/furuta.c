@@ -9,6 +9,7 @@
  *   HIDDEN_ARM_QUADRATIC_DRAG=c   quadratic drag -c w1 |w1| in the arm joint
  *   HIDDEN_ARM_SENSOR_OFFSET=b    the reported armJoint.phi is the true arm angle + b */
 #define MODEL_IDENTIFIER "Furuta"
+#define FMI1_PREFIX Furuta /* FMI 1.0 builds: the exported names' prefix */
 #define MODEL_GUID "{6a1f3c2e-3b44-4d1c-9a43-f0a1c0de0001}"
 #define N_REAL 18
 #define N_INTEGER 1

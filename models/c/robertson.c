@@ -1,6 +1,7 @@
 /* Robertson's stiff chemical kinetics (three species, rate constants 0.04, 3e7, 1e4).
  * Explicit integrators need tiny steps here; Co-Simulation uses the framework's SDIRK2. */
 #define MODEL_IDENTIFIER "Robertson"
+#define FMI1_PREFIX Robertson /* FMI 1.0 builds: the exported names' prefix */
 #define MODEL_GUID "{6a1f3c2e-3b44-4d1c-9a43-f0a1c0de0004}"
 #define N_REAL 9
 #define N_INTEGER 1

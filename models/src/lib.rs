@@ -10,7 +10,10 @@
 //! injected reproduces them (the truth for discrepancy diagnosis), and FMI 3.0 builds of Furuta,
 //! BouncingBall, Robertson and the array model: the same C sources compiled with
 //! `-DFMUCAL_FMI3` (the FMI 3.0 skeleton, `models/c/fmu_framework3.c`) with descriptions in
-//! `models/xml/fmi3/` and the binary in `binaries/x86_64-linux/`.
+//! `models/xml/fmi3/` and the binary in `binaries/x86_64-linux/`, and FMI 1.0 builds of Furuta,
+//! BouncingBall and Robertson, one Model Exchange and one Co-Simulation FMU each (the FMI 1.0
+//! skeleton, `models/c/fmu_framework1.c`, with `-DFMUCAL_FMI1=1` or `2`; descriptions in
+//! `models/xml/fmi1/`; functions exported as `<modelIdentifier>_fmiXxx`).
 //!
 //! The examples' bytes are embedded in every binary that links this crate, so `example:NAME`
 //! works from `cargo install` or a container image: [`install_example`] writes one into a
@@ -83,8 +86,10 @@ pub fn example(name: &str) -> Option<PathBuf> {
 /// ones behaving as tool-exported FMUs do, hidden-effect variants (a base model's C code
 /// built with a define that adds an effect, packaged with the base model's unchanged
 /// description), and FMI 3.0 builds (`*Fmi3`: a model's C code built with `-DFMUCAL_FMI3`,
-/// packaged with its description in `models/xml/fmi3/`). Each FMI 3.0 build simulates exactly
-/// as its FMI 2.0 build in FMPy (`tests/fmpy/compare_versions.py`).
+/// packaged with its description in `models/xml/fmi3/`) and FMI 1.0 builds (`*Fmi1Me`,
+/// `*Fmi1Cs`: built with `-DFMUCAL_FMI1=1` or `2`, described in `models/xml/fmi1/`). Each FMI 3.0
+/// and FMI 1.0 build simulates exactly as its FMI 2.0 build in FMPy
+/// (`tests/fmpy/compare_versions.py`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Fixture {
     /// The Decay FMU with `fmi2GetReal` missing from its binary.
@@ -147,6 +152,31 @@ pub enum Fixture {
     /// `<Dimension start="3"/>` and `start="1 2 3"` (value reference 4; `k[2]` is its second
     /// element).
     ArrayParamsFmi3,
+    /// FMI 1.0 Model Exchange build of the Furuta example (`fmiVersion="1.0"`, no
+    /// `Implementation` element; functions `Furuta_fmiXxx`). Value references as in 2.0; the
+    /// states are inferred from the `der(...)` variables, listed in the order of the state
+    /// vector (`fmiGetStateValueReferences` gives 0, 1, 2, 3); the angles, velocities and
+    /// torques take their units from `TypeDefinitions` (`declaredType`), parameters are
+    /// `variability="parameter"`.
+    FurutaFmi1Me,
+    /// FMI 1.0 Co-Simulation build of the Furuta example (`Implementation/CoSimulation_StandAlone`,
+    /// `canHandleVariableCommunicationStepSize="true"`): the 2.0 build's RK4 integrator inside
+    /// `Furuta_fmiDoStep`.
+    FurutaFmi1Cs,
+    /// FMI 1.0 Model Exchange build of the bouncing ball (one event indicator; the Boolean
+    /// `resting` has value reference 0, as in 2.0).
+    BouncingBallFmi1Me,
+    /// FMI 1.0 Co-Simulation build of the bouncing ball (events located inside `fmiDoStep`).
+    BouncingBallFmi1Cs,
+    /// FMI 1.0 Model Exchange build of Robertson's stiff kinetics (nominals 1, 1e-5, 1 from
+    /// `fmiGetNominalContinuousStates`).
+    RobertsonFmi1Me,
+    /// FMI 1.0 Co-Simulation build of Robertson's stiff kinetics (the 2.0 build's SDIRK2).
+    RobertsonFmi1Cs,
+    /// Broken: [`Fixture::FurutaFmi1Me`] whose binary exports its functions without the model
+    /// identifier prefix (`fmiGetReal` instead of `Furuta_fmiGetReal`), which FMI 1.0 requires;
+    /// `binaries/linux64/Furuta.so` has no `Furuta_fmi*` symbol.
+    UnprefixedFmi1,
 }
 
 impl Fixture {
@@ -170,6 +200,13 @@ impl Fixture {
             Fixture::BouncingBallFmi3 => "BouncingBallFmi3.fmu",
             Fixture::RobertsonFmi3 => "RobertsonFmi3.fmu",
             Fixture::ArrayParamsFmi3 => "ArrayParamsFmi3.fmu",
+            Fixture::FurutaFmi1Me => "FurutaFmi1Me.fmu",
+            Fixture::FurutaFmi1Cs => "FurutaFmi1Cs.fmu",
+            Fixture::BouncingBallFmi1Me => "BouncingBallFmi1Me.fmu",
+            Fixture::BouncingBallFmi1Cs => "BouncingBallFmi1Cs.fmu",
+            Fixture::RobertsonFmi1Me => "RobertsonFmi1Me.fmu",
+            Fixture::RobertsonFmi1Cs => "RobertsonFmi1Cs.fmu",
+            Fixture::UnprefixedFmi1 => "UnprefixedFmi1.fmu",
         };
         fmu_dir().join(file)
     }

@@ -1,12 +1,17 @@
-"""Cross-checks the FMI 3.0 builds of fmucal's example FMUs against their FMI 2.0 builds, with
-FMPy alone (fmucal is not involved): both are compiled from the same C model source
-(models/c, the 3.0 one with -DFMUCAL_FMI3), so FMPy must simulate them to the same results.
+"""Cross-checks the FMI 3.0 and FMI 1.0 builds of fmucal's example FMUs against their FMI 2.0
+builds, with FMPy alone (fmucal is not involved): all are compiled from the same C model source
+(models/c; the 3.0 one with -DFMUCAL_FMI3, the 1.0 ones with -DFMUCAL_FMI1=1 for Model Exchange
+and -DFMUCAL_FMI1=2 for Co-Simulation), so FMPy must simulate them to the same results.
 
-For each pair (<Identifier>.fmu, <Identifier>Fmi3.fmu) and each case below it
-  - runs FMPy's validate_fmu on the 3.0 FMU, which must report no problems;
-  - simulates both with fmpy.simulate_fmu in Model Exchange (CVode, rtol 1e-8) and in
-    Co-Simulation (communication step = output interval), on the same output grid, with the
-    same inputs and start values (the cases of tests/fmpy_crosscheck.rs);
+For each model <Identifier> and each case below it
+  - runs FMPy's validate_fmu on the other versions' FMUs (<Identifier>Fmi3.fmu, and for the
+    models of FMI1 <Identifier>Fmi1Me.fmu and <Identifier>Fmi1Cs.fmu), which must report no
+    problems, and checks their fmiVersion (and, for 1.0, that each offers just its interface);
+  - simulates <Identifier>.fmu (2.0) with fmpy.simulate_fmu in Model Exchange (CVode, rtol
+    1e-8) and in Co-Simulation (communication step = output interval), and each other version
+    in the same interface (for 1.0: the Model Exchange FMU in Model Exchange, the Co-Simulation
+    FMU in Co-Simulation) on the same output grid, with the same inputs and start values (the
+    cases of tests/fmpy_crosscheck.rs);
   - prints, per output and continuous state, the largest difference over the grid divided by
     the largest magnitude of the 2.0 result.
 Model Exchange must agree to 1e-6 and Co-Simulation to 1e-9 (both run the same integrator on
@@ -44,8 +49,11 @@ def torque_profile():
     return np.array(rows, dtype=dtype)
 
 
+# Models also built for FMI 1.0 (models/build.rs, FMI1); their 1.0 start values are the 2.0 ones.
+FMI1 = {"Furuta", "BouncingBall", "Robertson"}
+
 # (identifier, case label, output interval, stop time, input signals or None,
-#  start values for 2.0, start values for 3.0)
+#  start values for 2.0 (and 1.0), start values for 3.0)
 CASES = [
     ("Furuta", "free swing", 0.01, 40.0, None, {}, {}),
     ("Furuta", "torque profile", 0.01, 40.0, torque_profile(), {}, {}),
@@ -62,9 +70,9 @@ CASES = [
 def default_fmu_dir():
     repo = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
     dirs = glob.glob(os.path.join(repo, "target", "*", "build", "fmucal-models-*", "out", "fmus"))
-    dirs = [d for d in dirs if glob.glob(os.path.join(d, "*Fmi3.fmu"))]
+    dirs = [d for d in dirs if glob.glob(os.path.join(d, "*Fmi3.fmu")) and glob.glob(os.path.join(d, "*Fmi1Me.fmu"))]
     if not dirs:
-        sys.exit("no built FMI 3.0 fixtures under target/: run `cargo build --release -p fmucal-models`")
+        sys.exit("no built FMI 3.0 and 1.0 fixtures under target/: run `cargo build --release -p fmucal-models`")
     return max(dirs, key=os.path.getmtime)
 
 
@@ -94,6 +102,36 @@ def simulate(fmu, interface, interval, stop, signals, start_values, names):
     )
 
 
+def others(ident, interface, start2, start3):
+    """The builds compared with the 2.0 FMU in `interface`: (label, file, start values)."""
+    out = [("3.0", f"{ident}Fmi3.fmu", start3)]
+    if ident in FMI1:
+        suffix = "Me" if interface == "ModelExchange" else "Cs"
+        out.append(("1.0", f"{ident}Fmi1{suffix}.fmu", start2))
+    return out
+
+
+def check_description(fmu_dir, file, failures):
+    """FMPy's validation of one non-2.0 build, and its fmiVersion and interfaces."""
+    path = os.path.join(fmu_dir, file)
+    problems = validate_fmu(path)
+    if problems:
+        failures.append(f"{file}: FMPy's validation failed")
+        print(f"{file}: FMPy validation failed:", *problems, sep="\n  ")
+        return
+    print(f"{file}: FMPy validation: no problems")
+    md = read_model_description(path, validate=True)
+    if file.endswith("Fmi3.fmu"):
+        if md.fmiVersion != "3.0":
+            failures.append(f"{file}: fmiVersion is {md.fmiVersion}")
+    else:
+        me = file.endswith("Me.fmu")
+        if md.fmiVersion != "1.0":
+            failures.append(f"{file}: fmiVersion is {md.fmiVersion}")
+        if (md.modelExchange is not None) != me or (md.coSimulation is not None) == me:
+            failures.append(f"{file}: offers the wrong interface for an FMI 1.0 {'ME' if me else 'CS'} FMU")
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--fmu-dir", help="folder with the built .fmu files (fmucal_models::fmu_dir())")
@@ -103,44 +141,44 @@ def main():
 
     failures = []
     validated = set()
+    worst = {}  # (version, interface) -> largest relative difference over all cases
     for ident, label, interval, stop, signals, start2, start3 in CASES:
         fmu2 = os.path.join(fmu_dir, f"{ident}.fmu")
-        fmu3 = os.path.join(fmu_dir, f"{ident}Fmi3.fmu")
-        if ident not in validated:
-            validated.add(ident)
-            problems = validate_fmu(fmu3)
-            if problems:
-                failures.append(f"{ident}Fmi3: FMPy's validation failed")
-                print(f"{ident}Fmi3.fmu: FMPy validation failed:", *problems, sep="\n  ")
-            else:
-                print(f"{ident}Fmi3.fmu: FMPy validation: no problems")
-            md3 = read_model_description(fmu3, validate=True)
-            if md3.fmiVersion != "3.0":
-                failures.append(f"{ident}Fmi3: fmiVersion is {md3.fmiVersion}")
         names = compared_variables(read_model_description(fmu2))
         for interface, bound in [("ModelExchange", ME_BOUND), ("CoSimulation", CS_BOUND)]:
-            tag = f"{ident} {label} {'ME' if interface == 'ModelExchange' else 'CS'}"
+            short = "ME" if interface == "ModelExchange" else "CS"
             r2 = simulate(fmu2, interface, interval, stop, signals, start2, names)
-            r3 = simulate(fmu3, interface, interval, stop, signals, start3, names)
-            t2, t3 = np.asarray(r2["time"]), np.asarray(r3["time"])
-            if t2.shape != t3.shape or np.max(np.abs(t2 - t3)) > 1e-9:
-                failures.append(f"{tag}: the time grids differ ({t2.size} and {t3.size} rows)")
-                print(f"{tag:<38} time grids differ: {t2.size} rows (2.0), {t3.size} rows (3.0)")
-                continue
-            for name in names:
-                y2 = np.asarray(r2[name], dtype=np.float64)
-                y3 = np.asarray(r3[name], dtype=np.float64)
-                scale = max(np.max(np.abs(y2)), 1e-300)
-                d = float(np.max(np.abs(y3 - y2)) / scale)
-                verdict = "ok" if d <= bound else f"FAIL (bound {bound:.0e})"
-                print(f"{tag:<38} {name:<22} relative difference {d:.2e}  {verdict}")
-                if d > bound:
-                    failures.append(f"{tag} {name}: {d:.2e} > {bound:.0e}")
+            t2 = np.asarray(r2["time"])
+            for version, file, start in others(ident, interface, start2, start3):
+                if file not in validated:
+                    validated.add(file)
+                    check_description(fmu_dir, file, failures)
+                tag = f"{ident} {label} {short} {version}"
+                r = simulate(os.path.join(fmu_dir, file), interface, interval, stop, signals, start, names)
+                t = np.asarray(r["time"])
+                if t2.shape != t.shape or np.max(np.abs(t2 - t)) > 1e-9:
+                    failures.append(f"{tag}: the time grids differ ({t2.size} and {t.size} rows)")
+                    print(f"{tag:<42} time grids differ: {t2.size} rows (2.0), {t.size} rows ({version})")
+                    continue
+                for name in names:
+                    y2 = np.asarray(r2[name], dtype=np.float64)
+                    y = np.asarray(r[name], dtype=np.float64)
+                    scale = max(np.max(np.abs(y2)), 1e-300)
+                    d = float(np.max(np.abs(y - y2)) / scale)
+                    key = (version, short)
+                    worst[key] = max(worst.get(key, 0.0), d)
+                    verdict = "ok" if d <= bound else f"FAIL (bound {bound:.0e})"
+                    print(f"{tag:<42} {name:<22} relative difference {d:.2e}  {verdict}")
+                    if d > bound:
+                        failures.append(f"{tag} {name}: {d:.2e} > {bound:.0e}")
 
+    print("\nlargest relative difference to the FMI 2.0 build:")
+    for (version, short), d in sorted(worst.items()):
+        print(f"  FMI {version} {short}: {d:.2e} (bound {ME_BOUND if short == 'ME' else CS_BOUND:.0e})")
     if failures:
-        print("\nFMI 2.0 and 3.0 builds disagree:", *failures, sep="\n  ")
+        print("\nthe FMI 2.0 builds and the other versions' builds disagree:", *failures, sep="\n  ")
         sys.exit(1)
-    print("\nall FMI 3.0 builds agree with their FMI 2.0 builds")
+    print("\nall FMI 3.0 and FMI 1.0 builds agree with their FMI 2.0 builds")
 
 
 if __name__ == "__main__":

@@ -2,9 +2,10 @@
 cross-checks. Exits with status 3 and prints the problems if FMPy's validation fails.
 FMPy's recorder keeps every row it samples: on the grid, at input events in Co-Simulation,
 and at the last successful time of a terminated Co-Simulation; all are written.
-FMI 1.0, 2.0 and 3.0 FMUs alike. FMI 3.0 arrays: a start value of several numbers separated by
-spaces (--set "k=1 2 3") sets an array, and an array output NAME is written as the columns
-NAME[1], NAME[2], ... (the element names of FMI's structured naming convention)."""
+FMI 1.0, 2.0 and 3.0 FMUs alike; --interface must name an interface the FMU offers (an FMI 1.0
+FMU offers one), else it exits with status 2. FMI 3.0 arrays: a start value of several numbers
+separated by spaces (--set "k=1 2 3") sets an array, and an array output NAME is written as the
+columns NAME[1], NAME[2], ... (the element names of FMI's structured naming convention)."""
 import argparse
 import sys
 
@@ -31,7 +32,14 @@ def main():
     if problems:
         print("FMPy validation failed:", *problems, sep="\n  ", file=sys.stderr)
         sys.exit(3)
-    read_model_description(a.fmu, validate=True)
+    md = read_model_description(a.fmu, validate=True)
+    # An FMI 1.0 FMU offers one interface (Model Exchange, or Co-Simulation when it has an
+    # Implementation element); 2.0 and 3.0 FMUs may offer both.
+    offered = md.modelExchange if a.interface == "me" else md.coSimulation
+    if offered is None:
+        print(f"the FMU (FMI {md.fmiVersion}) does not offer "
+              f"{'Model Exchange' if a.interface == 'me' else 'Co-Simulation'}", file=sys.stderr)
+        sys.exit(2)
 
     signals = None
     if a.input:

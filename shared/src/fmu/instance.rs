@@ -101,12 +101,16 @@ impl Instance {
         self.time = t;
     }
 
-    /// Returns the instance to the state after instantiation: `fmi2Reset`, or, if that fails,
+    /// Returns the instance to the state after instantiation: `fmi2Reset` (`fmi3Reset`,
+    /// `fmiResetSlave`), or, if that fails or the version has none (FMI 1.0 Model Exchange),
     /// frees it and instantiates again.
     ///
     /// # Errors
     /// [`FmuError::Instantiate`] if re-instantiation also fails.
     pub fn reset(&mut self) -> Result<(), FmuError> {
+        if !self.api.can_reset(self.interface) {
+            return self.reinstantiate();
+        }
         if let Some(c) = self.component.as_mut() {
             let status = c.reset();
             if status <= Status::Warning {

@@ -30,8 +30,17 @@ unsafe extern "C" {
         fmt: *const c_char,
         ...
     );
-    fn fmucal_calloc(n: usize, size: usize) -> *mut c_void;
-    fn fmucal_free(p: *mut c_void);
+    /// The FMI 1.0 logger: passes no environment to the sink.
+    pub(super) fn fmucal_logger_fmi1(
+        component: *mut c_void,
+        instance: *const c_char,
+        status: c_int,
+        category: *const c_char,
+        fmt: *const c_char,
+        ...
+    );
+    pub(super) fn fmucal_calloc(n: usize, size: usize) -> *mut c_void;
+    pub(super) fn fmucal_free(p: *mut c_void);
 }
 
 extern "C" fn log_sink(
@@ -44,6 +53,14 @@ extern "C" fn log_sink(
     let (instance, category, message) = (lossy(instance), lossy(category), lossy(message));
     let status = Status::from_raw(status);
     if env.is_null() {
+        // An FMI 1.0 instance fmucal is calling into on this thread, if any.
+        let current = super::fmi1::CURRENT_LOG.with(|c| c.get());
+        if !current.is_null() {
+            // SAFETY: set by fmi1's LogScope to the log of the instance being called, which
+            // outlives the call.
+            unsafe { &*current }.receive(status, &instance, &category, &message);
+            return;
+        }
         // The FMU did not pass back our environment: no per-instance log to count repeats in.
         crate::fmu::log::emit(status, &instance, &category, &message);
         return;
@@ -54,7 +71,7 @@ extern "C" fn log_sink(
     log.receive(status, &instance, &category, &message);
 }
 
-fn install_log_sink() {
+pub(super) fn install_log_sink() {
     static ONCE: Once = Once::new();
     // SAFETY: stores a function pointer in the shim; no other state is touched.
     ONCE.call_once(|| unsafe { fmucal_set_log_sink(log_sink) });

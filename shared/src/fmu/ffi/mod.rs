@@ -1,10 +1,12 @@
-//! The C boundary of every FMI version fmucal imports: [`fmi2`] (FMI 2.0, with the C shim for
-//! its variadic logger) and [`fmi3`] (FMI 3.0). Each loads a binary's entry points and wraps a
+//! The C boundary of every FMI version fmucal imports: [`fmi1`] (FMI 1.0 Model Exchange and
+//! Co-Simulation, prefixed function names), [`fmi2`] (FMI 2.0, with the C shim for the variadic
+//! logger of 1.0 and 2.0) and [`fmi3`] (FMI 3.0). Each loads a binary's entry points and wraps a
 //! live instance in a type that implements [`FmiCalls`], the one set of calls the simulator
 //! and [`crate::fmu::instance`] use whatever the version. All of the project's `unsafe` lives
 //! in this module. Status codes are returned raw here and mapped to `Result` by
 //! [`crate::fmu::instance`].
 
+pub mod fmi1;
 pub mod fmi2;
 pub mod fmi3;
 
@@ -65,6 +67,10 @@ pub enum FfiError {
     Load { path: PathBuf, message: String },
     #[error("FMU binary {path} does not export {symbol}")]
     MissingSymbol { path: PathBuf, symbol: String },
+    #[error(
+        "FMU binary {path} exports {symbol} without the model identifier prefix: FMI 1.0 requires {expected} (export the functions as <modelIdentifier>_fmiX)"
+    )]
+    Unprefixed { path: PathBuf, symbol: String, expected: String },
 }
 
 pub(crate) fn lossy(p: *const c_char) -> String {
@@ -120,6 +126,7 @@ pub type Component = Box<dyn FmiCalls>;
 /// The resolved entry points of one binary, by FMI version (cheap to clone).
 #[derive(Clone)]
 pub enum Api {
+    Fmi1(Arc<fmi1::Api>),
     Fmi2(Arc<fmi2::Api>),
     Fmi3(Arc<fmi3::Api>),
 }
@@ -140,6 +147,8 @@ impl Api {
     ) -> Result<Api, FfiError> {
         if description.fmi_version.starts_with("3.") {
             Ok(Api::Fmi3(fmi3::Api::load(path, me, cs)?))
+        } else if description.fmi_version.starts_with("1.") {
+            Ok(Api::Fmi1(fmi1::Api::load(path, model_identifier, cs && !me)?))
         } else {
             Ok(Api::Fmi2(fmi2::Api::load(path, model_identifier, me, cs)?))
         }
@@ -148,14 +157,22 @@ impl Api {
     /// `fmiXGetVersion()`, e.g. "2.0" or "3.0".
     pub fn version(&self) -> String {
         match self {
+            Api::Fmi1(api) => api.version(),
             Api::Fmi2(api) => api.version(),
             Api::Fmi3(api) => api.version(),
         }
     }
 
+    /// Whether an instance for `interface` can be reset (FMI 1.0 Model Exchange has no reset).
+    pub fn can_reset(&self, interface: super::Interface) -> bool {
+        !matches!((self, interface), (Api::Fmi1(_), super::Interface::ModelExchange))
+    }
+
     /// The name of the function that instantiates `interface` in this version.
     pub fn instantiate_function(&self, interface: super::Interface) -> &'static str {
         match (self, interface) {
+            (Api::Fmi1(_), super::Interface::ModelExchange) => "fmiInstantiateModel",
+            (Api::Fmi1(_), super::Interface::CoSimulation) => "fmiInstantiateSlave",
             (Api::Fmi2(_), _) => "fmi2Instantiate",
             (Api::Fmi3(_), super::Interface::ModelExchange) => "fmi3InstantiateModelExchange",
             (Api::Fmi3(_), super::Interface::CoSimulation) => "fmi3InstantiateCoSimulation",
@@ -164,42 +181,75 @@ impl Api {
 
     /// The name in this version of the FMI 2.0 function `fmi2_name` (what error messages say).
     pub fn function_name(&self, fmi2_name: &'static str) -> &'static str {
-        if let Api::Fmi2(_) = self {
-            return fmi2_name;
-        }
-        match fmi2_name {
-            "fmi2SetupExperiment" | "fmi2EnterInitializationMode" => "fmi3EnterInitializationMode",
-            "fmi2ExitInitializationMode" => "fmi3ExitInitializationMode",
-            "fmi2Terminate" => "fmi3Terminate",
-            "fmi2GetReal" => "fmi3GetFloat64",
-            "fmi2SetReal" => "fmi3SetFloat64",
-            "fmi2GetInteger" => "fmi3GetInt32",
-            "fmi2SetInteger" => "fmi3SetInt32",
-            "fmi2GetBoolean" => "fmi3GetBoolean",
-            "fmi2SetBoolean" => "fmi3SetBoolean",
-            "fmi2EnterEventMode" => "fmi3EnterEventMode",
-            "fmi2NewDiscreteStates" => "fmi3UpdateDiscreteStates",
-            "fmi2EnterContinuousTimeMode" => "fmi3EnterContinuousTimeMode",
-            "fmi2CompletedIntegratorStep" => "fmi3CompletedIntegratorStep",
-            "fmi2SetTime" => "fmi3SetTime",
-            "fmi2SetContinuousStates" => "fmi3SetContinuousStates",
-            "fmi2GetDerivatives" => "fmi3GetContinuousStateDerivatives",
-            "fmi2GetEventIndicators" => "fmi3GetEventIndicators",
-            "fmi2GetContinuousStates" => "fmi3GetContinuousStates",
-            "fmi2GetNominalsOfContinuousStates" => "fmi3GetNominalsOfContinuousStates",
-            "fmi2DoStep" => "fmi3DoStep",
-            other => other,
+        match self {
+            Api::Fmi2(_) => fmi2_name,
+            Api::Fmi1(_) => fmi1_name(fmi2_name),
+            Api::Fmi3(_) => fmi3_name(fmi2_name),
         }
     }
 
     /// Path of the loaded binary.
     pub fn path(&self) -> &Path {
         match self {
+            Api::Fmi1(api) => api.path(),
             Api::Fmi2(api) => api.path(),
             Api::Fmi3(api) => api.path(),
         }
     }
+}
 
+/// The FMI 1.0 function that does what the FMI 2.0 function `fmi2_name` does.
+fn fmi1_name(fmi2_name: &'static str) -> &'static str {
+    match fmi2_name {
+        "fmi2SetupExperiment" | "fmi2EnterInitializationMode" | "fmi2SetTime" => "fmiSetTime",
+        "fmi2ExitInitializationMode" => "fmiInitialize",
+        "fmi2Terminate" => "fmiTerminate",
+        "fmi2GetReal" => "fmiGetReal",
+        "fmi2SetReal" => "fmiSetReal",
+        "fmi2GetInteger" => "fmiGetInteger",
+        "fmi2SetInteger" => "fmiSetInteger",
+        "fmi2GetBoolean" => "fmiGetBoolean",
+        "fmi2SetBoolean" => "fmiSetBoolean",
+        "fmi2EnterEventMode" | "fmi2NewDiscreteStates" | "fmi2EnterContinuousTimeMode" => "fmiEventUpdate",
+        "fmi2CompletedIntegratorStep" => "fmiCompletedIntegratorStep",
+        "fmi2SetContinuousStates" => "fmiSetContinuousStates",
+        "fmi2GetDerivatives" => "fmiGetDerivatives",
+        "fmi2GetEventIndicators" => "fmiGetEventIndicators",
+        "fmi2GetContinuousStates" => "fmiGetContinuousStates",
+        "fmi2GetNominalsOfContinuousStates" => "fmiGetNominalContinuousStates",
+        "fmi2DoStep" => "fmiDoStep",
+        other => other,
+    }
+}
+
+/// The FMI 3.0 function that does what the FMI 2.0 function `fmi2_name` does.
+fn fmi3_name(fmi2_name: &'static str) -> &'static str {
+    match fmi2_name {
+        "fmi2SetupExperiment" | "fmi2EnterInitializationMode" => "fmi3EnterInitializationMode",
+        "fmi2ExitInitializationMode" => "fmi3ExitInitializationMode",
+        "fmi2Terminate" => "fmi3Terminate",
+        "fmi2GetReal" => "fmi3GetFloat64",
+        "fmi2SetReal" => "fmi3SetFloat64",
+        "fmi2GetInteger" => "fmi3GetInt32",
+        "fmi2SetInteger" => "fmi3SetInt32",
+        "fmi2GetBoolean" => "fmi3GetBoolean",
+        "fmi2SetBoolean" => "fmi3SetBoolean",
+        "fmi2EnterEventMode" => "fmi3EnterEventMode",
+        "fmi2NewDiscreteStates" => "fmi3UpdateDiscreteStates",
+        "fmi2EnterContinuousTimeMode" => "fmi3EnterContinuousTimeMode",
+        "fmi2CompletedIntegratorStep" => "fmi3CompletedIntegratorStep",
+        "fmi2SetTime" => "fmi3SetTime",
+        "fmi2SetContinuousStates" => "fmi3SetContinuousStates",
+        "fmi2GetDerivatives" => "fmi3GetContinuousStateDerivatives",
+        "fmi2GetEventIndicators" => "fmi3GetEventIndicators",
+        "fmi2GetContinuousStates" => "fmi3GetContinuousStates",
+        "fmi2GetNominalsOfContinuousStates" => "fmi3GetNominalsOfContinuousStates",
+        "fmi2DoStep" => "fmi3DoStep",
+        other => other,
+    }
+}
+
+impl Api {
     /// Creates an instance. `resources` is the unpacked `resources/` folder (passed as a
     /// `file://` URI to FMI 2.0, as a path with a trailing separator to FMI 3.0). Returns the
     /// FMU's messages if it would not instantiate.
@@ -212,6 +262,11 @@ impl Api {
         logging_on: bool,
     ) -> Result<Component, Vec<String>> {
         match self {
+            Api::Fmi1(api) => {
+                let fmu_dir = resources.parent().unwrap_or(resources);
+                fmi1::Component::instantiate(api.clone(), instance_name, kind, &description.guid, fmu_dir, logging_on)
+                    .map(|c| Box::new(c) as Component)
+            }
             Api::Fmi2(api) => {
                 let uri = file_uri(resources);
                 fmi2::Component::instantiate(api.clone(), instance_name, kind, &description.guid, &uri, logging_on)

@@ -14,24 +14,20 @@ use quick_xml::Reader;
 use quick_xml::events::Event;
 
 use super::{
-    Attrs, BaseUnit, Causality, DefaultExperiment, DisplayUnit, EnumItem, Fmi3Storage, Fmi3Type, Initial,
+    Attrs, Causality, EnumItem, Fmi3Storage, Fmi3Type, Initial,
     InterfaceInfo, ModelDescription, ModelStructure, ScalarVariable, SchemaError, SimpleType, Unit, Unknown, Value,
     VarType, Variability, err_invalid,
 };
 
-/// Whether the root element says `fmiVersion="3.…"` (read from the first element only).
-pub(super) fn is_fmi3(xml: &str) -> bool {
+/// The `fmiVersion` of the root element (read from the first element only).
+pub(super) fn root_version(xml: &str) -> Option<String> {
     let mut reader = Reader::from_str(xml);
     loop {
         match reader.read_event() {
             Ok(Event::Start(e) | Event::Empty(e)) => {
-                return e
-                    .try_get_attribute("fmiVersion")
-                    .ok()
-                    .flatten()
-                    .is_some_and(|a| a.value.starts_with("3."));
+                return e.try_get_attribute("fmiVersion").ok().flatten().map(|a| a.value.to_string());
             }
-            Ok(Event::Eof) | Err(_) => return false,
+            Ok(Event::Eof) | Err(_) => return None,
             Ok(_) => {}
         }
     }
@@ -57,7 +53,6 @@ enum DimensionSize {
 #[derive(Default)]
 struct Parser {
     md: Option<ModelDescription>,
-    path: Vec<String>,
     raw: Vec<RawVariable>,
     scheduled_execution: bool,
     /// ModelStructure lists, by value reference: (list, value reference, dependencies).
@@ -73,36 +68,7 @@ struct Parser {
 /// clocks.
 pub(super) fn parse(xml: &str) -> Result<ModelDescription, SchemaError> {
     let mut p = Parser::default();
-    let mut reader = Reader::from_str(xml);
-    reader.config_mut().trim_text(true);
-    loop {
-        let position = reader.buffer_position();
-        let event = reader.read_event().map_err(|e| SchemaError::Xml { position, message: e.to_string() })?;
-        match event {
-            Event::Start(e) => {
-                let name = e.name().as_ref().to_string();
-                let attrs = Attrs::read(&e, position)?;
-                p.open(&name, &attrs)?;
-                p.path.push(name);
-            }
-            Event::Empty(e) => {
-                let name = e.name().as_ref().to_string();
-                let attrs = Attrs::read(&e, position)?;
-                p.open(&name, &attrs)?;
-            }
-            Event::End(_) => {
-                p.path.pop();
-            }
-            Event::Eof => break,
-            _ => {}
-        }
-    }
-    if !p.path.is_empty() {
-        return Err(SchemaError::Xml {
-            position: xml.len() as u64,
-            message: format!("document ends inside <{}>", p.path.join("/")),
-        });
-    }
+    super::walk(xml, |parent, name, attrs| p.open(parent, name, attrs))?;
     p.finish()
 }
 
@@ -167,12 +133,8 @@ impl Parser {
         self.md.as_mut().ok_or_else(|| err_invalid(format!("<{elem}> outside <fmiModelDescription>")))
     }
 
-    fn parent(&self) -> Option<&str> {
-        self.path.last().map(String::as_str)
-    }
-
-    fn open(&mut self, name: &str, a: &Attrs) -> Result<(), SchemaError> {
-        match (self.parent(), name) {
+    fn open(&mut self, parent: Option<&str>, name: &str, a: &Attrs) -> Result<(), SchemaError> {
+        match (parent, name) {
             (None, "fmiModelDescription") => {
                 self.md = Some(ModelDescription {
                     fmi_version: a.required(name, "fmiVersion")?,
@@ -211,28 +173,13 @@ impl Parser {
                 self.md(name)?.unit_definitions.push(unit);
             }
             (Some("Unit"), "BaseUnit") => {
-                let base = BaseUnit {
-                    kg: a.int(name, "kg")?.unwrap_or(0),
-                    m: a.int(name, "m")?.unwrap_or(0),
-                    s: a.int(name, "s")?.unwrap_or(0),
-                    a: a.int(name, "A")?.unwrap_or(0),
-                    k: a.int(name, "K")?.unwrap_or(0),
-                    mol: a.int(name, "mol")?.unwrap_or(0),
-                    cd: a.int(name, "cd")?.unwrap_or(0),
-                    rad: a.int(name, "rad")?.unwrap_or(0),
-                    factor: a.f64(name, "factor")?.unwrap_or(1.0),
-                    offset: a.f64(name, "offset")?.unwrap_or(0.0),
-                };
+                let base = super::base_unit(name, a)?;
                 if let Some(unit) = self.md(name)?.unit_definitions.last_mut() {
                     unit.base_unit = Some(base);
                 }
             }
             (Some("Unit"), "DisplayUnit") => {
-                let du = DisplayUnit {
-                    name: a.required(name, "name")?,
-                    factor: a.f64(name, "factor")?.unwrap_or(1.0),
-                    offset: a.f64(name, "offset")?.unwrap_or(0.0),
-                };
+                let du = super::display_unit(name, a)?;
                 if let Some(unit) = self.md(name)?.unit_definitions.last_mut() {
                     unit.display_units.push(du);
                 }
@@ -267,12 +214,7 @@ impl Parser {
                 self.md(name)?.log_categories.push(cat);
             }
             (Some("fmiModelDescription"), "DefaultExperiment") => {
-                let de = DefaultExperiment {
-                    start_time: a.f64(name, "startTime")?,
-                    stop_time: a.f64(name, "stopTime")?,
-                    tolerance: a.f64(name, "tolerance")?,
-                    step_size: a.f64(name, "stepSize")?,
-                };
+                let de = super::default_experiment(name, a)?;
                 self.md(name)?.default_experiment = Some(de);
             }
             (Some("ModelVariables"), elem) => {

@@ -1,11 +1,13 @@
 //! Parses a `modelDescription.xml` into plain structs, one [`ModelDescription`] whatever the FMI
 //! version: FMI 2.0 here (specification section 2.2), FMI 3.0 in [`fmi3`], which maps its typed
-//! variables, arrays and value-reference-based model structure onto the same structs. Pure code
-//! with no `unsafe`: attributes, capability flags, units, type definitions, scalar variables
-//! (with declared types resolved), model structure and default experiment. FMI 1.0 descriptions
-//! are recognised and rejected with [`SchemaError::UnsupportedVersion`].
+//! variables, arrays and value-reference-based model structure onto the same structs, and FMI
+//! 1.0 in [`fmi1`] (states from `der(x)` names, as FMPy reads them). Pure code with no
+//! `unsafe`: attributes, capability flags, units, type definitions, scalar variables (with
+//! declared types resolved), model structure and default experiment. Other versions are
+//! rejected with [`SchemaError::UnsupportedVersion`].
 #![deny(unsafe_code)]
 
+mod fmi1;
 mod fmi3;
 
 use quick_xml::Reader;
@@ -21,8 +23,8 @@ pub enum SchemaError {
     /// The description is valid XML but breaks an FMI 2.0 rule.
     #[error("invalid modelDescription.xml: {0}")]
     Invalid(String),
-    /// `fmiVersion` is not 2.0 or 3.0.
-    #[error("FMI {0} FMUs are not supported yet (fmucal reads FMI 2.0 and 3.0)")]
+    /// `fmiVersion` is not 1.0, 2.0 or 3.0.
+    #[error("FMI {0} FMUs are not supported (fmucal reads FMI 1.0, 2.0 and 3.0)")]
     UnsupportedVersion(String),
     /// The FMU needs an FMI feature fmucal does not implement.
     #[error("{0}")]
@@ -328,10 +330,11 @@ impl ModelDescription {
     /// [`SchemaError::Xml`] for malformed XML, [`SchemaError::UnsupportedVersion`] for FMI 1.0/3.0,
     /// [`SchemaError::Invalid`] for a description that breaks FMI 2.0's rules.
     pub fn parse(xml: &str) -> Result<Self, SchemaError> {
-        if fmi3::is_fmi3(xml) {
-            return fmi3::parse(xml);
+        match fmi3::root_version(xml).as_deref() {
+            Some(v) if v.starts_with("3.") => fmi3::parse(xml),
+            Some(v) if v.starts_with("1.") => fmi1::parse(xml),
+            _ => Parser::default().run(xml),
         }
-        Parser::default().run(xml)
     }
 
     /// The variable with this name.
@@ -387,7 +390,6 @@ impl ModelDescription {
 #[derive(Default)]
 struct Parser {
     md: Option<ModelDescription>,
-    path: Vec<String>,
 }
 
 fn err_invalid(msg: impl Into<String>) -> SchemaError {
@@ -449,38 +451,86 @@ impl Attrs {
     }
 }
 
+/// Reads `xml` element by element, calling `open(parent, name, attributes)` for each start or
+/// empty element (`parent` is the enclosing element's name, `None` for the root).
+///
+/// # Errors
+/// [`SchemaError::Xml`] for malformed XML or a document that ends inside an element, and
+/// whatever `open` returns.
+fn walk(
+    xml: &str,
+    mut open: impl FnMut(Option<&str>, &str, &Attrs) -> Result<(), SchemaError>,
+) -> Result<(), SchemaError> {
+    let mut reader = Reader::from_str(xml);
+    reader.config_mut().trim_text(true);
+    let mut path: Vec<String> = vec![];
+    loop {
+        let position = reader.buffer_position();
+        let event = reader.read_event().map_err(|e| SchemaError::Xml { position, message: e.to_string() })?;
+        match event {
+            Event::Start(e) => {
+                let name = e.name().as_ref().to_string();
+                open(path.last().map(String::as_str), &name, &Attrs::read(&e, position)?)?;
+                path.push(name);
+            }
+            Event::Empty(e) => {
+                let name = e.name().as_ref().to_string();
+                open(path.last().map(String::as_str), &name, &Attrs::read(&e, position)?)?;
+            }
+            Event::End(_) => {
+                path.pop();
+            }
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    if !path.is_empty() {
+        return Err(SchemaError::Xml {
+            position: xml.len() as u64,
+            message: format!("document ends inside <{}>", path.join("/")),
+        });
+    }
+    Ok(())
+}
+
+/// A `BaseUnit` element of FMI 2.0 and 3.0.
+fn base_unit(elem: &str, a: &Attrs) -> Result<BaseUnit, SchemaError> {
+    Ok(BaseUnit {
+        kg: a.int(elem, "kg")?.unwrap_or(0),
+        m: a.int(elem, "m")?.unwrap_or(0),
+        s: a.int(elem, "s")?.unwrap_or(0),
+        a: a.int(elem, "A")?.unwrap_or(0),
+        k: a.int(elem, "K")?.unwrap_or(0),
+        mol: a.int(elem, "mol")?.unwrap_or(0),
+        cd: a.int(elem, "cd")?.unwrap_or(0),
+        rad: a.int(elem, "rad")?.unwrap_or(0),
+        factor: a.f64(elem, "factor")?.unwrap_or(1.0),
+        offset: a.f64(elem, "offset")?.unwrap_or(0.0),
+    })
+}
+
+/// A `DisplayUnit` element of FMI 2.0 and 3.0.
+fn display_unit(elem: &str, a: &Attrs) -> Result<DisplayUnit, SchemaError> {
+    Ok(DisplayUnit {
+        name: a.required(elem, "name")?,
+        factor: a.f64(elem, "factor")?.unwrap_or(1.0),
+        offset: a.f64(elem, "offset")?.unwrap_or(0.0),
+    })
+}
+
+/// The `DefaultExperiment` element of every version.
+fn default_experiment(elem: &str, a: &Attrs) -> Result<DefaultExperiment, SchemaError> {
+    Ok(DefaultExperiment {
+        start_time: a.f64(elem, "startTime")?,
+        stop_time: a.f64(elem, "stopTime")?,
+        tolerance: a.f64(elem, "tolerance")?,
+        step_size: a.f64(elem, "stepSize")?,
+    })
+}
+
 impl Parser {
     fn run(mut self, xml: &str) -> Result<ModelDescription, SchemaError> {
-        let mut reader = Reader::from_str(xml);
-        reader.config_mut().trim_text(true);
-        loop {
-            let position = reader.buffer_position();
-            let event = reader.read_event().map_err(|e| SchemaError::Xml { position, message: e.to_string() })?;
-            match event {
-                Event::Start(e) => {
-                    let name = e.name().as_ref().to_string();
-                    let attrs = Attrs::read(&e, position)?;
-                    self.open(&name, &attrs)?;
-                    self.path.push(name);
-                }
-                Event::Empty(e) => {
-                    let name = e.name().as_ref().to_string();
-                    let attrs = Attrs::read(&e, position)?;
-                    self.open(&name, &attrs)?;
-                }
-                Event::End(_) => {
-                    self.path.pop();
-                }
-                Event::Eof => break,
-                _ => {}
-            }
-        }
-        if !self.path.is_empty() {
-            return Err(SchemaError::Xml {
-                position: xml.len() as u64,
-                message: format!("document ends inside <{}>", self.path.join("/")),
-            });
-        }
+        walk(xml, |parent, name, attrs| self.open(parent, name, attrs))?;
         let mut md = self.md.ok_or_else(|| err_invalid("no <fmiModelDescription> root element"))?;
         finish(&mut md)?;
         Ok(md)
@@ -490,12 +540,8 @@ impl Parser {
         self.md.as_mut().ok_or_else(|| err_invalid(format!("<{elem}> outside <fmiModelDescription>")))
     }
 
-    fn parent(&self) -> Option<&str> {
-        self.path.last().map(String::as_str)
-    }
-
-    fn open(&mut self, name: &str, a: &Attrs) -> Result<(), SchemaError> {
-        match (self.parent(), name) {
+    fn open(&mut self, parent: Option<&str>, name: &str, a: &Attrs) -> Result<(), SchemaError> {
+        match (parent, name) {
             (None, "fmiModelDescription") => {
                 let version = a.required(name, "fmiVersion")?;
                 if !version.starts_with("2.") {
@@ -539,28 +585,13 @@ impl Parser {
                 self.md(name)?.unit_definitions.push(unit);
             }
             (Some("Unit"), "BaseUnit") => {
-                let base = BaseUnit {
-                    kg: a.int(name, "kg")?.unwrap_or(0),
-                    m: a.int(name, "m")?.unwrap_or(0),
-                    s: a.int(name, "s")?.unwrap_or(0),
-                    a: a.int(name, "A")?.unwrap_or(0),
-                    k: a.int(name, "K")?.unwrap_or(0),
-                    mol: a.int(name, "mol")?.unwrap_or(0),
-                    cd: a.int(name, "cd")?.unwrap_or(0),
-                    rad: a.int(name, "rad")?.unwrap_or(0),
-                    factor: a.f64(name, "factor")?.unwrap_or(1.0),
-                    offset: a.f64(name, "offset")?.unwrap_or(0.0),
-                };
+                let base = base_unit(name, a)?;
                 if let Some(unit) = self.md(name)?.unit_definitions.last_mut() {
                     unit.base_unit = Some(base);
                 }
             }
             (Some("Unit"), "DisplayUnit") => {
-                let du = DisplayUnit {
-                    name: a.required(name, "name")?,
-                    factor: a.f64(name, "factor")?.unwrap_or(1.0),
-                    offset: a.f64(name, "offset")?.unwrap_or(0.0),
-                };
+                let du = display_unit(name, a)?;
                 if let Some(unit) = self.md(name)?.unit_definitions.last_mut() {
                     unit.display_units.push(du);
                 }
@@ -612,12 +643,7 @@ impl Parser {
                 self.md(name)?.log_categories.push(cat);
             }
             (Some("fmiModelDescription"), "DefaultExperiment") => {
-                let de = DefaultExperiment {
-                    start_time: a.f64(name, "startTime")?,
-                    stop_time: a.f64(name, "stopTime")?,
-                    tolerance: a.f64(name, "tolerance")?,
-                    step_size: a.f64(name, "stepSize")?,
-                };
+                let de = default_experiment(name, a)?;
                 self.md(name)?.default_experiment = Some(de);
             }
             (Some("ModelVariables"), "ScalarVariable") => {
@@ -629,8 +655,8 @@ impl Parser {
                 let var = md.variables.last_mut().ok_or_else(|| err_invalid("type element outside a variable"))?;
                 apply_type_element(var, name, a)?;
             }
-            (Some("Outputs" | "Derivatives" | "InitialUnknowns"), "Unknown") => {
-                let list = self.parent().unwrap_or_default().to_owned();
+            (Some(list @ ("Outputs" | "Derivatives" | "InitialUnknowns")), "Unknown") => {
+                let list = list.to_owned();
                 let unknown = Unknown {
                     index: a.int(name, "index")?.ok_or_else(|| err_invalid("<Unknown> has no index attribute"))?,
                     dependencies: a
@@ -862,8 +888,8 @@ mod tests {
     }
 
     #[test]
-    fn fmi1_and_later_versions_are_rejected_as_unsupported() {
-        for (v, want) in [("1.0", "1.0"), ("4.0", "4.0"), ("1.0-beta", "1.0")] {
+    fn unknown_versions_are_rejected_as_unsupported() {
+        for (v, want) in [("4.0", "4.0"), ("0.9", "0.0"), ("5.1-beta", "5.0")] {
             let xml = MINIMAL.replace("fmiVersion=\"2.0\"", &format!("fmiVersion=\"{v}\""));
             match ModelDescription::parse(&xml) {
                 Err(SchemaError::UnsupportedVersion(got)) => assert_eq!(got, want),

@@ -1,9 +1,10 @@
-//! FMI 3.0 import (issue 9): the FMI 3.0 builds of the example models, from the same C sources
-//! as their FMI 2.0 builds (`models/c`, `-DFMUCAL_FMI3`), simulate to the 2.0 results; the Furuta
-//! calibration recovers the same frictions whichever version the job names; one element of an
-//! array parameter is calibrated (checked against the analytic solution of the model); and FMUs
-//! or jobs fmucal cannot serve are refused with one line naming the reason. The cross-check of
-//! these FMUs against FMPy is in `fmpy_crosscheck.rs`.
+//! FMI 1.0 and 3.0 import (issue 9): the FMI 1.0 (ME and CS) and 3.0 builds of the example
+//! models, from the same C sources as their FMI 2.0 builds (`models/c`, `-DFMUCAL_FMI1`,
+//! `-DFMUCAL_FMI3`), simulate to the 2.0 results; the Furuta calibration recovers the same
+//! frictions whichever version the job names; one element of an array parameter is calibrated
+//! (checked against the analytic solution of the model); and FMUs or jobs fmucal cannot serve
+//! are refused with one line naming the reason. The cross-check of these FMUs against FMPy is
+//! in `fmpy_crosscheck.rs`.
 
 mod common;
 
@@ -34,24 +35,33 @@ fn run(fmu: &Path, interface: Interface, stop: f64, set: &[(&str, &str)], cache:
 }
 
 #[test]
-fn fmi3_builds_simulate_as_their_fmi2_builds_do() {
+fn fmi1_and_fmi3_builds_simulate_as_their_fmi2_builds_do() {
     let dir = tempfile::tempdir().unwrap();
     let cache = dir.path().join("cache");
+    let (me, cs) = (Interface::ModelExchange, Interface::CoSimulation);
     let cases = [
-        (common::example("furuta"), Fixture::FurutaFmi3.path(), 10.0),
-        (common::example("bouncing-ball"), Fixture::BouncingBallFmi3.path(), 3.0),
-        (common::example("robertson"), Fixture::RobertsonFmi3.path(), 40.0),
+        ("furuta", Fixture::FurutaFmi3, vec![me, cs], 10.0),
+        ("bouncing-ball", Fixture::BouncingBallFmi3, vec![me, cs], 3.0),
+        ("robertson", Fixture::RobertsonFmi3, vec![me, cs], 40.0),
+        // An FMI 1.0 FMU offers one interface.
+        ("furuta", Fixture::FurutaFmi1Me, vec![me], 10.0),
+        ("furuta", Fixture::FurutaFmi1Cs, vec![cs], 10.0),
+        ("bouncing-ball", Fixture::BouncingBallFmi1Me, vec![me], 3.0),
+        ("bouncing-ball", Fixture::BouncingBallFmi1Cs, vec![cs], 3.0),
+        ("robertson", Fixture::RobertsonFmi1Me, vec![me], 40.0),
+        ("robertson", Fixture::RobertsonFmi1Cs, vec![cs], 40.0),
     ];
-    for (fmi2, fmi3, stop) in cases {
-        for interface in [Interface::ModelExchange, Interface::CoSimulation] {
+    for (example, fixture, interfaces, stop) in cases {
+        let (fmi2, other) = (common::example(example), fixture.path());
+        for interface in interfaces {
             let (names2, cols2) = run(&fmi2, interface, stop, &[], &cache);
-            let (names3, cols3) = run(&fmi3, interface, stop, &[], &cache);
-            assert_eq!(names2, names3, "{}: different outputs", fmi3.display());
-            for ((name, a), b) in names2.iter().zip(&cols2).zip(&cols3) {
+            let (names, cols) = run(&other, interface, stop, &[], &cache);
+            assert_eq!(names2, names, "{}: different outputs", other.display());
+            for ((name, a), b) in names2.iter().zip(&cols2).zip(&cols) {
                 assert_eq!(a.len(), b.len(), "{name}: different grids");
                 let d = common::rel_max_diff(b, a);
                 // The same C code and the same integrator: equal but for the order of calls.
-                assert!(d <= 1e-9, "{} {interface:?} {name}: FMI 3.0 differs from 2.0 by {d:e}", fmi3.display());
+                assert!(d <= 1e-9, "{} {interface:?} {name}: differs from FMI 2.0 by {d:e}", other.display());
             }
         }
     }
@@ -131,8 +141,12 @@ fn furuta_frictions_are_the_same_whichever_fmi_version_the_job_names() {
     let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta");
     let text = std::fs::read_to_string(example.join("job.toml")).unwrap();
     let mut results = vec![];
-    for (label, model) in [("2.0", "example:furuta".to_owned()), ("3.0", Fixture::FurutaFmi3.path().display().to_string())]
-    {
+    let versions = [
+        ("2.0", "example:furuta".to_owned()),
+        ("3.0", Fixture::FurutaFmi3.path().display().to_string()),
+        ("1.0", Fixture::FurutaFmi1Me.path().display().to_string()),
+    ];
+    for (label, model) in versions {
         let job_text = text
             .replace("path = \"example:furuta\"", &format!("path = \"{model}\""))
             .replace("path = \"FurutaData.mat\"", &format!("path = \"{}\"", example.join("FurutaData.mat").display()));
@@ -145,11 +159,15 @@ fn furuta_frictions_are_the_same_whichever_fmi_version_the_job_names() {
             serde_json::from_str(&std::fs::read_to_string(out_dir.join("result.json")).unwrap()).unwrap();
         results.push(r);
     }
-    assert_eq!(results[0]["fmi_version"], "2.0");
-    assert_eq!(results[1]["fmi_version"], "3.0");
+    for (r, version) in results.iter().zip(["2.0", "3.0", "1.0"]) {
+        assert_eq!(r["fmi_version"], version);
+    }
     for name in ["armFriction", "pendulumFriction"] {
-        let (a, b) = (results[0]["x_opt"][name].as_f64().unwrap(), results[1]["x_opt"][name].as_f64().unwrap());
-        assert!((a - b).abs() <= 1e-6 * a.abs(), "{name}: {a} from FMI 2.0, {b} from FMI 3.0");
+        let a = results[0]["x_opt"][name].as_f64().unwrap();
+        for (r, version) in results.iter().zip(["2.0", "3.0", "1.0"]).skip(1) {
+            let b = r["x_opt"][name].as_f64().unwrap();
+            assert!((a - b).abs() <= 1e-6 * a.abs(), "{name}: {a} from FMI 2.0, {b} from FMI {version}");
+        }
     }
 }
 
@@ -191,7 +209,12 @@ fn what_fmucal_cannot_serve_is_refused_in_one_line() {
             "<Clock name=\"sample\" valueReference=\"900\" causality=\"input\" variability=\"discrete\" intervalVariability=\"constant\" intervalDecimal=\"0.1\"/></ModelVariables>",
         )
     });
-    for (fmu, want) in [(&scheduled, "offers only Scheduled Execution"), (&clocked, "has clocks (Clock variable \"sample\")")] {
+    let unprefixed = Fixture::UnprefixedFmi1.path();
+    for (fmu, want) in [
+        (&scheduled, "offers only Scheduled Execution"),
+        (&clocked, "has clocks (Clock variable \"sample\")"),
+        (&unprefixed, "without the model identifier prefix: FMI 1.0 requires Furuta_fmiGetVersion"),
+    ] {
         let err = one_line_error(&fmucal(&["simulate", fmu.to_str().unwrap(), "-o", "/dev/null"], &cache));
         assert!(err.contains(want), "{err}");
     }
