@@ -3,6 +3,8 @@
 //!
 //! Measures (median of repeated runs, wall time):
 //! - `furuta_me_1ms`: Furuta, Model Exchange, 40 s, 1 ms output grid, rtol 1e-6, fresh instance;
+//! - `furuta_fmi3_me_1ms`: the same for the FMI 3.0 build of Furuta (`Fixture::FurutaFmi3`, same
+//!   C source); its path is written to the JSON (`furuta_fmi3_fmu`) for FMPy to time the same file;
 //! - `bouncing_ball_me_1ms`: bouncing ball, Model Exchange, 3 s, 1 ms grid, rtol 1e-6;
 //! - `warm_over_fresh`: (fmi2Reset + simulate) on a warm instance divided by simulating on a
 //!   just-instantiated one (instantiation not timed), Furuta ME 40 s, 10 ms grid;
@@ -55,8 +57,11 @@ fn main() {
     let load = |name: &str| Fmu::load(&fmucal_models::example(name).unwrap()).expect("load example");
     let furuta = load("furuta");
     let ball = load("bouncing-ball");
+    let furuta_fmi3_path = fmucal_models::Fixture::FurutaFmi3.path();
+    let furuta_fmi3 = Fmu::load(&furuta_fmi3_path).expect("load FurutaFmi3 fixture");
 
     let furuta_me = time_fresh(&furuta, &spec(40.0, 1e-3), 7);
+    let furuta_fmi3_me = time_fresh(&furuta_fmi3, &spec(40.0, 1e-3), 7);
     let ball_me = time_fresh(&ball, &spec(3.0, 1e-3), 21);
 
     let warm_spec = spec(40.0, 1e-2);
@@ -88,12 +93,15 @@ fn main() {
     let rss_growth_mb = (rss_kb() - before) / 1024.0;
 
     println!("furuta_me_1ms_s          {furuta_me:.5}");
+    println!("furuta_fmi3_me_1ms_s     {furuta_fmi3_me:.5}");
     println!("bouncing_ball_me_1ms_s   {ball_me:.5}");
     println!("warm_over_fresh          {warm_over_fresh:.3}");
     println!("rss_growth_mb            {rss_growth_mb:.3}  (10,000 cycles in {cycles_s:.1} s)");
     if let Some(path) = json_out {
         let json = serde_json::json!({
             "furuta_me_1ms_s": furuta_me,
+            "furuta_fmi3_me_1ms_s": furuta_fmi3_me,
+            "furuta_fmi3_fmu": furuta_fmi3_path,
             "bouncing_ball_me_1ms_s": ball_me,
             "warm_over_fresh": warm_over_fresh,
             "rss_growth_mb": rss_growth_mb,
