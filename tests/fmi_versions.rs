@@ -240,3 +240,30 @@ fn what_fmucal_cannot_serve_is_refused_in_one_line() {
         assert!(err.contains("parameters[0].name") && err.contains(want), "{parameter}: {err}");
     }
 }
+
+/// Archives of every version go through the same checks: an entry that climbs out of the
+/// archive is refused, and so is one past the entry cap, before any description is read.
+#[test]
+fn archives_of_every_version_are_checked_the_same_way() {
+    use fmucal_shared::fmu::{ArchiveLimits, Fmu, LoadOptions};
+    let dir = tempfile::tempdir().unwrap();
+    let fixtures = [Fixture::FurutaFmi1Me, Fixture::FurutaFmi1Cs, Fixture::FurutaFmi3];
+    for fixture in fixtures {
+        let mut entries = common::entries(&fixture.path());
+        let count = entries.len();
+        entries.push(("resources/../../escape.txt".into(), b"x".to_vec()));
+        let slip = dir.path().join("slip.fmu");
+        common::write_zip(&slip, &entries);
+        let opts = LoadOptions { cache_dir: dir.path().join("cache"), limits: ArchiveLimits::default() };
+        let err = Fmu::load_with(&slip, &opts).unwrap_err().to_string();
+        assert!(err.contains("climbs out of the archive"), "{}: {err}", fixture.path().display());
+        assert!(!dir.path().join("escape.txt").exists());
+
+        let capped = LoadOptions {
+            cache_dir: dir.path().join("cache2"),
+            limits: ArchiveLimits { max_entries: count - 1, ..ArchiveLimits::default() },
+        };
+        let err = Fmu::load_with(&fixture.path(), &capped).unwrap_err().to_string();
+        assert!(err.contains("entries"), "{}: {err}", fixture.path().display());
+    }
+}
