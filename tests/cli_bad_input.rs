@@ -116,22 +116,28 @@ fn binary_missing_an_fmi2_symbol() {
 #[test]
 fn malformed_truncated_and_unsupported_descriptions() {
     let tmp = tempfile::tempdir().unwrap();
-    let cases: [(&str, fn(String) -> String, &[&str]); 4] = [
+    let cases: [(&str, fn(String) -> String, &[&str]); 5] = [
         ("truncated.fmu", |x| x[..x.len() / 2].to_owned(), &["malformed modelDescription.xml"]),
         (
             "garbage.fmu",
             |x| x.replacen("<ModelVariables>", "<ModelVariables><<<", 1),
             &["malformed modelDescription.xml"],
         ),
+        // A 2.0 description that claims another version is read as that version's.
         (
             "fmi1.fmu",
             |x| x.replace("fmiVersion=\"2.0\"", "fmiVersion=\"1.0\""),
-            &["FMI 1.0 FMUs are not supported yet"],
+            &["<fmiModelDescription> has no modelIdentifier attribute"],
         ),
         (
             "fmi3.fmu",
             |x| x.replace("fmiVersion=\"2.0\"", "fmiVersion=\"3.0\""),
-            &["FMI 3.0 FMUs are not supported yet"],
+            &["<fmiModelDescription> has no instantiationToken attribute"],
+        ),
+        (
+            "fmi4.fmu",
+            |x| x.replace("fmiVersion=\"2.0\"", "fmiVersion=\"4.0\""),
+            &["FMI 4.0 FMUs are not supported (fmucal reads FMI 1.0, 2.0 and 3.0)"],
         ),
     ];
     for (file, edit, needles) in cases {

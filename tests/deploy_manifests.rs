@@ -83,14 +83,14 @@ const BROKEN: &[(&str, &str, &str, &str)] = &[
         "Deployment/fmucal-worker: spec.template.spec: Additional properties are not allowed \
          ('terminationGracePeriodSecond' was unexpected) [Kubernetes 1.25.0 to 1.37.0",
     ),
-    (
-        "fmucal.yaml",
-        "kind: Service\n",
-        "kind: Servce\n",
-        "Servce/fmucal-coordinator: no schema for kind Servce",
-    ),
+    ("fmucal.yaml", "kind: Service\n", "kind: Servce\n", "Servce/fmucal-coordinator: no schema for kind Servce"),
     // Schema: a wrong type (a count as a word).
-    ("worker-hpa.yaml", "maxReplicas: 20", "maxReplicas: twenty", "spec.maxReplicas: 'twenty' is not of type 'integer'"),
+    (
+        "worker-hpa.yaml",
+        "maxReplicas: 20",
+        "maxReplicas: twenty",
+        "spec.maxReplicas: 'twenty' is not of type 'integer'",
+    ),
     // Against compose: image, flags, probes, resources, certificates, environment.
     (
         "fmucal.yaml",

@@ -20,7 +20,13 @@ fn fmucal(args: &[&str], cache: &Path) -> std::process::Output {
 }
 
 /// Simulates `fmu` on a 0.01 s grid to `stop` and returns its outputs and states.
-fn run(fmu: &Path, interface: Interface, stop: f64, set: &[(&str, &str)], cache: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+fn run(
+    fmu: &Path,
+    interface: Interface,
+    stop: f64,
+    set: &[(&str, &str)],
+    cache: &Path,
+) -> (Vec<String>, Vec<Vec<f64>>) {
     let fmu = common::load(fmu, cache);
     let spec = SimSpec {
         interface: Some(interface),
@@ -153,7 +159,8 @@ fn furuta_frictions_are_the_same_whichever_fmi_version_the_job_names() {
         let job = dir.path().join(format!("job-{label}.toml"));
         std::fs::write(&job, job_text).unwrap();
         let out_dir = dir.path().join(label);
-        let out = fmucal(&["calibrate", job.to_str().unwrap(), "--out", out_dir.to_str().unwrap()], &dir.path().join("c"));
+        let out =
+            fmucal(&["calibrate", job.to_str().unwrap(), "--out", out_dir.to_str().unwrap()], &dir.path().join("c"));
         assert!(out.status.success(), "FMI {label}: {}", String::from_utf8_lossy(&out.stderr));
         let r: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out_dir.join("result.json")).unwrap()).unwrap();
@@ -236,7 +243,10 @@ fn what_fmucal_cannot_serve_is_refused_in_one_line() {
     ];
     for (model, parameter, want) in cases {
         let job = job(d, model, &[(parameter, 1.0, 0.0, 2.0)]);
-        let err = one_line_error(&fmucal(&["calibrate", job.to_str().unwrap(), "--out", d.join("o").to_str().unwrap()], &cache));
+        let err = one_line_error(&fmucal(
+            &["calibrate", job.to_str().unwrap(), "--out", d.join("o").to_str().unwrap()],
+            &cache,
+        ));
         assert!(err.contains("parameters[0].name") && err.contains(want), "{parameter}: {err}");
     }
 }

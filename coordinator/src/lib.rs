@@ -173,11 +173,17 @@ pub async fn run(
         }
     });
     let (stopping_tx, stopping_rx) = tokio::sync::oneshot::channel::<()>();
+    let stopping_reporter = health_reporter.clone();
     let stop = async move {
         tokio::select! {
             () = shutdown => {}
             _ = fatal_rx => {}
         }
+        // Probes see the coordinator going away before its connections are cut.
+        stopping_reporter.set_service_status("", tonic_health::ServingStatus::NotServing).await;
+        stopping_reporter
+            .set_not_serving::<pb::calibration_server::CalibrationServer<services::Handlers>>()
+            .await;
         let _ = stopping_tx.send(());
     };
     tracing::info!(%addr, tls = config.tls.is_some(), "coordinator listening");
@@ -208,8 +214,10 @@ pub async fn run(
         ))
         .serve_with_incoming_shutdown(connections::incoming(listener, &config.connections), stop);
     // A graceful stop waits for every open call, and a client's WatchJob stream or a worker's
-    // long poll may stay open for good: past SHUTDOWN_GRACE the connections are dropped (their
-    // clients and workers reconnect to the next coordinator; the store holds every batch).
+    // long poll may stay open for good: past SHUTDOWN_GRACE `run` stops waiting and returns once
+    // the store is closed. tonic runs each connection as its own task, so in the `fmucal`
+    // binary it is the process's exit that closes them (their clients and workers reconnect to
+    // the next coordinator; the store holds every batch).
     let grace_over = async move {
         if stopping_rx.await.is_err() {
             std::future::pending::<()>().await;

@@ -235,7 +235,12 @@ impl Client {
         let mut last_rounds = None;
         let mut lost_since: Option<tokio::time::Instant> = None;
         loop {
-            let watched = self.watch_until_end(job_id, &mut last_rounds, &ended, &mut on_event).await;
+            let mut answered = false;
+            let watched = self.watch_until_end(job_id, &mut last_rounds, &mut answered, &ended, &mut on_event).await;
+            if answered {
+                // The coordinator answered since it was last lost: a later loss starts anew.
+                lost_since = None;
+            }
             let status = match watched {
                 Ok(()) => match self.inner.get_job(pb::GetJobRequest { job_id: job_id.to_owned() }).await {
                     Ok(job) => return Ok(job.into_inner()),
@@ -256,17 +261,20 @@ impl Client {
         }
     }
 
-    /// One `WatchJob` stream, until the job ends (`Ok`) or the stream fails.
+    /// One `WatchJob` stream, until the job ends (`Ok`) or the stream fails; `answered` is set
+    /// once the coordinator has sent an event.
     async fn watch_until_end(
         &mut self,
         job_id: &str,
         last_rounds: &mut Option<u64>,
+        answered: &mut bool,
         ended: &impl Fn(i32) -> bool,
         on_event: &mut impl FnMut(&pb::WatchJobResponse),
     ) -> Result<(), tonic::Status> {
         let mut stream = self.inner.watch_job(pb::WatchJobRequest { job_id: job_id.to_owned() }).await?.into_inner();
         // The stream also ends when the coordinator has sent the last event of a finished job.
         while let Some(ev) = stream.message().await? {
+            *answered = true;
             let repeated = last_rounds.is_some_and(|r| ev.rounds <= r) && !ended(ev.status);
             if !repeated {
                 on_event(&ev);

@@ -23,6 +23,10 @@ if ! docker info >/dev/null 2>&1; then
   say "skipped: no Docker engine answers (docker info failed)"
   exit 0
 fi
+if ! docker image inspect fmucal-base:bookworm >/dev/null 2>&1 && [ "$(id -u)" != 0 ]; then
+  say "skipped: the base image fmucal-base:bookworm is not there and making it (debootstrap) needs root"
+  exit 0
+fi
 if docker compose version >/dev/null 2>&1; then compose_cmd=(docker compose); else compose_cmd=(docker-compose); fi
 
 export FMUCAL_PORT="${FMUCAL_PORT:-17070}" FMUCAL_METRICS_PORT="${FMUCAL_METRICS_PORT:-19090}"

@@ -175,12 +175,12 @@ impl Instance {
             Interface::ModelExchange => FmuType::ModelExchange,
             Interface::CoSimulation => FmuType::CoSimulation,
         };
-        self.api
-            .instantiate(&self.description, &self.name, kind, &self.resources, false)
-            .map_err(|messages| FmuError::Instantiate {
+        self.api.instantiate(&self.description, &self.name, kind, &self.resources, false).map_err(|messages| {
+            FmuError::Instantiate {
                 function: self.api.instantiate_function(self.interface),
                 model: self.description.model_name.clone(),
                 messages,
-            })
+            }
+        })
     }
 }

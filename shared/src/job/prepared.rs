@@ -146,9 +146,7 @@ impl PreparedExperiment {
 
         for (k, p) in spec.parameters.iter().enumerate() {
             let field = format!("parameters[{k}].name");
-            let v = md
-                .variable(&p.name)
-                .ok_or_else(|| JobError::invalid(&field, md.unknown_variable(&p.name)))?;
+            let v = md.variable(&p.name).ok_or_else(|| JobError::invalid(&field, md.unknown_variable(&p.name)))?;
             if v.var_type != VarType::Real {
                 return Err(JobError::invalid(
                     &field,

@@ -308,7 +308,6 @@ impl Component {
         }
         Ok(Component { api, raw, log, _callbacks: callbacks })
     }
-
 }
 
 impl FmiCalls for Component {

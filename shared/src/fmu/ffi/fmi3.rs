@@ -12,20 +12,13 @@ use std::sync::Arc;
 
 use super::{EventInfo, FfiError, FmiCalls, FmuType, Status, lossy};
 use crate::fmu::log::InstanceLog;
-use crate::fmu::schema::{Fmi3Storage, Fmi3Type, ModelDescription};
+use crate::fmu::schema::{Fmi3Storage, Fmi3Type, ModelDescription, Value};
 
 type Inst = *mut c_void;
 type LogMessage = extern "C" fn(*mut c_void, c_int, *const c_char, *const c_char);
 
-type InstantiateMe = unsafe extern "C" fn(
-    *const c_char,
-    *const c_char,
-    *const c_char,
-    bool,
-    bool,
-    *mut c_void,
-    LogMessage,
-) -> Inst;
+type InstantiateMe =
+    unsafe extern "C" fn(*const c_char, *const c_char, *const c_char, bool, bool, *mut c_void, LogMessage) -> Inst;
 type InstantiateCs = unsafe extern "C" fn(
     *const c_char,
     *const c_char,
@@ -47,13 +40,14 @@ type SetDebugLogging = unsafe extern "C" fn(Inst, bool, usize, *const *const c_c
 type EnterInit = unsafe extern "C" fn(Inst, bool, f64, f64, bool, f64) -> c_int;
 type Get<T> = unsafe extern "C" fn(Inst, *const u32, usize, *mut T, usize) -> c_int;
 type Set<T> = unsafe extern "C" fn(Inst, *const u32, usize, *const T, usize) -> c_int;
-type UpdateDiscreteStates =
-    unsafe extern "C" fn(Inst, *mut bool, *mut bool, *mut bool, *mut bool, *mut bool, *mut f64) -> c_int;
-type CompletedIntegratorStep = unsafe extern "C" fn(Inst, bool, *mut bool, *mut bool) -> c_int;
+// Out-arguments of type fmi3Boolean are read as bytes: a byte other than 0 or 1 written by the
+// FMU must not become an invalid Rust bool.
+type UpdateDiscreteStates = unsafe extern "C" fn(Inst, *mut u8, *mut u8, *mut u8, *mut u8, *mut u8, *mut f64) -> c_int;
+type CompletedIntegratorStep = unsafe extern "C" fn(Inst, bool, *mut u8, *mut u8) -> c_int;
 type SetTime = unsafe extern "C" fn(Inst, f64) -> c_int;
 type SetArray = unsafe extern "C" fn(Inst, *const f64, usize) -> c_int;
 type GetArray = unsafe extern "C" fn(Inst, *mut f64, usize) -> c_int;
-type DoStep = unsafe extern "C" fn(Inst, f64, f64, bool, *mut bool, *mut bool, *mut bool, *mut f64) -> c_int;
+type DoStep = unsafe extern "C" fn(Inst, f64, f64, bool, *mut u8, *mut u8, *mut u8, *mut f64) -> c_int;
 
 #[derive(Clone, Copy)]
 enum Need {
@@ -115,8 +109,8 @@ fmi3_api! {
     set_int64: "fmi3SetInt64" => Set<i64>, Optional,
     get_uint64: "fmi3GetUInt64" => Get<u64>, Optional,
     set_uint64: "fmi3SetUInt64" => Set<u64>, Optional,
-    get_boolean: "fmi3GetBoolean" => Get<bool>, Optional,
-    set_boolean: "fmi3SetBoolean" => Set<bool>, Optional,
+    get_boolean: "fmi3GetBoolean" => Get<u8>, Optional,
+    set_boolean: "fmi3SetBoolean" => Set<u8>, Optional,
     update_discrete_states: "fmi3UpdateDiscreteStates" => UpdateDiscreteStates, ModelExchange,
     enter_continuous_time_mode: "fmi3EnterContinuousTimeMode" => Call, ModelExchange,
     completed_integrator_step: "fmi3CompletedIntegratorStep" => CompletedIntegratorStep, ModelExchange,
@@ -201,6 +195,13 @@ pub struct Instance {
     /// How to reach each variable that is not a scalar Float64 (whose fmucal value reference is
     /// its own): its type, and for an array element the array.
     storage: HashMap<u32, Fmi3Storage>,
+    /// The values fmucal holds for each array it may write an element of (by the array's value
+    /// reference): the description's start values, then what was set. Writing an element sends
+    /// the whole array from here, so the FMU is never read before initialisation, where FMI 3.0
+    /// allows no getter. `None` for an element without a start value: such an array is read
+    /// first.
+    arrays: HashMap<u32, Vec<Option<f64>>>,
+    array_starts: HashMap<u32, Vec<Option<f64>>>,
     /// The experiment of `setup_experiment`, passed on by `enter_initialization_mode`.
     experiment: (Option<f64>, f64, Option<f64>),
     /// What the last `fmi3DoStep` said.
@@ -234,7 +235,9 @@ impl Instance {
         let raw = unsafe {
             match kind {
                 FmuType::ModelExchange => match api.instantiate_me {
-                    Some(f) => f(name.as_ptr(), token.as_ptr(), resource_path.as_ptr(), false, logging_on, env, log_message),
+                    Some(f) => {
+                        f(name.as_ptr(), token.as_ptr(), resource_path.as_ptr(), false, logging_on, env, log_message)
+                    }
                     None => return Err(vec!["fmi3InstantiateModelExchange not resolved".into()]),
                 },
                 FmuType::CoSimulation => match api.instantiate_cs {
@@ -265,11 +268,27 @@ impl Instance {
             .filter_map(|v| v.fmi3.clone().map(|s| (v.value_reference, s)))
             .filter(|(vr, s)| !(s.ty == Fmi3Type::Float64 && s.element.is_none() && s.value_reference == *vr))
             .collect();
+        let mut array_starts: HashMap<u32, Vec<Option<f64>>> = HashMap::new();
+        for v in &description.variables {
+            let Some(Fmi3Storage { value_reference, element: Some(k), .. }) = &v.fmi3 else { continue };
+            let n = v.fmi3.as_ref().map_or(0, Fmi3Storage::len);
+            let values = array_starts.entry(*value_reference).or_insert_with(|| vec![None; n]);
+            if let Some(slot) = values.get_mut(*k) {
+                *slot = match &v.start {
+                    Some(Value::Real(x)) => Some(*x),
+                    Some(Value::Integer(i)) => Some(*i as f64),
+                    Some(Value::Boolean(b)) => Some(f64::from(u8::from(*b))),
+                    _ => None,
+                };
+            }
+        }
         Ok(Instance {
             api,
             raw,
             log,
             storage,
+            arrays: array_starts.clone(),
+            array_starts,
             experiment: (None, 0.0, None),
             terminated: false,
             last_successful_time: None,
@@ -314,13 +333,13 @@ impl Instance {
                 let Some(f) = self.api.get_boolean else {
                     return Err(self.refuse("the FMU does not export fmi3GetBoolean".into()));
                 };
-                let mut buf = vec![false; n];
-                // SAFETY: as above.
+                let mut buf = vec![0u8; n];
+                // SAFETY: as above (fmi3Boolean is one byte).
                 let st = Status::from_raw(unsafe { f(self.raw, &s.value_reference, 1, buf.as_mut_ptr(), n) });
                 if st > Status::Warning {
                     return Err(st);
                 }
-                buf.into_iter().map(|b| f64::from(u8::from(b))).collect()
+                buf.into_iter().map(|b| f64::from(u8::from(b != 0))).collect()
             }
             other => return Err(self.refuse(format!("fmucal cannot read {other:?} variables"))),
         })
@@ -354,7 +373,7 @@ impl Instance {
                 let Some(f) = self.api.set_boolean else {
                     return self.refuse("the FMU does not export fmi3SetBoolean".into());
                 };
-                let buf: Vec<bool> = values.iter().map(|v| *v != 0.0).collect();
+                let buf: Vec<u8> = values.iter().map(|v| u8::from(*v != 0.0)).collect();
                 // SAFETY: as above.
                 Status::from_raw(unsafe { f(self.raw, &s.value_reference, 1, buf.as_ptr(), n) })
             }
@@ -383,7 +402,10 @@ impl Instance {
         for (vr, slot) in vrs.iter().zip(out.iter_mut()) {
             let s = self.storage_of(*vr, default);
             match self.read(&s) {
-                Ok(values) => *slot = values[s.element.unwrap_or(0)],
+                Ok(values) => match values.get(s.element.unwrap_or(0)) {
+                    Some(v) => *slot = *v,
+                    None => return self.refuse(format!("variable {vr} is past the end of its array")),
+                },
                 Err(st) => return st,
             }
         }
@@ -404,13 +426,38 @@ impl Instance {
             let s = self.storage_of(*vr, default);
             let st = match s.element {
                 None => self.write(&s, &[*value]),
-                Some(k) => match self.read(&s) {
-                    Ok(mut all) => {
-                        all[k] = *value;
-                        self.write(&s, &all)
+                Some(k) => {
+                    let held = self.arrays.get(&s.value_reference).and_then(|a| {
+                        let mut all = a.clone();
+                        *all.get_mut(k)? = Some(*value);
+                        all.into_iter().collect::<Option<Vec<f64>>>()
+                    });
+                    let all = match held {
+                        Some(all) => Ok(all),
+                        None => self.read(&s).map(|mut all| {
+                            if let Some(slot) = all.get_mut(k) {
+                                *slot = *value;
+                            }
+                            all
+                        }),
+                    };
+                    match all {
+                        Ok(all) if all.len() == s.len() => {
+                            let st = self.write(&s, &all);
+                            if st <= Status::Warning {
+                                self.arrays.insert(s.value_reference, all.into_iter().map(Some).collect());
+                            }
+                            st
+                        }
+                        Ok(all) => self.refuse(format!(
+                            "array {} holds {} values, not the {} of its description",
+                            s.value_reference,
+                            all.len(),
+                            s.len()
+                        )),
+                        Err(st) => st,
                     }
-                    Err(st) => st,
-                },
+                }
             };
             if st > Status::Warning {
                 return st;
@@ -467,6 +514,7 @@ impl FmiCalls for Instance {
         call!(self, terminate)
     }
     fn reset(&mut self) -> Status {
+        self.arrays = self.array_starts.clone();
         call!(self, reset)
     }
 
@@ -506,7 +554,7 @@ impl FmiCalls for Instance {
     }
     fn new_discrete_states(&mut self, info: &mut EventInfo) -> Status {
         let (mut needed, mut terminate, mut nominals, mut values, mut time_defined, mut time) =
-            (false, false, false, false, false, 0.0);
+            (0u8, 0u8, 0u8, 0u8, 0u8, 0.0);
         let st = call!(
             self,
             update_discrete_states,
@@ -517,12 +565,13 @@ impl FmiCalls for Instance {
             &mut time_defined,
             &mut time
         );
+        let flag = |b: u8| c_int::from(b != 0);
         *info = EventInfo {
-            new_discrete_states_needed: needed.into(),
-            terminate_simulation: terminate.into(),
-            nominals_of_continuous_states_changed: nominals.into(),
-            values_of_continuous_states_changed: values.into(),
-            next_event_time_defined: time_defined.into(),
+            new_discrete_states_needed: flag(needed),
+            terminate_simulation: flag(terminate),
+            nominals_of_continuous_states_changed: flag(nominals),
+            values_of_continuous_states_changed: flag(values),
+            next_event_time_defined: flag(time_defined),
             next_event_time: time,
         };
         st
@@ -531,9 +580,9 @@ impl FmiCalls for Instance {
         call!(self, enter_continuous_time_mode)
     }
     fn completed_integrator_step(&mut self) -> (Status, bool, bool) {
-        let (mut enter, mut terminate) = (false, false);
+        let (mut enter, mut terminate) = (0u8, 0u8);
         let st = call!(self, completed_integrator_step, true, &mut enter, &mut terminate);
-        (st, enter, terminate)
+        (st, enter != 0, terminate != 0)
     }
     fn set_time(&mut self, t: f64) -> Status {
         call!(self, set_time, t)
@@ -555,8 +604,9 @@ impl FmiCalls for Instance {
     }
 
     fn do_step(&mut self, t: f64, h: f64) -> Status {
-        let (mut event, mut terminate, mut early, mut last) = (false, false, false, t);
+        let (mut event, mut terminate, mut early, mut last) = (0u8, 0u8, 0u8, t);
         let st = call!(self, do_step, t, h, true, &mut event, &mut terminate, &mut early, &mut last);
+        let (terminate, early) = (terminate != 0, early != 0);
         self.terminated = terminate;
         self.last_successful_time = (terminate || early).then_some(last);
         if early && !terminate && st <= Status::Warning {

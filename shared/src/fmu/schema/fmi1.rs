@@ -9,8 +9,8 @@
 //! are left out (reading them through their value reference would give the wrong sign).
 
 use super::{
-    Attrs, BaseUnit, Causality, DisplayUnit, EnumItem, Initial, InterfaceInfo, ModelDescription,
-    ModelStructure, ScalarVariable, SchemaError, SimpleType, Unit, Unknown, Value, VarType, Variability, err_invalid,
+    Attrs, BaseUnit, Causality, DisplayUnit, EnumItem, Initial, InterfaceInfo, ModelDescription, ModelStructure,
+    ScalarVariable, SchemaError, SimpleType, Unit, Unknown, VarType, Variability, err_invalid,
 };
 
 #[derive(Default)]
@@ -32,16 +32,6 @@ pub(super) fn parse(xml: &str) -> Result<ModelDescription, SchemaError> {
     let mut p = Parser::default();
     super::walk(xml, |parent, name, attrs| p.open(parent, name, attrs))?;
     p.finish()
-}
-
-fn var_type(elem: &str) -> VarType {
-    match elem {
-        "Real" => VarType::Real,
-        "Integer" => VarType::Integer,
-        "Boolean" => VarType::Boolean,
-        "String" => VarType::String,
-        _ => VarType::Enumeration,
-    }
 }
 
 impl Parser {
@@ -91,8 +81,7 @@ impl Parser {
                     cs.max_output_derivative_order = a.int(name, "maxOutputDerivativeOrder")?.unwrap_or(0);
                     cs.can_be_instantiated_only_once_per_process =
                         a.bool(name, "canBeInstantiatedOnlyOncePerProcess")?;
-                    cs.can_not_use_memory_management_functions =
-                        a.bool(name, "canNotUseMemoryManagementFunctions")?;
+                    cs.can_not_use_memory_management_functions = a.bool(name, "canNotUseMemoryManagementFunctions")?;
                 }
             }
             (Some("UnitDefinitions"), "BaseUnit") => {
@@ -123,10 +112,18 @@ impl Parser {
                 };
                 self.md(name)?.type_definitions.push(st);
             }
-            (Some("Type"), type_elem @ ("RealType" | "IntegerType" | "BooleanType" | "StringType" | "EnumerationType")) => {
-                let base_type = var_type(type_elem.trim_end_matches("Type"));
-                let (quantity, unit, min, max, nominal) =
-                    (a.string("quantity"), a.string("unit"), a.f64(name, "min")?, a.f64(name, "max")?, a.f64(name, "nominal")?);
+            (
+                Some("Type"),
+                type_elem @ ("RealType" | "IntegerType" | "BooleanType" | "StringType" | "EnumerationType"),
+            ) => {
+                let base_type = super::var_type(type_elem.trim_end_matches("Type"));
+                let (quantity, unit, min, max, nominal) = (
+                    a.string("quantity"),
+                    a.string("unit"),
+                    a.f64(name, "min")?,
+                    a.f64(name, "max")?,
+                    a.f64(name, "nominal")?,
+                );
                 if let Some(st) = self.md(name)?.type_definitions.last_mut() {
                     st.base_type = base_type;
                     st.quantity = quantity;
@@ -141,7 +138,11 @@ impl Parser {
                 if let Some(st) = md.type_definitions.last_mut() {
                     // FMI 1.0 items are numbered 1, 2, ... in their order.
                     let value = st.items.len() as i64 + 1;
-                    st.items.push(EnumItem { name: a.required(name, "name")?, value, description: a.string("description") });
+                    st.items.push(EnumItem {
+                        name: a.required(name, "name")?,
+                        value,
+                        description: a.string("description"),
+                    });
                 }
             }
             (Some("fmiModelDescription"), "DefaultExperiment") => {
@@ -176,11 +177,13 @@ impl Parser {
             md.variables.drain(..).zip(&self.negated).filter(|(_, negated)| !**negated).map(|(v, _)| v).collect();
         md.variables = kept;
         // States from der(x) names, in the order written.
+        let index_of: std::collections::HashMap<&str, usize> =
+            md.variables.iter().enumerate().map(|(k, v)| (v.name.as_str(), k)).rev().collect();
         let mut derivatives = vec![];
         for (k, var) in md.variables.iter().enumerate() {
             let Some(state) = var.name.strip_prefix("der(").and_then(|s| s.strip_suffix(')')) else { continue };
-            if let Some(s) = md.variables.iter().position(|v| v.name == state) {
-                derivatives.push((k, s));
+            if let Some(s) = index_of.get(state) {
+                derivatives.push((k, *s));
             }
         }
         if derivatives.len() != self.number_of_states {
@@ -230,51 +233,17 @@ fn scalar_variable(a: &Attrs) -> Result<ScalarVariable, SchemaError> {
         ("internal" | "none", _) => Causality::Local,
         (other, _) => return Err(ctx(format!("unknown causality {other:?}"))),
     };
-    Ok(ScalarVariable {
-        name: name.clone(),
-        value_reference,
-        description: a.string("description"),
-        causality,
-        variability,
-        initial: None,
-        var_type: VarType::Real,
-        declared_type: None,
-        start: None,
-        min: None,
-        max: None,
-        nominal: None,
-        unit: None,
-        derivative: None,
-        reinit: false,
-        fmi3: None,
-    })
+    Ok(ScalarVariable::new(name, value_reference, a.string("description"), causality, variability, None))
 }
 
+/// The type element as FMI 2.0 reads it (the same elements and attributes), then `initial` from
+/// FMI 1.0's `fixed`.
 fn apply_type_element(var: &mut ScalarVariable, elem: &str, a: &Attrs) -> Result<(), SchemaError> {
+    super::apply_type_element(var, elem, a)?;
     let name = var.name.clone();
     let ctx = |e: SchemaError| match e {
         SchemaError::Invalid(msg) => err_invalid(format!("variable {name:?}: {msg}")),
         other => other,
-    };
-    var.var_type = var_type(elem);
-    var.declared_type = a.string("declaredType");
-    var.unit = a.string("unit");
-    var.min = a.f64(elem, "min").map_err(ctx)?;
-    var.max = a.f64(elem, "max").map_err(ctx)?;
-    var.nominal = a.f64(elem, "nominal").map_err(ctx)?;
-    let bad = |what: &str, s: &str| err_invalid(format!("variable {name:?}: start {s:?} is not {what}"));
-    var.start = match a.get("start").map(str::trim) {
-        None => None,
-        Some(s) => Some(match var.var_type {
-            VarType::Real => Value::Real(s.parse().map_err(|_| bad("a number", s))?),
-            VarType::Integer | VarType::Enumeration => Value::Integer(s.parse().map_err(|_| bad("an integer", s))?),
-            VarType::Boolean => Value::Boolean(match s {
-                "true" | "1" => true,
-                "false" | "0" => false,
-                _ => return Err(bad("a boolean", s)),
-            }),
-            _ => Value::String(s.to_owned()),
-        }),
     };
     // FMI 1.0: a start value is exact unless fixed="false"; without one, calculated.
     let fixed = a.bool(elem, "fixed").map_err(ctx)? || a.get("fixed").is_none();

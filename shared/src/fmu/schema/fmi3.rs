@@ -14,9 +14,8 @@ use quick_xml::Reader;
 use quick_xml::events::Event;
 
 use super::{
-    Attrs, Causality, EnumItem, Fmi3Storage, Fmi3Type, Initial,
-    InterfaceInfo, ModelDescription, ModelStructure, ScalarVariable, SchemaError, SimpleType, Unit, Unknown, Value,
-    VarType, Variability, err_invalid,
+    Attrs, Causality, EnumItem, Fmi3Storage, Fmi3Type, Initial, InterfaceInfo, ModelDescription, ModelStructure,
+    ScalarVariable, SchemaError, SimpleType, Unit, Unknown, Value, VarType, Variability, err_invalid,
 };
 
 /// The `fmiVersion` of the root element (read from the first element only).
@@ -32,6 +31,12 @@ pub(super) fn root_version(xml: &str) -> Option<String> {
         }
     }
 }
+
+/// The most variables a description may have once its arrays are expanded (one per element).
+pub const MAX_VARIABLES: usize = 1_000_000;
+
+/// The most dependency entries kept from `ModelStructure` (past it, unknowns keep none).
+const MAX_DEPENDENCIES: usize = 10_000_000;
 
 /// A variable as written, before its array is expanded.
 struct RawVariable {
@@ -120,7 +125,8 @@ fn interface(elem: &str, a: &Attrs) -> Result<InterfaceInfo, SchemaError> {
         can_get_and_set_fmu_state: a.bool(elem, "canGetAndSetFMUState")?,
         can_serialize_fmu_state: a.bool(elem, "canSerializeFMUState")?,
         provides_directional_derivative: a.bool(elem, "providesDirectionalDerivatives")?,
-        completed_integrator_step_not_needed: elem == "ModelExchange" && !a.bool(elem, "needsCompletedIntegratorStep")?,
+        completed_integrator_step_not_needed: elem == "ModelExchange"
+            && !a.bool(elem, "needsCompletedIntegratorStep")?,
         can_handle_variable_communication_step_size: a.bool(elem, "canHandleVariableCommunicationStepSize")?,
         can_interpolate_inputs: a.bool(elem, "canInterpolateInputs")?,
         max_output_derivative_order: a.int(elem, "maxOutputDerivativeOrder")?.unwrap_or(0),
@@ -241,8 +247,13 @@ impl Parser {
                 raw.start.push(a.string("value").unwrap_or_default());
             }
             (Some("ModelStructure"), list @ ("Output" | "ContinuousStateDerivative" | "InitialUnknown")) => {
-                let vr = a.int(name, "valueReference")?.ok_or_else(|| err_invalid(format!("<{list}> has no valueReference")))?;
-                let deps = a.get("dependencies").map(|d| value_references(d, &format!("<{list}> dependencies"))).transpose()?;
+                let vr = a
+                    .int(name, "valueReference")?
+                    .ok_or_else(|| err_invalid(format!("<{list}> has no valueReference")))?;
+                let deps = a
+                    .get("dependencies")
+                    .map(|d| value_references(d, &format!("<{list}> dependencies")))
+                    .transpose()?;
                 let list = match list {
                     "Output" => "Outputs",
                     "ContinuousStateDerivative" => "Derivatives",
@@ -251,7 +262,9 @@ impl Parser {
                 self.structure.push((list, vr, deps));
             }
             (Some("ModelStructure"), "EventIndicator") => {
-                let vr = a.int(name, "valueReference")?.ok_or_else(|| err_invalid("<EventIndicator> has no valueReference"))?;
+                let vr = a
+                    .int(name, "valueReference")?
+                    .ok_or_else(|| err_invalid("<EventIndicator> has no valueReference"))?;
                 self.event_indicators.push(vr);
             }
             _ => {}
@@ -309,7 +322,18 @@ impl Parser {
                     .collect::<Result<Vec<usize>, SchemaError>>()
             })
             .collect::<Result<_, _>>()?;
-        // Expand arrays: each element gets a value reference of fmucal's past the FMU's largest.
+        // Expand arrays (at most MAX_VARIABLES variables in all, before anything is allocated):
+        // each element gets a value reference of fmucal's past the FMU's largest.
+        let mut total: usize = 0;
+        for (raw, dims) in self.raw.iter().zip(&sizes) {
+            let n = dims.iter().try_fold(1usize, |acc, d| acc.checked_mul(*d));
+            total = n.and_then(|n| total.checked_add(n.max(1))).filter(|t| *t <= MAX_VARIABLES).ok_or_else(|| {
+                err_invalid(format!(
+                    "variable {:?}: its array takes the description past {MAX_VARIABLES} variables (array elements count one each)",
+                    raw.var.name
+                ))
+            })?;
+        }
         let mut next_vr = self.raw.iter().map(|r| r.var.value_reference).max().map_or(0, |m| u64::from(m) + 1);
         let mut indices_of: HashMap<u32, Vec<usize>> = HashMap::new();
         // Per expanded variable: the value reference of the state it is the derivative of.
@@ -330,11 +354,15 @@ impl Parser {
                     })
                     .collect::<Result<_, SchemaError>>()?
             };
+            let starts = start_texts(raw, n)?;
             for (element, name, vr) in elements {
                 let mut var = raw.var.clone();
                 var.name = name;
                 var.value_reference = vr;
-                var.start = start_value(raw, element.unwrap_or(0), n)?;
+                var.start = starts
+                    .as_ref()
+                    .map(|texts| typed_start(raw, texts.get(element.unwrap_or(0)).unwrap_or(&texts[0])))
+                    .transpose()?;
                 var.fmi3 = Some(Fmi3Storage { ty: raw.ty, value_reference: base, element, dimensions: dims.clone() });
                 indices_of.entry(base).or_default().push(md.variables.len() + 1);
                 md.variables.push(var);
@@ -352,7 +380,14 @@ impl Parser {
             })?;
             let var = &md.variables[k];
             let position = var.fmi3.as_ref().and_then(|s| s.element).unwrap_or(0);
-            md.variables[k].derivative = Some(*states.get(position).unwrap_or(&states[0]));
+            let state = *states.get(position).ok_or_else(|| {
+                err_invalid(format!(
+                    "variable {:?}: derivative of valueReference {state_vr}, which has only {} element(s)",
+                    var.name,
+                    states.len()
+                ))
+            })?;
+            md.variables[k].derivative = Some(state);
         }
         let to_indices = |vr: u32, what: &str| -> Result<Vec<usize>, SchemaError> {
             indices_of
@@ -360,11 +395,21 @@ impl Parser {
                 .cloned()
                 .ok_or_else(|| err_invalid(format!("ModelStructure/{what}: no variable has valueReference {vr}")))
         };
+        let mut kept_dependencies: usize = 0;
         for (list, vr, deps) in &self.structure {
-            let dependencies = deps
+            let mut dependencies = deps
                 .as_ref()
                 .map(|d| d.iter().map(|v| to_indices(*v, list)).collect::<Result<Vec<_>, _>>().map(|v| v.concat()))
                 .transpose()?;
+            // Dependencies only refine what an unknown depends on; past the cap, an unknown is
+            // taken to depend on everything (no list), as FMI allows.
+            let copies = indices_of.get(vr).map_or(0, Vec::len);
+            let cost = dependencies.as_ref().map_or(0, |d| d.len().saturating_mul(copies));
+            if kept_dependencies.saturating_add(cost) > MAX_DEPENDENCIES {
+                dependencies = None;
+            } else {
+                kept_dependencies += cost;
+            }
             for index in to_indices(*vr, list)? {
                 let unknown = Unknown { index, dependencies: dependencies.clone() };
                 match *list {
@@ -375,7 +420,9 @@ impl Parser {
             }
         }
         for vr in &self.event_indicators {
-            md.number_of_event_indicators += to_indices(*vr, "EventIndicator")?.len();
+            md.number_of_event_indicators += indices_of.get(vr).map(Vec::len).ok_or_else(|| {
+                err_invalid(format!("ModelStructure/EventIndicator: no variable has valueReference {vr}"))
+            })?;
         }
         super::finish(&mut md)?;
         Ok(md)
@@ -392,9 +439,8 @@ fn subscript(mut k: usize, dims: &[usize]) -> String {
     subs.iter().map(usize::to_string).collect::<Vec<_>>().join(",")
 }
 
-/// The start value of element `k` of `n` (or of the scalar), typed.
-fn start_value(raw: &RawVariable, k: usize, n: usize) -> Result<Option<Value>, SchemaError> {
-    let name = &raw.var.name;
+/// The start values as written, one per element (or one for all), or `None` without any.
+fn start_texts(raw: &RawVariable, n: usize) -> Result<Option<Vec<&str>>, SchemaError> {
     let values: Vec<&str> = match raw.ty {
         Fmi3Type::String | Fmi3Type::Binary => raw.start.iter().map(String::as_str).collect(),
         _ => raw.start.iter().flat_map(|s| s.split_whitespace()).collect(),
@@ -403,24 +449,33 @@ fn start_value(raw: &RawVariable, k: usize, n: usize) -> Result<Option<Value>, S
         return Ok(None);
     }
     // One start value for a whole array applies to every element.
-    let text = if values.len() == 1 {
-        values[0]
-    } else if values.len() == n.max(1) {
-        values[k]
-    } else {
-        return Err(err_invalid(format!("variable {name:?}: {} start values for {n} elements", values.len())));
-    };
+    if values.len() != 1 && values.len() != n.max(1) {
+        return Err(err_invalid(format!(
+            "variable {:?}: {} start values for {n} elements",
+            raw.var.name,
+            values.len()
+        )));
+    }
+    Ok(Some(values))
+}
+
+/// One start value, typed.
+fn typed_start(raw: &RawVariable, text: &str) -> Result<Value, SchemaError> {
+    let name = &raw.var.name;
     let bad = |what: &str| err_invalid(format!("variable {name:?}: start {text:?} is not {what}"));
     Ok(match var_type(raw.ty) {
-        VarType::Real => Some(Value::Real(text.parse().map_err(|_| bad("a number"))?)),
-        VarType::Integer | VarType::Enumeration => Some(Value::Integer(text.parse().map_err(|_| bad("an integer"))?)),
-        VarType::Boolean => Some(Value::Boolean(match text {
+        VarType::Real => Value::Real(text.parse().map_err(|_| bad("a number"))?),
+        // A UInt64 start past i64::MAX is kept as the nearest Real.
+        VarType::Integer if raw.ty == Fmi3Type::UInt64 && text.parse::<i64>().is_err() => {
+            Value::Real(text.parse::<u64>().map_err(|_| bad("an integer"))? as f64)
+        }
+        VarType::Integer | VarType::Enumeration => Value::Integer(text.parse().map_err(|_| bad("an integer"))?),
+        VarType::Boolean => Value::Boolean(match text {
             "true" | "1" => true,
             "false" | "0" => false,
             _ => return Err(bad("a boolean")),
-        })),
-        VarType::String => Some(Value::String(text.to_owned())),
-        VarType::Binary | VarType::Clock => None,
+        }),
+        VarType::String | VarType::Binary | VarType::Clock => Value::String(text.to_owned()),
     })
 }
 
@@ -435,9 +490,10 @@ fn variable(ty: Fmi3Type, a: &Attrs) -> Result<RawVariable, SchemaError> {
         .parse::<u32>()
         .map_err(|_| ctx("valueReference is not an unsigned integer".into()))?;
     let causality = match a.get("causality").unwrap_or("local") {
-        // A structural parameter is a parameter that may also size arrays; fmucal never changes
-        // array sizes, so it is set like any parameter.
-        "parameter" | "structuralParameter" => Causality::Parameter,
+        "parameter" => Causality::Parameter,
+        // A structural parameter may size arrays, and fmucal keeps the sizes of the description:
+        // it is read, never set.
+        "structuralParameter" => Causality::CalculatedParameter,
         "calculatedParameter" => Causality::CalculatedParameter,
         "input" => Causality::Input,
         "output" => Causality::Output,
@@ -466,24 +522,17 @@ fn variable(ty: Fmi3Type, a: &Attrs) -> Result<RawVariable, SchemaError> {
         SchemaError::Invalid(msg) => err_invalid(format!("variable {name:?}: {msg}")),
         other => other,
     };
-    let var = ScalarVariable {
-        name: name.clone(),
-        value_reference,
-        description: a.string("description"),
-        causality,
-        variability,
-        initial,
-        var_type: var_type(ty),
-        declared_type: a.string("declaredType"),
-        start: None,
-        min: a.f64(&elem, "min").map_err(ectx)?,
-        max: a.f64(&elem, "max").map_err(ectx)?,
-        nominal: a.f64(&elem, "nominal").map_err(ectx)?,
-        unit: a.string("unit"),
-        derivative: None,
-        reinit: a.bool(&elem, "reinit").map_err(ectx)?,
-        fmi3: None,
-    };
+    // A structural parameter is never set (see its causality above).
+    let initial = if a.get("causality") == Some("structuralParameter") { Some(Initial::Calculated) } else { initial };
+    let mut var =
+        ScalarVariable::new(name.clone(), value_reference, a.string("description"), causality, variability, initial);
+    var.var_type = var_type(ty);
+    var.declared_type = a.string("declaredType");
+    var.min = a.f64(&elem, "min").map_err(ectx)?;
+    var.max = a.f64(&elem, "max").map_err(ectx)?;
+    var.nominal = a.f64(&elem, "nominal").map_err(ectx)?;
+    var.unit = a.string("unit");
+    var.reinit = a.bool(&elem, "reinit").map_err(ectx)?;
     Ok(RawVariable {
         var,
         ty,
@@ -595,10 +644,27 @@ mod tests {
     }
 
     #[test]
+    fn huge_arrays_are_refused_before_they_are_allocated() {
+        for dims in
+            [r#"<Dimension start="1000000000"/>"#, r#"<Dimension start="4294967296"/><Dimension start="4294967296"/>"#]
+        {
+            let xml = MINIMAL.replace(r#"<Dimension start="3"/>"#, dims);
+            let err = ModelDescription::parse(&xml).unwrap_err().to_string();
+            assert!(err.contains("variable \"k\": its array takes the description past 1000000 variables"), "{err}");
+        }
+        let md = ModelDescription::parse(MINIMAL).unwrap();
+        assert!(!md.variable("rows").unwrap().settable_before_init(), "a structural parameter was settable");
+    }
+
+    #[test]
     fn broken_references_are_invalid_with_the_variable_named() {
         let cases = [
             (r#"derivative="1""#, r#"derivative="99""#, "derivative refers to valueReference 99"),
-            (r#"<Output valueReference="4" dependencies="1 3"/>"#, r#"<Output valueReference="42"/>"#, "no variable has valueReference 42"),
+            (
+                r#"<Output valueReference="4" dependencies="1 3"/>"#,
+                r#"<Output valueReference="42"/>"#,
+                "no variable has valueReference 42",
+            ),
             (r#"valueReference="4""#, r#"valueReference="3""#, "valueReference 3 is used by another variable"),
             (r#"start="1 2 3""#, r#"start="1 2""#, "2 start values for 3 elements"),
             (r#"<Dimension valueReference="8"/>"#, r#"<Dimension valueReference="4"/>"#, "not a structural parameter"),

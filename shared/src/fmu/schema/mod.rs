@@ -741,24 +741,39 @@ fn scalar_variable(a: &Attrs) -> Result<ScalarVariable, SchemaError> {
         Some("calculated") => Some(Initial::Calculated),
         Some(other) => return Err(ctx(format!("unknown initial {other:?}"))),
     };
-    Ok(ScalarVariable {
-        name: name.clone(),
-        value_reference,
-        description: a.string("description"),
-        causality,
-        variability,
-        initial,
-        var_type: VarType::Real,
-        declared_type: None,
-        start: None,
-        min: None,
-        max: None,
-        nominal: None,
-        unit: None,
-        derivative: None,
-        reinit: false,
-        fmi3: None,
-    })
+    Ok(ScalarVariable::new(name, value_reference, a.string("description"), causality, variability, initial))
+}
+
+impl ScalarVariable {
+    /// A Real variable with these attributes and no type attributes yet (the type element sets
+    /// them).
+    fn new(
+        name: String,
+        value_reference: u32,
+        description: Option<String>,
+        causality: Causality,
+        variability: Variability,
+        initial: Option<Initial>,
+    ) -> Self {
+        ScalarVariable {
+            name,
+            value_reference,
+            description,
+            causality,
+            variability,
+            initial,
+            var_type: VarType::Real,
+            declared_type: None,
+            start: None,
+            min: None,
+            max: None,
+            nominal: None,
+            unit: None,
+            derivative: None,
+            reinit: false,
+            fmi3: None,
+        }
+    }
 }
 
 fn apply_type_element(var: &mut ScalarVariable, elem: &str, a: &Attrs) -> Result<(), SchemaError> {
@@ -800,10 +815,19 @@ fn apply_type_element(var: &mut ScalarVariable, elem: &str, a: &Attrs) -> Result
     Ok(())
 }
 
+/// The most event indicators a model may declare (each costs a slot per step).
+const MAX_EVENT_INDICATORS: usize = 1_000_000;
+
 /// Resolves declared types and checks cross references once the whole document is read.
 fn finish(md: &mut ModelDescription) -> Result<(), SchemaError> {
     if md.model_exchange.is_none() && md.co_simulation.is_none() {
         return Err(err_invalid("neither <ModelExchange> nor <CoSimulation> is present"));
+    }
+    if md.number_of_event_indicators > MAX_EVENT_INDICATORS {
+        return Err(err_invalid(format!(
+            "{} event indicators, more than the {MAX_EVENT_INDICATORS} fmucal handles",
+            md.number_of_event_indicators
+        )));
     }
     let n = md.variables.len();
     for var in &mut md.variables {
