@@ -9,8 +9,8 @@
 //! are left out (reading them through their value reference would give the wrong sign).
 
 use super::{
-    Attrs, BaseUnit, Causality, DisplayUnit, EnumItem, Initial, InterfaceInfo, ModelDescription, ModelStructure,
-    ScalarVariable, SchemaError, SimpleType, Unit, Unknown, VarType, Variability, err_invalid,
+    Attrs, BaseUnit, Causality, DisplayUnit, EnumItem, Initial, InterfaceInfo, ModelDescription, ScalarVariable,
+    SchemaError, SimpleType, Unit, Unknown, VarType, Variability, err_invalid,
 };
 
 #[derive(Default)]
@@ -44,24 +44,9 @@ impl Parser {
             (None, "fmiModelDescription") => {
                 self.model_identifier = a.required(name, "modelIdentifier")?;
                 self.number_of_states = a.int(name, "numberOfContinuousStates")?.unwrap_or(0);
-                self.md = Some(ModelDescription {
-                    fmi_version: a.required(name, "fmiVersion")?,
-                    model_name: a.required(name, "modelName")?,
-                    guid: a.required(name, "guid")?,
-                    description: a.string("description"),
-                    generation_tool: a.string("generationTool"),
-                    generation_date_and_time: a.string("generationDateAndTime"),
-                    variable_naming_convention: a.string("variableNamingConvention"),
-                    number_of_event_indicators: a.int(name, "numberOfEventIndicators")?.unwrap_or(0),
-                    model_exchange: None,
-                    co_simulation: None,
-                    unit_definitions: vec![],
-                    type_definitions: vec![],
-                    log_categories: vec![],
-                    default_experiment: None,
-                    variables: vec![],
-                    model_structure: ModelStructure::default(),
-                });
+                let mut md = ModelDescription::from_root(name, a, a.required(name, "fmiVersion")?, "guid")?;
+                md.number_of_event_indicators = a.int(name, "numberOfEventIndicators")?.unwrap_or(0);
+                self.md = Some(md);
             }
             (None, other) => {
                 return Err(err_invalid(format!("root element is <{other}>, expected <fmiModelDescription>")));

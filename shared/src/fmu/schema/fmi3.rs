@@ -14,8 +14,8 @@ use quick_xml::Reader;
 use quick_xml::events::Event;
 
 use super::{
-    Attrs, Causality, EnumItem, Fmi3Storage, Fmi3Type, Initial, InterfaceInfo, ModelDescription, ModelStructure,
-    ScalarVariable, SchemaError, SimpleType, Unit, Unknown, Value, VarType, Variability, err_invalid,
+    Attrs, Causality, EnumItem, Fmi3Storage, Fmi3Type, Initial, InterfaceInfo, ModelDescription, ScalarVariable,
+    SchemaError, SimpleType, Unit, Unknown, Value, VarType, Variability, err_invalid,
 };
 
 /// The `fmiVersion` of the root element (read from the first element only).
@@ -142,24 +142,8 @@ impl Parser {
     fn open(&mut self, parent: Option<&str>, name: &str, a: &Attrs) -> Result<(), SchemaError> {
         match (parent, name) {
             (None, "fmiModelDescription") => {
-                self.md = Some(ModelDescription {
-                    fmi_version: a.required(name, "fmiVersion")?,
-                    model_name: a.required(name, "modelName")?,
-                    guid: a.required(name, "instantiationToken")?,
-                    description: a.string("description"),
-                    generation_tool: a.string("generationTool"),
-                    generation_date_and_time: a.string("generationDateAndTime"),
-                    variable_naming_convention: a.string("variableNamingConvention"),
-                    number_of_event_indicators: 0,
-                    model_exchange: None,
-                    co_simulation: None,
-                    unit_definitions: vec![],
-                    type_definitions: vec![],
-                    log_categories: vec![],
-                    default_experiment: None,
-                    variables: vec![],
-                    model_structure: ModelStructure::default(),
-                });
+                let md = ModelDescription::from_root(name, a, a.required(name, "fmiVersion")?, "instantiationToken")?;
+                self.md = Some(md);
             }
             (None, other) => {
                 return Err(err_invalid(format!("root element is <{other}>, expected <fmiModelDescription>")));

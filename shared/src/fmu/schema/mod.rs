@@ -324,6 +324,29 @@ pub struct ModelDescription {
 }
 
 impl ModelDescription {
+    /// The root element's attributes every version has (`token` names the attribute holding
+    /// the GUID: `guid`, or `instantiationToken` in FMI 3.0), with nothing else read yet.
+    fn from_root(elem: &str, a: &Attrs, fmi_version: String, token: &str) -> Result<Self, SchemaError> {
+        Ok(ModelDescription {
+            fmi_version,
+            model_name: a.required(elem, "modelName")?,
+            guid: a.required(elem, token)?,
+            description: a.string("description"),
+            generation_tool: a.string("generationTool"),
+            generation_date_and_time: a.string("generationDateAndTime"),
+            variable_naming_convention: a.string("variableNamingConvention"),
+            number_of_event_indicators: 0,
+            model_exchange: None,
+            co_simulation: None,
+            unit_definitions: vec![],
+            type_definitions: vec![],
+            log_categories: vec![],
+            default_experiment: None,
+            variables: vec![],
+            model_structure: ModelStructure::default(),
+        })
+    }
+
     /// Parses the text of a `modelDescription.xml`.
     ///
     /// # Errors
@@ -548,24 +571,9 @@ impl Parser {
                     let major = version.split('.').next().unwrap_or(&version);
                     return Err(SchemaError::UnsupportedVersion(format!("{major}.0")));
                 }
-                self.md = Some(ModelDescription {
-                    fmi_version: version,
-                    model_name: a.required(name, "modelName")?,
-                    guid: a.required(name, "guid")?,
-                    description: a.string("description"),
-                    generation_tool: a.string("generationTool"),
-                    generation_date_and_time: a.string("generationDateAndTime"),
-                    variable_naming_convention: a.string("variableNamingConvention"),
-                    number_of_event_indicators: a.int(name, "numberOfEventIndicators")?.unwrap_or(0),
-                    model_exchange: None,
-                    co_simulation: None,
-                    unit_definitions: vec![],
-                    type_definitions: vec![],
-                    log_categories: vec![],
-                    default_experiment: None,
-                    variables: vec![],
-                    model_structure: ModelStructure::default(),
-                });
+                let mut md = ModelDescription::from_root(name, a, version, "guid")?;
+                md.number_of_event_indicators = a.int(name, "numberOfEventIndicators")?.unwrap_or(0);
+                self.md = Some(md);
             }
             (None, other) => {
                 // FMI 1.0 also uses fmiModelDescription; FMI 3.0 too. Anything else is not an FMU.
