@@ -181,9 +181,7 @@ pub async fn run(
         }
         // Probes see the coordinator going away before its connections are cut.
         stopping_reporter.set_service_status("", tonic_health::ServingStatus::NotServing).await;
-        stopping_reporter
-            .set_not_serving::<pb::calibration_server::CalibrationServer<services::Handlers>>()
-            .await;
+        stopping_reporter.set_not_serving::<pb::calibration_server::CalibrationServer<services::Handlers>>().await;
         let _ = stopping_tx.send(());
     };
     tracing::info!(%addr, tls = config.tls.is_some(), "coordinator listening");

@@ -147,12 +147,13 @@ impl Instance {
         f: impl FnOnce(&mut Component) -> Status,
     ) -> Result<Status, FmuError> {
         let time = self.time;
-        let api = self.api.clone();
-        let c = self.component()?;
+        let c = self.component.as_mut().ok_or_else(|| lost(&self.api, self.interface, &self.description))?;
         let status = f(c);
         match status {
             Status::Ok | Status::Warning | Status::Discard => Ok(status),
-            _ => Err(FmuError::Call { function: api.function_name(function), status, time, messages: c.take_log() }),
+            _ => {
+                Err(FmuError::Call { function: self.api.function_name(function), status, time, messages: c.take_log() })
+            }
         }
     }
 
@@ -161,13 +162,7 @@ impl Instance {
     /// # Errors
     /// [`FmuError::Instantiate`] if a failed re-instantiation left no component.
     pub fn component(&mut self) -> Result<&mut Component, FmuError> {
-        let model = &self.description.model_name;
-        let function = self.api.instantiate_function(self.interface);
-        self.component.as_mut().ok_or_else(|| FmuError::Instantiate {
-            function,
-            model: model.clone(),
-            messages: vec!["the instance was lost after a failed re-instantiation".into()],
-        })
+        self.component.as_mut().ok_or_else(|| lost(&self.api, self.interface, &self.description))
     }
 
     fn instantiate(&self) -> Result<Component, FmuError> {
@@ -182,5 +177,14 @@ impl Instance {
                 messages,
             }
         })
+    }
+}
+
+/// The error of a call on an instance that a failed re-instantiation left without a component.
+fn lost(api: &ffi::Api, interface: Interface, description: &ModelDescription) -> FmuError {
+    FmuError::Instantiate {
+        function: api.instantiate_function(interface),
+        model: description.model_name.clone(),
+        messages: vec!["the instance was lost after a failed re-instantiation".into()],
     }
 }

@@ -421,24 +421,7 @@ impl FmiCalls for Component {
         let st = call!(self, completed_integrator_step, &mut call_event_update);
         (st, call_event_update != 0, false)
     }
-    fn set_time(&mut self, t: f64) -> Status {
-        call!(self, set_time, t)
-    }
-    fn set_continuous_states(&mut self, x: &[f64]) -> Status {
-        call!(self, set_continuous_states, x.as_ptr(), x.len())
-    }
-    fn get_derivatives(&mut self, dx: &mut [f64]) -> Status {
-        call!(self, get_derivatives, dx.as_mut_ptr(), dx.len())
-    }
-    fn get_event_indicators(&mut self, z: &mut [f64]) -> Status {
-        call!(self, get_event_indicators, z.as_mut_ptr(), z.len())
-    }
-    fn get_continuous_states(&mut self, x: &mut [f64]) -> Status {
-        call!(self, get_continuous_states, x.as_mut_ptr(), x.len())
-    }
-    fn get_nominals_of_continuous_states(&mut self, x: &mut [f64]) -> Status {
-        call!(self, get_nominal_continuous_states, x.as_mut_ptr(), x.len())
-    }
+    state_vector_calls!(get_nominal_continuous_states);
     fn do_step(&mut self, t: f64, h: f64) -> Status {
         call!(self, do_step, t, h, 1)
     }

@@ -399,21 +399,27 @@ impl Instance {
             // SAFETY: scalar Float64 variables: one value each, into a buffer of vrs.len().
             return Status::from_raw(unsafe { f(self.raw, vrs.as_ptr(), vrs.len(), out.as_mut_ptr(), out.len()) });
         }
+        // Each variable (each array, for its elements) is read once per call.
+        let mut read: HashMap<u32, Vec<f64>> = HashMap::new();
         for (vr, slot) in vrs.iter().zip(out.iter_mut()) {
             let s = self.storage_of(*vr, default);
-            match self.read(&s) {
-                Ok(values) => match values.get(s.element.unwrap_or(0)) {
-                    Some(v) => *slot = *v,
-                    None => return self.refuse(format!("variable {vr} is past the end of its array")),
-                },
-                Err(st) => return st,
+            if !read.contains_key(&s.value_reference) {
+                match self.read(&s) {
+                    Ok(values) => read.insert(s.value_reference, values),
+                    Err(st) => return st,
+                };
+            }
+            match read[&s.value_reference].get(s.element.unwrap_or(0)) {
+                Some(v) => *slot = *v,
+                None => return self.refuse(format!("variable {vr} is past the end of its array")),
             }
         }
         Status::Ok
     }
 
     /// Writes `values` to fmucal's value references `vrs`; an array element is written by
-    /// reading the array, changing the element and writing it back.
+    /// sending its whole array from the values held for it (read from the FMU only where an
+    /// element has no start value).
     fn set_values(&mut self, vrs: &[u32], default: Fmi3Type, values: &[f64]) -> Status {
         assert_eq!(vrs.len(), values.len());
         if default == Fmi3Type::Float64 && vrs.iter().all(|vr| !self.storage.contains_key(vr)) {
@@ -584,24 +590,7 @@ impl FmiCalls for Instance {
         let st = call!(self, completed_integrator_step, true, &mut enter, &mut terminate);
         (st, enter != 0, terminate != 0)
     }
-    fn set_time(&mut self, t: f64) -> Status {
-        call!(self, set_time, t)
-    }
-    fn set_continuous_states(&mut self, x: &[f64]) -> Status {
-        call!(self, set_continuous_states, x.as_ptr(), x.len())
-    }
-    fn get_derivatives(&mut self, dx: &mut [f64]) -> Status {
-        call!(self, get_derivatives, dx.as_mut_ptr(), dx.len())
-    }
-    fn get_event_indicators(&mut self, z: &mut [f64]) -> Status {
-        call!(self, get_event_indicators, z.as_mut_ptr(), z.len())
-    }
-    fn get_continuous_states(&mut self, x: &mut [f64]) -> Status {
-        call!(self, get_continuous_states, x.as_mut_ptr(), x.len())
-    }
-    fn get_nominals_of_continuous_states(&mut self, x: &mut [f64]) -> Status {
-        call!(self, get_nominals_of_continuous_states, x.as_mut_ptr(), x.len())
-    }
+    state_vector_calls!(get_nominals_of_continuous_states);
 
     fn do_step(&mut self, t: f64, h: f64) -> Status {
         let (mut event, mut terminate, mut early, mut last) = (0u8, 0u8, 0u8, t);

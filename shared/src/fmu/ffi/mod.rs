@@ -6,6 +6,32 @@
 //! in this module. Status codes are returned raw here and mapped to `Result` by
 //! [`crate::fmu::instance`].
 
+/// The calls on time and the continuous-state vector, which every version makes alike: one
+/// function each, given the instance and a buffer with its length. Expands inside an
+/// `impl FmiCalls`, with that module's `call!` and the name of its nominals function.
+macro_rules! state_vector_calls {
+    ($nominals:ident) => {
+        fn set_time(&mut self, t: f64) -> Status {
+            call!(self, set_time, t)
+        }
+        fn set_continuous_states(&mut self, x: &[f64]) -> Status {
+            call!(self, set_continuous_states, x.as_ptr(), x.len())
+        }
+        fn get_derivatives(&mut self, dx: &mut [f64]) -> Status {
+            call!(self, get_derivatives, dx.as_mut_ptr(), dx.len())
+        }
+        fn get_event_indicators(&mut self, z: &mut [f64]) -> Status {
+            call!(self, get_event_indicators, z.as_mut_ptr(), z.len())
+        }
+        fn get_continuous_states(&mut self, x: &mut [f64]) -> Status {
+            call!(self, get_continuous_states, x.as_mut_ptr(), x.len())
+        }
+        fn get_nominals_of_continuous_states(&mut self, x: &mut [f64]) -> Status {
+            call!(self, $nominals, x.as_mut_ptr(), x.len())
+        }
+    };
+}
+
 pub mod fmi1;
 pub mod fmi2;
 pub mod fmi3;

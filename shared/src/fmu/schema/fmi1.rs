@@ -10,7 +10,7 @@
 
 use super::{
     Attrs, BaseUnit, Causality, DisplayUnit, EnumItem, Initial, InterfaceInfo, ModelDescription, ScalarVariable,
-    SchemaError, SimpleType, Unit, Unknown, VarType, Variability, err_invalid,
+    SchemaError, SimpleType, Unit, Unknown, Variability, err_invalid,
 };
 
 #[derive(Default)]
@@ -84,38 +84,15 @@ impl Parser {
                 }
             }
             (Some("TypeDefinitions"), "Type") => {
-                let st = SimpleType {
-                    name: a.required(name, "name")?,
-                    description: a.string("description"),
-                    base_type: VarType::Real,
-                    quantity: None,
-                    unit: None,
-                    min: None,
-                    max: None,
-                    nominal: None,
-                    items: vec![],
-                };
+                let st = SimpleType::named(name, a)?;
                 self.md(name)?.type_definitions.push(st);
             }
             (
                 Some("Type"),
                 type_elem @ ("RealType" | "IntegerType" | "BooleanType" | "StringType" | "EnumerationType"),
             ) => {
-                let base_type = super::var_type(type_elem.trim_end_matches("Type"));
-                let (quantity, unit, min, max, nominal) = (
-                    a.string("quantity"),
-                    a.string("unit"),
-                    a.f64(name, "min")?,
-                    a.f64(name, "max")?,
-                    a.f64(name, "nominal")?,
-                );
                 if let Some(st) = self.md(name)?.type_definitions.last_mut() {
-                    st.base_type = base_type;
-                    st.quantity = quantity;
-                    st.unit = unit;
-                    st.min = min;
-                    st.max = max;
-                    st.nominal = nominal;
+                    st.apply(super::var_type(type_elem.trim_end_matches("Type")), name, a)?;
                 }
             }
             (Some("EnumerationType"), "Item") => {
@@ -197,12 +174,7 @@ impl Parser {
 fn scalar_variable(a: &Attrs) -> Result<ScalarVariable, SchemaError> {
     let name = a.required("ScalarVariable", "name")?;
     let ctx = |msg: String| err_invalid(format!("variable {name:?}: {msg}"));
-    let value_reference = a
-        .get("valueReference")
-        .ok_or_else(|| ctx("no valueReference".into()))?
-        .trim()
-        .parse::<u32>()
-        .map_err(|_| ctx("valueReference is not an unsigned integer".into()))?;
+    let value_reference = super::value_reference(a, &name)?;
     let variability_text = a.get("variability").unwrap_or("continuous");
     let variability = match variability_text {
         "constant" => Variability::Constant,
@@ -226,10 +198,7 @@ fn scalar_variable(a: &Attrs) -> Result<ScalarVariable, SchemaError> {
 fn apply_type_element(var: &mut ScalarVariable, elem: &str, a: &Attrs) -> Result<(), SchemaError> {
     super::apply_type_element(var, elem, a)?;
     let name = var.name.clone();
-    let ctx = |e: SchemaError| match e {
-        SchemaError::Invalid(msg) => err_invalid(format!("variable {name:?}: {msg}")),
-        other => other,
-    };
+    let ctx = super::in_variable(&name);
     // FMI 1.0: a start value is exact unless fixed="false"; without one, calculated.
     let fixed = a.bool(elem, "fixed").map_err(ctx)? || a.get("fixed").is_none();
     var.initial = match (&var.start, fixed) {

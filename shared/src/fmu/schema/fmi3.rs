@@ -15,7 +15,7 @@ use quick_xml::events::Event;
 
 use super::{
     Attrs, Causality, EnumItem, Fmi3Storage, Fmi3Type, Initial, InterfaceInfo, ModelDescription, ScalarVariable,
-    SchemaError, SimpleType, Unit, Unknown, Value, VarType, Variability, err_invalid,
+    SchemaError, SimpleType, Unit, Unknown, Value, VarType, err_invalid,
 };
 
 /// The `fmiVersion` of the root element (read from the first element only).
@@ -176,17 +176,9 @@ impl Parser {
             }
             (Some("TypeDefinitions"), type_elem) if type_elem.ends_with("Type") => {
                 let Some(ty) = fmi3_type(type_elem.trim_end_matches("Type")) else { return Ok(()) };
-                let st = SimpleType {
-                    name: a.required(name, "name")?,
-                    description: a.string("description"),
-                    base_type: var_type(ty),
-                    quantity: a.string("quantity"),
-                    unit: a.string("unit"),
-                    min: a.f64(name, "min")?,
-                    max: a.f64(name, "max")?,
-                    nominal: a.f64(name, "nominal")?,
-                    items: vec![],
-                };
+                // FMI 3.0 writes the type's attributes on the element itself.
+                let mut st = SimpleType::named(name, a)?;
+                st.apply(var_type(ty), name, a)?;
                 self.md(name)?.type_definitions.push(st);
             }
             (Some("EnumerationType"), "Item") => {
@@ -346,7 +338,8 @@ impl Parser {
                 var.start = starts
                     .as_ref()
                     .map(|texts| typed_start(raw, texts.get(element.unwrap_or(0)).unwrap_or(&texts[0])))
-                    .transpose()?;
+                    .transpose()?
+                    .flatten();
                 var.fmi3 = Some(Fmi3Storage { ty: raw.ty, value_reference: base, element, dimensions: dims.clone() });
                 indices_of.entry(base).or_default().push(md.variables.len() + 1);
                 md.variables.push(var);
@@ -443,86 +436,49 @@ fn start_texts(raw: &RawVariable, n: usize) -> Result<Option<Vec<&str>>, SchemaE
     Ok(Some(values))
 }
 
-/// One start value, typed.
-fn typed_start(raw: &RawVariable, text: &str) -> Result<Value, SchemaError> {
-    let name = &raw.var.name;
-    let bad = |what: &str| err_invalid(format!("variable {name:?}: start {text:?} is not {what}"));
-    Ok(match var_type(raw.ty) {
-        VarType::Real => Value::Real(text.parse().map_err(|_| bad("a number"))?),
-        // A UInt64 start past i64::MAX is kept as the nearest Real.
-        VarType::Integer if raw.ty == Fmi3Type::UInt64 && text.parse::<i64>().is_err() => {
-            Value::Real(text.parse::<u64>().map_err(|_| bad("an integer"))? as f64)
+/// One start value, typed (Binary start values are not kept).
+fn typed_start(raw: &RawVariable, text: &str) -> Result<Option<Value>, SchemaError> {
+    // A UInt64 start past i64::MAX is kept as the nearest Real.
+    if raw.ty == Fmi3Type::UInt64 && text.trim().parse::<i64>().is_err() {
+        if let Ok(big) = text.trim().parse::<u64>() {
+            return Ok(Some(Value::Real(big as f64)));
         }
-        VarType::Integer | VarType::Enumeration => Value::Integer(text.parse().map_err(|_| bad("an integer"))?),
-        VarType::Boolean => Value::Boolean(match text {
-            "true" | "1" => true,
-            "false" | "0" => false,
-            _ => return Err(bad("a boolean")),
-        }),
-        VarType::String | VarType::Binary | VarType::Clock => Value::String(text.to_owned()),
-    })
+    }
+    super::parse_start(var_type(raw.ty), text, &raw.var.name)
 }
 
 fn variable(ty: Fmi3Type, a: &Attrs) -> Result<RawVariable, SchemaError> {
     let elem = format!("{ty:?}");
     let name = a.required(&elem, "name")?;
-    let ctx = |msg: String| err_invalid(format!("variable {name:?}: {msg}"));
-    let value_reference = a
-        .get("valueReference")
-        .ok_or_else(|| ctx("no valueReference".into()))?
-        .trim()
-        .parse::<u32>()
-        .map_err(|_| ctx("valueReference is not an unsigned integer".into()))?;
+    let value_reference = super::value_reference(a, &name)?;
     let causality = match a.get("causality").unwrap_or("local") {
-        "parameter" => Causality::Parameter,
         // A structural parameter may size arrays, and fmucal keeps the sizes of the description:
         // it is read, never set.
         "structuralParameter" => Causality::CalculatedParameter,
-        "calculatedParameter" => Causality::CalculatedParameter,
-        "input" => Causality::Input,
-        "output" => Causality::Output,
-        "local" => Causality::Local,
-        "independent" => Causality::Independent,
-        other => return Err(ctx(format!("unknown causality {other:?}"))),
+        other => super::causality(other, &name)?,
     };
     let default_variability =
         if matches!(ty, Fmi3Type::Float32 | Fmi3Type::Float64) { "continuous" } else { "discrete" };
-    let variability = match a.get("variability").unwrap_or(default_variability) {
-        "constant" => Variability::Constant,
-        "fixed" => Variability::Fixed,
-        "tunable" => Variability::Tunable,
-        "discrete" => Variability::Discrete,
-        "continuous" => Variability::Continuous,
-        other => return Err(ctx(format!("unknown variability {other:?}"))),
-    };
-    let initial = match a.get("initial") {
-        None => None,
-        Some("exact") => Some(Initial::Exact),
-        Some("approx") => Some(Initial::Approx),
-        Some("calculated") => Some(Initial::Calculated),
-        Some(other) => return Err(ctx(format!("unknown initial {other:?}"))),
-    };
-    let ectx = |e: SchemaError| match e {
-        SchemaError::Invalid(msg) => err_invalid(format!("variable {name:?}: {msg}")),
-        other => other,
-    };
+    let variability = super::variability(a.get("variability").unwrap_or(default_variability), &name)?;
+    let initial = super::initial(a, &name)?;
+    let ectx = super::in_variable(&name);
     // A structural parameter is never set (see its causality above).
     let initial = if a.get("causality") == Some("structuralParameter") { Some(Initial::Calculated) } else { initial };
     let mut var =
         ScalarVariable::new(name.clone(), value_reference, a.string("description"), causality, variability, initial);
     var.var_type = var_type(ty);
     var.declared_type = a.string("declaredType");
-    var.min = a.f64(&elem, "min").map_err(ectx)?;
-    var.max = a.f64(&elem, "max").map_err(ectx)?;
-    var.nominal = a.f64(&elem, "nominal").map_err(ectx)?;
+    var.min = a.f64(&elem, "min").map_err(&ectx)?;
+    var.max = a.f64(&elem, "max").map_err(&ectx)?;
+    var.nominal = a.f64(&elem, "nominal").map_err(&ectx)?;
     var.unit = a.string("unit");
-    var.reinit = a.bool(&elem, "reinit").map_err(ectx)?;
+    var.reinit = a.bool(&elem, "reinit").map_err(&ectx)?;
     Ok(RawVariable {
         var,
         ty,
         dimensions: vec![],
         start: a.string("start").into_iter().collect(),
-        derivative_of: a.int(&elem, "derivative").map_err(ectx)?,
+        derivative_of: a.int(&elem, "derivative").map_err(&ectx)?,
     })
 }
 

@@ -605,35 +605,12 @@ impl Parser {
                 }
             }
             (Some("TypeDefinitions"), "SimpleType") => {
-                let st = SimpleType {
-                    name: a.required(name, "name")?,
-                    description: a.string("description"),
-                    base_type: VarType::Real,
-                    quantity: None,
-                    unit: None,
-                    min: None,
-                    max: None,
-                    nominal: None,
-                    items: vec![],
-                };
+                let st = SimpleType::named(name, a)?;
                 self.md(name)?.type_definitions.push(st);
             }
             (Some("SimpleType"), "Real" | "Integer" | "Boolean" | "String" | "Enumeration") => {
-                let base_type = var_type(name);
-                let (quantity, unit, min, max, nominal) = (
-                    a.string("quantity"),
-                    a.string("unit"),
-                    a.f64(name, "min")?,
-                    a.f64(name, "max")?,
-                    a.f64(name, "nominal")?,
-                );
                 if let Some(st) = self.md(name)?.type_definitions.last_mut() {
-                    st.base_type = base_type;
-                    st.quantity = quantity;
-                    st.unit = unit;
-                    st.min = min;
-                    st.max = max;
-                    st.nominal = nominal;
+                    st.apply(var_type(name), name, a)?;
                 }
             }
             (Some("Enumeration"), "Item") => {
@@ -718,38 +695,108 @@ fn interface_info(elem: &str, a: &Attrs) -> Result<InterfaceInfo, SchemaError> {
 
 fn scalar_variable(a: &Attrs) -> Result<ScalarVariable, SchemaError> {
     let name = a.required("ScalarVariable", "name")?;
-    let ctx = |msg: String| err_invalid(format!("variable {name:?}: {msg}"));
-    let value_reference = a
-        .get("valueReference")
-        .ok_or_else(|| ctx("no valueReference".into()))?
-        .trim()
+    let value_reference = value_reference(a, &name)?;
+    let causality = causality(a.get("causality").unwrap_or("local"), &name)?;
+    let variability = variability(a.get("variability").unwrap_or("continuous"), &name)?;
+    let initial = initial(a, &name)?;
+    Ok(ScalarVariable::new(name, value_reference, a.string("description"), causality, variability, initial))
+}
+
+/// Names the variable in a reader's error.
+fn in_variable(name: &str) -> impl Fn(SchemaError) -> SchemaError + '_ {
+    move |e| match e {
+        SchemaError::Invalid(msg) => err_invalid(format!("variable {name:?}: {msg}")),
+        other => other,
+    }
+}
+
+/// The `valueReference` of the variable `name` (every version).
+fn value_reference(a: &Attrs, name: &str) -> Result<u32, SchemaError> {
+    let text = a.get("valueReference").ok_or_else(|| err_invalid(format!("variable {name:?}: no valueReference")))?;
+    text.trim()
         .parse::<u32>()
-        .map_err(|_| ctx("valueReference is not an unsigned integer".into()))?;
-    let causality = match a.get("causality").unwrap_or("local") {
+        .map_err(|_| err_invalid(format!("variable {name:?}: valueReference is not an unsigned integer")))
+}
+
+/// A `causality` of FMI 2.0 and 3.0.
+fn causality(text: &str, name: &str) -> Result<Causality, SchemaError> {
+    Ok(match text {
         "parameter" => Causality::Parameter,
         "calculatedParameter" => Causality::CalculatedParameter,
         "input" => Causality::Input,
         "output" => Causality::Output,
         "local" => Causality::Local,
         "independent" => Causality::Independent,
-        other => return Err(ctx(format!("unknown causality {other:?}"))),
-    };
-    let variability = match a.get("variability").unwrap_or("continuous") {
+        other => return Err(err_invalid(format!("variable {name:?}: unknown causality {other:?}"))),
+    })
+}
+
+/// A `variability` of FMI 2.0 and 3.0.
+fn variability(text: &str, name: &str) -> Result<Variability, SchemaError> {
+    Ok(match text {
         "constant" => Variability::Constant,
         "fixed" => Variability::Fixed,
         "tunable" => Variability::Tunable,
         "discrete" => Variability::Discrete,
         "continuous" => Variability::Continuous,
-        other => return Err(ctx(format!("unknown variability {other:?}"))),
-    };
-    let initial = match a.get("initial") {
+        other => return Err(err_invalid(format!("variable {name:?}: unknown variability {other:?}"))),
+    })
+}
+
+/// The `initial` attribute of FMI 2.0 and 3.0, if written.
+fn initial(a: &Attrs, name: &str) -> Result<Option<Initial>, SchemaError> {
+    Ok(match a.get("initial") {
         None => None,
         Some("exact") => Some(Initial::Exact),
         Some("approx") => Some(Initial::Approx),
         Some("calculated") => Some(Initial::Calculated),
-        Some(other) => return Err(ctx(format!("unknown initial {other:?}"))),
-    };
-    Ok(ScalarVariable::new(name, value_reference, a.string("description"), causality, variability, initial))
+        Some(other) => return Err(err_invalid(format!("variable {name:?}: unknown initial {other:?}"))),
+    })
+}
+
+/// A start value as written, typed by `var_type` (`None` for Binary and Clock, which fmucal
+/// does not keep).
+fn parse_start(var_type: VarType, text: &str, name: &str) -> Result<Option<Value>, SchemaError> {
+    let bad = |what: &str| err_invalid(format!("variable {name:?}: start {text:?} is not {what}"));
+    Ok(Some(match var_type {
+        VarType::Real => Value::Real(text.trim().parse().map_err(|_| bad("a number"))?),
+        VarType::Integer | VarType::Enumeration => Value::Integer(text.trim().parse().map_err(|_| bad("an integer"))?),
+        VarType::Boolean => Value::Boolean(match text.trim() {
+            "true" | "1" => true,
+            "false" | "0" => false,
+            _ => return Err(bad("a boolean")),
+        }),
+        VarType::String => Value::String(text.to_owned()),
+        VarType::Binary | VarType::Clock => return Ok(None),
+    }))
+}
+
+impl SimpleType {
+    /// A type definition with its name and description; its type element fills in the rest.
+    fn named(elem: &str, a: &Attrs) -> Result<Self, SchemaError> {
+        Ok(SimpleType {
+            name: a.required(elem, "name")?,
+            description: a.string("description"),
+            base_type: VarType::Real,
+            quantity: None,
+            unit: None,
+            min: None,
+            max: None,
+            nominal: None,
+            items: vec![],
+        })
+    }
+
+    /// The attributes of its type element (`Real`, `RealType`, ...).
+    fn apply(&mut self, base_type: VarType, elem: &str, a: &Attrs) -> Result<(), SchemaError> {
+        self.base_type = base_type;
+        self.quantity = a.string("quantity");
+        self.unit = a.string("unit");
+        self.min = a.f64(elem, "min")?;
+        self.max = a.f64(elem, "max")?;
+        self.nominal = a.f64(elem, "nominal")?;
+        Ok(())
+    }
 }
 
 impl ScalarVariable {
@@ -786,40 +833,16 @@ impl ScalarVariable {
 
 fn apply_type_element(var: &mut ScalarVariable, elem: &str, a: &Attrs) -> Result<(), SchemaError> {
     let name = var.name.clone();
-    let ctx = |e: SchemaError| match e {
-        SchemaError::Invalid(msg) => err_invalid(format!("variable {name:?}: {msg}")),
-        other => other,
-    };
+    let ctx = in_variable(&name);
     var.var_type = var_type(elem);
     var.declared_type = a.string("declaredType");
     var.unit = a.string("unit");
-    var.min = a.f64(elem, "min").map_err(ctx)?;
-    var.max = a.f64(elem, "max").map_err(ctx)?;
-    var.nominal = a.f64(elem, "nominal").map_err(ctx)?;
-    var.derivative = a.int(elem, "derivative").map_err(ctx)?;
-    var.reinit = a.bool(elem, "reinit").map_err(ctx)?;
-    var.start = match a.get("start") {
-        None => None,
-        Some(s) => Some(match var.var_type {
-            VarType::Real => Value::Real(
-                s.trim().parse().map_err(|_| err_invalid(format!("variable {name:?}: start {s:?} is not a number")))?,
-            ),
-            VarType::Integer | VarType::Enumeration => Value::Integer(
-                s.trim()
-                    .parse()
-                    .map_err(|_| err_invalid(format!("variable {name:?}: start {s:?} is not an integer")))?,
-            ),
-            VarType::Boolean => Value::Boolean(match s.trim() {
-                "true" | "1" => true,
-                "false" | "0" => false,
-                _ => {
-                    return Err(err_invalid(format!("variable {name:?}: start {s:?} is not a boolean")));
-                }
-            }),
-            VarType::String => Value::String(s.to_owned()),
-            VarType::Binary | VarType::Clock => return Ok(()),
-        }),
-    };
+    var.min = a.f64(elem, "min").map_err(&ctx)?;
+    var.max = a.f64(elem, "max").map_err(&ctx)?;
+    var.nominal = a.f64(elem, "nominal").map_err(&ctx)?;
+    var.derivative = a.int(elem, "derivative").map_err(&ctx)?;
+    var.reinit = a.bool(elem, "reinit").map_err(&ctx)?;
+    var.start = a.get("start").map(|text| parse_start(var.var_type, text, &name)).transpose()?.flatten();
     Ok(())
 }
 
