@@ -344,22 +344,7 @@ impl FmiCalls for Component {
         call!(self, reset)
     }
 
-    fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Status {
-        assert_eq!(vrs.len(), out.len());
-        call!(self, get_real, vrs.as_ptr(), vrs.len(), out.as_mut_ptr())
-    }
-    fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Status {
-        assert_eq!(vrs.len(), values.len());
-        call!(self, set_real, vrs.as_ptr(), vrs.len(), values.as_ptr())
-    }
-    fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Status {
-        assert_eq!(vrs.len(), out.len());
-        call!(self, get_integer, vrs.as_ptr(), vrs.len(), out.as_mut_ptr())
-    }
-    fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Status {
-        assert_eq!(vrs.len(), values.len());
-        call!(self, set_integer, vrs.as_ptr(), vrs.len(), values.as_ptr())
-    }
+    real_and_integer_calls!();
     fn get_boolean(&mut self, vrs: &[u32], out: &mut [i32]) -> Status {
         assert_eq!(vrs.len(), out.len());
         call!(self, get_boolean, vrs.as_ptr(), vrs.len(), out.as_mut_ptr())

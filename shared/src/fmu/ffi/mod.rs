@@ -32,6 +32,29 @@ macro_rules! state_vector_calls {
     };
 }
 
+/// `get_real`, `set_real`, `get_integer`, `set_integer` of FMI 1.0 and 2.0, which pass the
+/// value references and a buffer of `f64` or `int` straight through.
+macro_rules! real_and_integer_calls {
+    () => {
+        fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Status {
+            assert_eq!(vrs.len(), out.len());
+            call!(self, get_real, vrs.as_ptr(), vrs.len(), out.as_mut_ptr())
+        }
+        fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Status {
+            assert_eq!(vrs.len(), values.len());
+            call!(self, set_real, vrs.as_ptr(), vrs.len(), values.as_ptr())
+        }
+        fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Status {
+            assert_eq!(vrs.len(), out.len());
+            call!(self, get_integer, vrs.as_ptr(), vrs.len(), out.as_mut_ptr())
+        }
+        fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Status {
+            assert_eq!(vrs.len(), values.len());
+            call!(self, set_integer, vrs.as_ptr(), vrs.len(), values.as_ptr())
+        }
+    };
+}
+
 pub mod fmi1;
 pub mod fmi2;
 pub mod fmi3;
