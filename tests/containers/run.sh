@@ -132,11 +132,13 @@ if [ "$(echo "$new_workers" | wc -w)" -eq 2 ] && wait_for busy 60; then
 else
   fail "the new workers did not take points (registered: $registered)"
 fi
-victim="$(echo "$first_two" | head -1)"
+# The first line of each list, without a pipe: under pipefail `echo | head -1` can die of
+# SIGPIPE (bash writes line by line, head exits after the first).
+victim="${first_two%%$'\n'*}"
 docker kill "$victim" >/dev/null
 say "killed worker ${victim:0:12}"
 sleep 2
-cut="$(echo "$new_workers" | head -1)"
+cut="${new_workers%%$'\n'*}"
 network="$(docker inspect -f '{{range $k, $v := .NetworkSettings.Networks}}{{$k}}{{end}}' "$cut")"
 docker network disconnect "$network" "$cut"
 say "cut worker ${cut:0:12} off $network for 12 s (the coordinator expires it after 5 s)"
