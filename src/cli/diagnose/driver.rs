@@ -1,8 +1,8 @@
 //! The rounds of a diagnosis, over the coordinator's protocol so every simulation-heavy step
 //! runs on the workers: calibrate the base job; localise its residual; size and screen the
 //! candidates (one job that evaluates points); fit the top K as K calibration jobs submitted
-//! concurrently, each followed by its identifiability points; judge them; and, if one is named
-//! and `rounds = 2`, search again with it added.
+//! concurrently, each followed by its identifiability points and judged as soon as it ends;
+//! choose and polish; and, if one is named and `rounds = 2`, search again with it added.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -173,6 +173,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
                 .expect("valid template"),
         );
         let mut tasks = tokio::task::JoinSet::new();
+        let shared = Arc::new(ctx.clone());
         for (slot, &c) in top.iter().enumerate() {
             let narrowed = candidates[c].narrowed(&screened[c].estimate);
             let (start_ssr, from, effect_start) = &starts[slot];
@@ -184,6 +185,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             // objective: bound its work by the base fit's.
             job.optimizer.max_fevals = job.optimizer.max_fevals.or(Some((5 * result.evaluations).max(500)));
             let (mut client, data, model, fmu) = (client.clone(), ctx.data.clone(), ctx.model.clone(), ctx.fmu.clone());
+            let ctx = shared.clone();
             tasks.spawn(async move {
                 let t = Instant::now();
                 let prepared = PreparedJob::new(&job, &fmu.description, &fmu.interfaces(), std::slice::from_ref(&data));
@@ -196,29 +198,28 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
                     Err(e) => Err(e.into()),
                 };
                 tracing::debug!("candidate {slot}: {:.3} s, {simulations} simulations", t.elapsed().as_secs_f64());
-                (slot, Fitted { job, result, elapsed: t.elapsed(), simulations })
+                let fitted = Fitted { job, result, elapsed: t.elapsed(), simulations };
+                // Judged as soon as it is fitted (a local simulation), while the other fits
+                // still run on the workers.
+                let judge_started = Instant::now();
+                let judged =
+                    tokio::task::spawn_blocking(move || judge_fit(&ctx, &baseline, &rule, &narrowed, fitted)).await;
+                (slot, simulations, judged, judge_started.elapsed())
             });
         }
-        let mut fitted: Vec<Option<Fitted>> = top.iter().map(|_| None).collect();
+        let mut fits: BTreeMap<usize, (CandidateFit, JobSpec, Option<Look>)> = BTreeMap::new();
+        let (mut simulations, mut judging) = (0, Duration::ZERO);
         while let Some(done) = tasks.join_next().await {
-            let (slot, f) = done.context("a candidate fit panicked")?;
+            let (slot, fit_simulations, judged, judge_time) = done.context("a candidate fit panicked")?;
+            fits.insert(top[slot], judged.context("judging a candidate fit panicked")?);
             bar.inc(1);
-            fitted[slot] = Some(f);
+            simulations += fit_simulations;
+            judging += judge_time;
         }
         bar.finish_and_clear();
-        let simulations = fitted.iter().flatten().map(|f| f.simulations).sum();
-        phases.add("fits", t, simulations);
-
-        // Judge them.
-        let t = Instant::now();
-        let mut fits: BTreeMap<usize, (CandidateFit, JobSpec, Option<Look>)> = BTreeMap::new();
-        for (slot, f) in fitted.into_iter().enumerate() {
-            let f = f.expect("every task reported");
-            let c = top[slot];
-            let narrowed = candidates[c].narrowed(&screened[c].estimate);
-            fits.insert(c, judge_fit(ctx, &baseline, &rule, &narrowed, f));
-        }
-        phases.add("judge", t, fits.len() as u64);
+        // The judging (one local simulation per fit) overlaps the fits; its own sum is kept.
+        tracing::debug!("candidates judged in {:.3} s in all, beside the fits", judging.as_secs_f64());
+        phases.add("fits", t, simulations + fits.len() as u64);
 
         // The fits stopped once their SSR was known well enough to decide. The chosen one is
         // polished from its optimum to the job's own tolerances ([`polish`]), so that its

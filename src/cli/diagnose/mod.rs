@@ -54,7 +54,8 @@ pub struct Args {
     stop_on_stdin_eof: bool,
 }
 
-/// What every step of the driver shares.
+/// What every step of the driver shares (cheap to clone: the model and data are shared).
+#[derive(Clone)]
 pub(crate) struct Context {
     pub fmu: Arc<Fmu>,
     pub data: Arc<MeasurementTable>,
