@@ -151,3 +151,40 @@ fn a_second_round_adds_nothing_once_the_coulomb_friction_is_in_the_model() {
     let kept = std::fs::read_to_string(dir.path().join("two/job.toml")).unwrap();
     assert_eq!(kept.matches("[[effects]]").count(), 1, "{kept}");
 }
+
+#[test]
+fn a_once_per_process_fmu_loses_no_candidate() {
+    // The driver judges each candidate fit as it ends, in its own process, while the others
+    // still run: an FMU that may be instantiated only once per process must be judged one fit
+    // at a time, not have candidates fail for it.
+    let dir = tempfile::tempdir().unwrap();
+    let once = common::with_xml("furuta", dir.path(), "once.fmu", |xml| {
+        let edited = xml
+            .replace(
+                "<ModelExchange modelIdentifier",
+                "<ModelExchange canBeInstantiatedOnlyOncePerProcess=\"true\" modelIdentifier",
+            )
+            .replace(
+                "<CoSimulation modelIdentifier",
+                "<CoSimulation canBeInstantiatedOnlyOncePerProcess=\"true\" modelIdentifier",
+            );
+        assert_eq!(edited.matches("canBeInstantiatedOnlyOncePerProcess=\"true\"").count(), 2, "{edited}");
+        edited
+    });
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/data.csv");
+    let text = std::fs::read_to_string(example_job())
+        .unwrap()
+        .replace("path = \"example:furuta\"", &format!("path = \"{}\"", once.display()))
+        .replace("path = \"data.csv\"", &format!("path = \"{}\"", data.display()));
+    assert!(text.contains("once.fmu"), "{text}");
+    std::fs::write(dir.path().join("once.toml"), text).unwrap();
+    let out = fmucal(&["diagnose", "once.toml", "--workers", "2", "--out", "once"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let d = report(&dir.path().join("once"));
+    let fits: Vec<_> = d.rounds[0].candidates.iter().filter_map(|c| c.fit.as_ref().map(|f| (c, f))).collect();
+    assert!(fits.len() >= 2, "{}", d.summary());
+    for (c, f) in fits {
+        assert!(f.verdict.is_some() && f.error.is_none(), "{}: {:?}", c.description, f.error);
+    }
+    assert_eq!(d.named.len(), 1, "{}", d.summary());
+}

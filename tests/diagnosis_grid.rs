@@ -362,16 +362,21 @@ impl Outcome {
     }
 }
 
+/// Runs `fmucal COMMAND --workers 2 --out OUT JOB`.
+fn fmucal(command: &str, job: &Path, out: &Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args([command, "--workers", "2", "--out"])
+        .arg(out)
+        .arg(job)
+        .output()
+        .unwrap()
+}
+
 /// Runs `fmucal diagnose` on the case.
 fn diagnose(case: &Case, dir: &Path) -> Outcome {
     let (job, floor) = write_case(case, dir);
     let out = dir.join("diagnosis");
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(["diagnose", "--workers", "2", "--out"])
-        .arg(&out)
-        .arg(&job)
-        .output()
-        .unwrap();
+    let run = fmucal("diagnose", &job, &out);
     assert!(
         run.status.success(),
         "{case:?}: {}\n{}",
@@ -461,17 +466,13 @@ fn left_after_base_calibration(truth: Truth, profile: usize, dir: &Path) -> f64 
         let (time, _) = inputs(truth.model(), profile);
         let (t0, t1) = (time[0], *time.last().unwrap());
         let cut = t0 + 0.75 * (t1 - t0);
+        assert!(!text.contains("stop_time") && text.contains("[simulation]\n"), "{text}");
         let text =
             text.replace("[simulation]\n", &format!("[simulation]\nstop_time = {cut}\nvalidation_stop_time = {t1}\n"));
         std::fs::write(&job, text).unwrap();
     }
     let out = dir.join("base");
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(["calibrate", "--workers", "2", "--out"])
-        .arg(&out)
-        .arg(&job)
-        .output()
-        .unwrap();
+    let run = fmucal("calibrate", &job, &out);
     assert!(run.status.success(), "{truth:?} input {profile}: {}", String::from_utf8_lossy(&run.stderr));
     let result: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();

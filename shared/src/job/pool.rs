@@ -19,10 +19,12 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use super::JobError;
 use super::evaluator::{Evaluation, Evaluator};
 use super::prepared::PreparedJob;
 use super::run::WorkItem;
-use crate::fmu::Fmu;
+use crate::fmu::{Fmu, FmuError};
+use crate::sim::SimError;
 
 /// Jobs whose instances a thread keeps warm; a long-lived worker sees many jobs.
 const WARM_JOBS_PER_THREAD: usize = 4;
@@ -257,14 +259,37 @@ fn serve_until_replaced(shared: &Shared, me: usize, generation: u64, warm: &mut 
     }
 }
 
-/// Evaluates `r` on its job's warm instance, instantiating it first if needed.
+/// Evaluates `r` on its job's warm instance, instantiating it first if needed. A model that
+/// may be instantiated only once per process can still be warm here for an earlier job (the
+/// points of such models share one thread): those instances are let go and the new one is
+/// tried again.
 fn evaluate(warm: &mut HashMap<String, Evaluator>, r: EvalRequest) -> Evaluation {
-    if !warm.contains_key(&r.job_key) && warm.len() >= WARM_JOBS_PER_THREAD {
-        warm.clear();
+    if !warm.contains_key(&r.job_key) {
+        if warm.len() >= WARM_JOBS_PER_THREAD {
+            warm.clear();
+        }
+        let mut fresh = Evaluator::new(&r.fmu, r.job.clone());
+        if fresh.as_ref().is_err_and(held_by_another_instance) && !warm.is_empty() {
+            warm.clear();
+            fresh = Evaluator::new(&r.fmu, r.job.clone());
+        }
+        match fresh {
+            Ok(ev) => {
+                warm.insert(r.job_key.clone(), ev);
+            }
+            Err(e) => return Evaluation::failed(e.to_string()),
+        }
     }
-    match warm.entry(r.job_key) {
-        std::collections::hash_map::Entry::Occupied(e) => Ok(e.into_mut()),
-        std::collections::hash_map::Entry::Vacant(v) => Evaluator::new(&r.fmu, r.job).map(|ev| v.insert(ev)),
-    }
-    .map_or_else(|e| Evaluation::failed(e.to_string()), |ev| ev.evaluate(&r.x, r.experiment, r.want_residuals))
+    let ev = warm.get_mut(&r.job_key).expect("warm or inserted above");
+    ev.evaluate(&r.x, r.experiment, r.want_residuals)
+}
+
+/// Whether instantiating failed because the model may be instantiated only once per process
+/// and an instance is live.
+fn held_by_another_instance(e: &JobError) -> bool {
+    matches!(
+        e,
+        JobError::Fmu(FmuError::OnlyOncePerProcess { .. })
+            | JobError::Sim(SimError::Fmu(FmuError::OnlyOncePerProcess { .. }))
+    )
 }

@@ -174,6 +174,9 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         );
         let mut tasks = tokio::task::JoinSet::new();
         let shared = Arc::new(ctx.clone());
+        // One judging at a time: each instantiates the FMU in this process, which some FMUs
+        // allow only once at a time (canBeInstantiatedOnlyOncePerProcess).
+        let one_at_a_time = Arc::new(tokio::sync::Semaphore::new(1));
         for (slot, &c) in top.iter().enumerate() {
             let narrowed = candidates[c].narrowed(&screened[c].estimate);
             let (start_ssr, from, effect_start) = &starts[slot];
@@ -185,7 +188,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             // objective: bound its work by the base fit's.
             job.optimizer.max_fevals = job.optimizer.max_fevals.or(Some((5 * result.evaluations).max(500)));
             let (mut client, data, model, fmu) = (client.clone(), ctx.data.clone(), ctx.model.clone(), ctx.fmu.clone());
-            let ctx = shared.clone();
+            let (ctx, one_at_a_time) = (shared.clone(), one_at_a_time.clone());
             tasks.spawn(async move {
                 let t = Instant::now();
                 let prepared = PreparedJob::new(&job, &fmu.description, &fmu.interfaces(), std::slice::from_ref(&data));
@@ -202,8 +205,12 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
                 // Judged as soon as it is fitted (a local simulation), while the other fits
                 // still run on the workers.
                 let judge_started = Instant::now();
-                let judged =
-                    tokio::task::spawn_blocking(move || judge_fit(&ctx, &baseline, &rule, &narrowed, fitted)).await;
+                let turn = one_at_a_time.acquire_owned().await.expect("the semaphore is never closed");
+                let judged = tokio::task::spawn_blocking(move || {
+                    let _turn = turn;
+                    judge_fit(&ctx, &baseline, &rule, &narrowed, fitted)
+                })
+                .await;
                 (slot, simulations, judged, judge_started.elapsed())
             });
         }

@@ -78,7 +78,8 @@ pub async fn port_scales(
         simulations += points.len() as u64;
         let evaluated = client.evaluate(&job, points, std::slice::from_ref(&*ctx.data), &ctx.model).await?;
         let Some(r0) = evaluated.first().filter(|e| e.value.is_some()).map(|e| &e.residuals) else {
-            bail!("the probe of the ports' load scales failed at the base optimum");
+            let why = evaluated.first().map_or("no point was evaluated", |e| e.message.as_str());
+            bail!("the probe of the ports' load scales failed at the base optimum: {why}");
         };
         let residual = rms(r0).max(f64::MIN_POSITIVE);
         for (k, e) in evaluated[1..].iter().enumerate() {
