@@ -78,6 +78,15 @@ print("; ".join(diff) if diff else f"x_opt {a['x_opt']}, f_opt {a['f_opt']!r}, {
 sys.exit(1 if diff else 0)
 EOF
 }
+# Submits the long job from the host in the background, into $work/$1 (its pid in $client, the
+# results the pool had told before in $told_before), and waits up to 120 s until the pool has
+# told $2 more.
+submit_long() {
+  told_before="$(metric fmucal_evaluations_total)"
+  "$bin" calibrate "$here/long_job.toml" --coordinator "$url" --out "$work/$1" >/dev/null 2>"$work/$1.log" &
+  client=$!
+  wait_for "[ \$(metric fmucal_evaluations_total) -gt $((told_before + $2)) ]" 120
+}
 evaluations_of() { python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["evaluations"])' "$1"; }
 
 say "building the image"
@@ -114,12 +123,8 @@ told_furuta="$(metric fmucal_evaluations_total)"
 extra=$((told_furuta - $(evaluations_of "$work/remote-furuta/result.json")))
 
 # 2.-4. The long job, while the pool grows, loses a worker and has one cut off.
-told_before="$(metric fmucal_evaluations_total)"
 ignored_before="$(metric fmucal_ignored_results_total)"
-"$bin" calibrate "$here/long_job.toml" --coordinator "$url" --out "$work/remote-long" \
-  >/dev/null 2>"$work/remote-long.log" &
-client=$!
-wait_for "[ \$(metric fmucal_evaluations_total) -gt \$((told_before + 100)) ]" 120 || fail "the long job did not start"
+submit_long remote-long 100 || fail "the long job did not start"
 first_two="$(worker_ids)"
 start="$(now)"
 compose up -d --no-build --scale worker=4 2>>"$work/up.log"
@@ -173,11 +178,7 @@ else
 fi
 
 # 5. The coordinator container restarted mid-job: the job resumes from its store.
-told_before="$(metric fmucal_evaluations_total)"
-"$bin" calibrate "$here/long_job.toml" --coordinator "$url" --out "$work/restarted" \
-  >/dev/null 2>"$work/restarted.log" &
-client=$!
-wait_for "[ \$(metric fmucal_evaluations_total) -gt \$((told_before + 500)) ]" 120 || fail "the second long job did not start"
+submit_long restarted 500 || fail "the second long job did not start"
 start="$(now)"
 compose restart -t 10 coordinator >/dev/null 2>&1
 wait_for "'$bin' health '$url' >/dev/null 2>&1" 60 || fail "the coordinator did not come back"

@@ -36,7 +36,7 @@ pub(super) fn parse(xml: &str) -> Result<ModelDescription, SchemaError> {
 
 impl Parser {
     fn md(&mut self, elem: &str) -> Result<&mut ModelDescription, SchemaError> {
-        self.md.as_mut().ok_or_else(|| err_invalid(format!("<{elem}> outside <fmiModelDescription>")))
+        super::opened(&mut self.md, elem)
     }
 
     fn open(&mut self, parent: Option<&str>, name: &str, a: &Attrs) -> Result<(), SchemaError> {

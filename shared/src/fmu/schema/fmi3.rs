@@ -14,8 +14,8 @@ use quick_xml::Reader;
 use quick_xml::events::Event;
 
 use super::{
-    Attrs, Causality, EnumItem, Fmi3Storage, Fmi3Type, Initial, InterfaceInfo, ModelDescription, ScalarVariable,
-    SchemaError, SimpleType, Unit, Unknown, Value, VarType, err_invalid,
+    Attrs, Causality, Fmi3Storage, Fmi3Type, Initial, InterfaceInfo, ModelDescription, ScalarVariable, SchemaError,
+    SimpleType, Unit, Unknown, Value, VarType, err_invalid,
 };
 
 /// The `fmiVersion` of the root element (read from the first element only).
@@ -136,7 +136,7 @@ fn interface(elem: &str, a: &Attrs) -> Result<InterfaceInfo, SchemaError> {
 
 impl Parser {
     fn md(&mut self, elem: &str) -> Result<&mut ModelDescription, SchemaError> {
-        self.md.as_mut().ok_or_else(|| err_invalid(format!("<{elem}> outside <fmiModelDescription>")))
+        super::opened(&mut self.md, elem)
     }
 
     fn open(&mut self, parent: Option<&str>, name: &str, a: &Attrs) -> Result<(), SchemaError> {
@@ -182,11 +182,7 @@ impl Parser {
                 self.md(name)?.type_definitions.push(st);
             }
             (Some("EnumerationType"), "Item") => {
-                let item = EnumItem {
-                    name: a.required(name, "name")?,
-                    value: a.int(name, "value")?.ok_or_else(|| err_invalid("<Item> has no value attribute"))?,
-                    description: a.string("description"),
-                };
+                let item = super::enum_item(name, a)?;
                 if let Some(st) = self.md(name)?.type_definitions.last_mut() {
                     st.items.push(item);
                 }

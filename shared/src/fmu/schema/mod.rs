@@ -542,6 +542,20 @@ fn display_unit(elem: &str, a: &Attrs) -> Result<DisplayUnit, SchemaError> {
 }
 
 /// The `DefaultExperiment` element of every version.
+/// The description a reader has opened at `<fmiModelDescription>`, for a child element `elem`.
+fn opened<'a>(md: &'a mut Option<ModelDescription>, elem: &str) -> Result<&'a mut ModelDescription, SchemaError> {
+    md.as_mut().ok_or_else(|| err_invalid(format!("<{elem}> outside <fmiModelDescription>")))
+}
+
+/// An enumeration's `<Item>` with the value attribute FMI 2.0 and 3.0 require.
+fn enum_item(elem: &str, a: &Attrs) -> Result<EnumItem, SchemaError> {
+    Ok(EnumItem {
+        name: a.required(elem, "name")?,
+        value: a.int(elem, "value")?.ok_or_else(|| err_invalid("<Item> has no value attribute"))?,
+        description: a.string("description"),
+    })
+}
+
 fn default_experiment(elem: &str, a: &Attrs) -> Result<DefaultExperiment, SchemaError> {
     Ok(DefaultExperiment {
         start_time: a.f64(elem, "startTime")?,
@@ -560,7 +574,7 @@ impl Parser {
     }
 
     fn md(&mut self, elem: &str) -> Result<&mut ModelDescription, SchemaError> {
-        self.md.as_mut().ok_or_else(|| err_invalid(format!("<{elem}> outside <fmiModelDescription>")))
+        opened(&mut self.md, elem)
     }
 
     fn open(&mut self, parent: Option<&str>, name: &str, a: &Attrs) -> Result<(), SchemaError> {
@@ -614,11 +628,7 @@ impl Parser {
                 }
             }
             (Some("Enumeration"), "Item") => {
-                let item = EnumItem {
-                    name: a.required(name, "name")?,
-                    value: a.int(name, "value")?.ok_or_else(|| err_invalid("<Item> has no value attribute"))?,
-                    description: a.string("description"),
-                };
+                let item = enum_item(name, a)?;
                 if let Some(st) = self.md(name)?.type_definitions.last_mut() {
                     st.items.push(item);
                 }
