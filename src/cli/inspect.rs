@@ -1,6 +1,6 @@
 //! `fmucal inspect`: version, interfaces, generation tool, default experiment, the platforms
-//! the archive has binaries for, and a table of parameters, inputs, outputs and states with
-//! start values and units. It reads the description only and never loads the binary, so it
+//! the archive has binaries for, a table of parameters, inputs, outputs and states with
+//! start values and units, and the aliases with the variable each shares its value with. It reads the description only and never loads the binary, so it
 //! works on FMUs built for other platforms and runs no model code.
 
 use anyhow::{Context, Result};
@@ -90,6 +90,21 @@ fn render(fmu: &Described) -> String {
                 type_cell(v),
                 v.start.as_ref().map(|x| x.to_string()).unwrap_or_else(|| "-".into()),
                 v.unit.clone().unwrap_or_else(|| "-".into()),
+                v.description.clone().unwrap_or_default()
+            ));
+        }
+    }
+    let aliases: Vec<&ScalarVariable> = md.variables.iter().filter(|v| v.alias_of.is_some()).collect();
+    if !aliases.is_empty() {
+        s.push_str(&format!("\nAliases ({})\n", aliases.len()));
+        s.push_str(&format!("  {:<28} {:<28} {:<12} {}\n", "name", "alias of", "display unit", "description"));
+        for v in aliases {
+            let base = v.alias_of.as_deref().unwrap_or_default();
+            s.push_str(&format!(
+                "  {:<28} {:<28} {:<12} {}\n",
+                v.name,
+                if v.negated { format!("-{base} (negated)") } else { base.to_owned() },
+                v.display_unit.clone().unwrap_or_else(|| "-".into()),
                 v.description.clone().unwrap_or_default()
             ));
         }

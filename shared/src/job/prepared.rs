@@ -153,7 +153,7 @@ impl PreparedExperiment {
                     format!("{} is {:?}; only Real parameters can be calibrated", p.name, v.var_type),
                 ));
             }
-            if !v.settable_before_init() {
+            if !v.settable_before_init() && !md.base_of(v).settable_before_init() {
                 return Err(JobError::invalid(
                     &field,
                     format!("{} may not be set (causality {:?})", p.name, v.causality),
@@ -191,7 +191,7 @@ impl PreparedExperiment {
             let v = md
                 .variable(&i.variable)
                 .ok_or_else(|| JobError::invalid(format!("inputs[{k}].variable"), md.unknown_variable(&i.variable)))?;
-            if v.causality != Causality::Input {
+            if md.base_of(v).causality != Causality::Input {
                 return Err(JobError::invalid(
                     format!("inputs[{k}].variable"),
                     format!("{} is not an input of the model", i.variable),

@@ -12,11 +12,14 @@ use crate::fmu::{FmuError, Instance, Interface, ModelDescription};
 use crate::series::TimeSeries;
 
 /// A typed value to set on the FMU.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Setting {
     Real(u32, f64),
     Integer(u32, i32),
     Boolean(u32, bool),
+    String(u32, String),
+    /// FMI 3.0 only.
+    Binary(u32, Vec<u8>),
 }
 
 /// A variable read back or written, with its value reference and base type.
@@ -25,6 +28,19 @@ pub struct VarRef {
     pub name: String,
     pub vr: u32,
     pub var_type: VarType,
+    /// An FMI 1.0 negated alias: read and written as minus the value behind `vr`.
+    pub negated: bool,
+}
+
+impl VarRef {
+    /// The value of the variable from the value behind its value reference, or back.
+    fn sign(&self, v: f64) -> f64 {
+        match (self.negated, self.var_type) {
+            (false, _) => v,
+            (true, VarType::Boolean) => f64::from(u8::from(v == 0.0)),
+            (true, _) => -v,
+        }
+    }
 }
 
 /// An input column bound to an FMU input.
@@ -141,8 +157,7 @@ fn plan_term(
             t.parameters.len()
         )));
     }
-    let port =
-        md.variable(&t.port).ok_or_else(|| invalid(format!("port {:?} is not a variable of the model", t.port)))?;
+    let port = term_variable(md, &t.port, "port")?;
     if port.causality != Causality::Input
         || port.var_type != VarType::Real
         || port.variability != Variability::Continuous
@@ -159,9 +174,7 @@ fn plan_term(
             effect.domain()
         )));
     }
-    let signal = md
-        .variable(&t.signal)
-        .ok_or_else(|| invalid(format!("signal {:?} is not a variable of the model", t.signal)))?;
+    let signal = term_variable(md, &t.signal, "signal")?;
     if signal.var_type != VarType::Real {
         return Err(invalid(format!("signal {:?} is not a Real variable", t.signal)));
     }
@@ -179,7 +192,11 @@ fn plan_term(
     let base = match bindings.iter().find(|b| b.var.vr == port.value_reference) {
         Some(b) if inputs.is_some() => PortBase::Column(b.column),
         _ => {
-            let set = starts.iter().rev().find(|(n, _)| *n == port.name).and_then(|(_, v)| v.parse::<f64>().ok());
+            let set = starts
+                .iter()
+                .rev()
+                .find(|(n, _)| *n == port.name || *n == t.port)
+                .and_then(|(_, v)| v.parse::<f64>().ok());
             let start = match &port.start {
                 Some(crate::fmu::schema::Value::Real(v)) => *v,
                 _ => 0.0,
@@ -197,7 +214,19 @@ fn plan_term(
 }
 
 fn var_ref(v: &ScalarVariable) -> VarRef {
-    VarRef { name: v.name.clone(), vr: v.value_reference, var_type: v.var_type }
+    VarRef { name: v.name.clone(), vr: v.value_reference, var_type: v.var_type, negated: v.negated }
+}
+
+/// A port or signal of a port term: an alias stands for its base, a negated one is refused.
+fn term_variable<'a>(md: &'a ModelDescription, name: &str, what: &str) -> Result<&'a ScalarVariable, SimError> {
+    let v = md.variable(name).ok_or_else(|| invalid(format!("{what} {name:?} is not a variable of the model")))?;
+    if v.negated {
+        return Err(invalid(format!(
+            "{what} {name:?} is a negated alias of {:?}: name {0:?} instead",
+            v.alias_of.as_deref().unwrap_or("its base")
+        )));
+    }
+    Ok(md.base_of(v))
 }
 
 impl Plan {
@@ -246,14 +275,14 @@ impl Plan {
                         let v = md
                             .variable(name)
                             .ok_or_else(|| invalid(format!("input column {name:?} is not a variable of the model")))?;
-                        if v.causality != Causality::Input {
+                        if md.base_of(v).causality != Causality::Input {
                             return Err(invalid(format!(
                                 "input column {name:?} is not an input of the model (causality {:?})",
                                 v.causality
                             )));
                         }
-                        if v.var_type == VarType::String {
-                            return Err(invalid(format!("String input {name:?} is not supported")));
+                        if matches!(v.var_type, VarType::String | VarType::Binary | VarType::Clock) {
+                            return Err(invalid(format!("{:?} input {name:?} is not supported", v.var_type)));
                         }
                         Ok(InputBinding {
                             var: var_ref(v),
@@ -267,20 +296,26 @@ impl Plan {
         };
 
         let outputs = if spec.outputs.is_empty() {
-            let outs: Vec<VarRef> =
-                md.outputs().into_iter().filter(|v| v.var_type != VarType::String).map(var_ref).collect();
+            let outs: Vec<VarRef> = md.outputs().into_iter().filter(|v| recordable(v)).map(var_ref).collect();
             if outs.is_empty() { md.states().into_iter().map(|(s, _)| var_ref(s)).collect() } else { outs }
         } else {
-            spec.outputs
-                .iter()
-                .map(|name| {
-                    let v = md.variable(name).ok_or_else(|| invalid(format!("unknown output variable {name:?}")))?;
-                    if v.var_type == VarType::String {
-                        return Err(invalid(format!("String variable {name:?} cannot be recorded")));
+            let mut outs = vec![];
+            for name in &spec.outputs {
+                // An FMI 3.0 array's own name stands for its elements, in order.
+                let vars = match md.variable(name) {
+                    Some(v) => vec![v],
+                    None => {
+                        md.array_elements(name).ok_or_else(|| invalid(format!("unknown output variable {name:?}")))?
                     }
-                    Ok(var_ref(v))
-                })
-                .collect::<Result<Vec<_>, _>>()?
+                };
+                for v in vars {
+                    if !recordable(v) {
+                        return Err(invalid(format!("{:?} variable {:?} cannot be recorded", v.var_type, v.name)));
+                    }
+                    outs.push(var_ref(v));
+                }
+            }
+            outs
         };
 
         let port_terms = spec
@@ -380,10 +415,12 @@ impl Plan {
     /// [`FmuError::Call`] if the FMU rejects a value.
     pub fn apply_settings(&self, inst: &mut Instance) -> Result<(), FmuError> {
         for s in &self.settings {
-            match *s {
-                Setting::Real(vr, v) => inst.call("fmi2SetReal", |c| c.set_real(&[vr], &[v]))?,
-                Setting::Integer(vr, v) => inst.call("fmi2SetInteger", |c| c.set_integer(&[vr], &[v]))?,
-                Setting::Boolean(vr, v) => inst.call("fmi2SetBoolean", |c| c.set_boolean(&[vr], &[v as i32]))?,
+            match s {
+                Setting::Real(vr, v) => inst.call("fmi2SetReal", |c| c.set_real(&[*vr], &[*v]))?,
+                Setting::Integer(vr, v) => inst.call("fmi2SetInteger", |c| c.set_integer(&[*vr], &[*v]))?,
+                Setting::Boolean(vr, v) => inst.call("fmi2SetBoolean", |c| c.set_boolean(&[*vr], &[*v as i32]))?,
+                Setting::String(vr, v) => inst.call("fmi2SetString", |c| c.set_string(&[*vr], &[v.as_str()]))?,
+                Setting::Binary(vr, v) => inst.call("fmi3SetBinary", |c| c.set_binary(&[*vr], &[v.as_slice()]))?,
             };
         }
         Ok(())
@@ -414,7 +451,7 @@ impl Plan {
             if continuous_only && b.hold {
                 continue;
             }
-            let v = table.value_on(side, b.column, t, b.hold);
+            let v = b.var.sign(table.value_on(side, b.column, t, b.hold));
             let vr = b.var.vr;
             match b.var.var_type {
                 VarType::Real => inst.call("fmi2SetReal", |c| c.set_real(&[vr], &[v]))?,
@@ -440,12 +477,12 @@ impl Plan {
             let mut values = vec![0.0; self.real_output_vrs.len()];
             inst.call("fmi2GetReal", |c| c.get_real(&self.real_output_vrs, &mut values))?;
             for (slot, v) in self.real_output_slots.iter().zip(values) {
-                row[*slot] = v;
+                row[*slot] = self.outputs[*slot].sign(v);
             }
         }
         for (out, slot) in self.outputs.iter().zip(row.iter_mut()) {
             let vr = out.vr;
-            *slot = match out.var_type {
+            *slot = out.sign(match out.var_type {
                 VarType::Real => continue,
                 VarType::Boolean => {
                     let mut v = [0];
@@ -457,7 +494,7 @@ impl Plan {
                     inst.call("fmi2GetInteger", |c| c.get_integer(&[vr], &mut v))?;
                     v[0] as f64
                 }
-            };
+            });
         }
         Ok(())
     }
@@ -527,10 +564,17 @@ fn build_grid(start: f64, stop: f64, times: &OutputTimes) -> Result<Vec<f64>, Si
     }
 }
 
+/// Whether a variable's values fit a numeric result table (not a String, Binary or Clock).
+fn recordable(v: &ScalarVariable) -> bool {
+    !matches!(v.var_type, VarType::String | VarType::Binary | VarType::Clock)
+}
+
 /// Parses `text` for variable `name` and checks that it may be set and lies within min/max.
 fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, SimError> {
     let v = md.variable(name).ok_or_else(|| invalid(format!("unknown variable {name:?}")))?;
-    if !v.settable_before_init() {
+    // An alias may be set where its base may (tools often write an alias of a parameter as a
+    // calculated local).
+    if !v.settable_before_init() && !md.base_of(v).settable_before_init() {
         return Err(invalid(format!(
             "variable {name:?} may not be set (causality {:?}, variability {:?}, initial {:?})",
             v.causality,
@@ -538,6 +582,8 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
             v.effective_initial()
         )));
     }
+    // A String's value is the text as given, spaces included.
+    let given = text;
     let text = text.trim();
     let range = |x: f64| -> Result<(), SimError> {
         if let Some(min) = v.min
@@ -559,12 +605,12 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
                 return Err(invalid(format!("{name} = {text} is not a finite number")));
             }
             range(x)?;
-            Ok(Setting::Real(v.value_reference, x))
+            Ok(Setting::Real(v.value_reference, if v.negated { -x } else { x }))
         }
         VarType::Integer => {
             let x: i32 = text.parse().map_err(|_| invalid(format!("{name} = {text:?} is not an integer")))?;
             range(x as f64)?;
-            Ok(Setting::Integer(v.value_reference, x))
+            Ok(Setting::Integer(v.value_reference, if v.negated { -x } else { x }))
         }
         VarType::Enumeration => {
             let items = v
@@ -587,12 +633,15 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
             Ok(Setting::Integer(v.value_reference, x))
         }
         VarType::Boolean => match text {
-            "true" | "1" => Ok(Setting::Boolean(v.value_reference, true)),
-            "false" | "0" => Ok(Setting::Boolean(v.value_reference, false)),
+            "true" | "1" => Ok(Setting::Boolean(v.value_reference, !v.negated)),
+            "false" | "0" => Ok(Setting::Boolean(v.value_reference, v.negated)),
             _ => Err(invalid(format!("{name} = {text:?} is not a boolean (true/false)"))),
         },
-        VarType::String => Err(invalid(format!("setting String variable {name:?} is not supported"))),
-        VarType::Binary => Err(invalid(format!("setting Binary variable {name:?} is not supported"))),
+        VarType::String => Ok(Setting::String(v.value_reference, given.to_owned())),
+        VarType::Binary => match crate::fmu::schema::parse_hex(text) {
+            Some(bytes) => Ok(Setting::Binary(v.value_reference, bytes)),
+            None => Err(invalid(format!("{name} = {text:?} is not hex digits (a Binary value, as 0a1b… or 0x0a1b…)"))),
+        },
         VarType::Clock => Err(invalid(format!("setting Clock variable {name:?} is not supported"))),
     }
 }

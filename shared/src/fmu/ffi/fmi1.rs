@@ -106,6 +106,7 @@ type GetInt = unsafe extern "C" fn(Comp, *const c_uint, usize, *mut c_int) -> c_
 type SetInt = unsafe extern "C" fn(Comp, *const c_uint, usize, *const c_int) -> c_int;
 type GetBool = unsafe extern "C" fn(Comp, *const c_uint, usize, *mut c_char) -> c_int;
 type SetBool = unsafe extern "C" fn(Comp, *const c_uint, usize, *const c_char) -> c_int;
+type SetString = unsafe extern "C" fn(Comp, *const c_uint, usize, *const *const c_char) -> c_int;
 type CompletedIntegratorStep = unsafe extern "C" fn(Comp, *mut c_char) -> c_int;
 type SetTime = unsafe extern "C" fn(Comp, f64) -> c_int;
 type SetArray = unsafe extern "C" fn(Comp, *const f64, usize) -> c_int;
@@ -152,6 +153,7 @@ fmi1_api! {
     set_integer: "fmiSetInteger" => SetInt, Both,
     get_boolean: "fmiGetBoolean" => GetBool, Both,
     set_boolean: "fmiSetBoolean" => SetBool, Both,
+    set_string: "fmiSetString" => SetString, Optional,
     instantiate_model: "fmiInstantiateModel" => InstantiateModel, ModelExchange,
     free_model_instance: "fmiFreeModelInstance" => Free, ModelExchange,
     initialize: "fmiInitialize" => Initialize, ModelExchange,
@@ -382,6 +384,14 @@ impl FmiCalls for Component {
         assert_eq!(vrs.len(), values.len());
         let buf: Vec<c_char> = values.iter().map(|v| c_char::from(*v != 0)).collect();
         call!(self, set_boolean, vrs.as_ptr(), vrs.len(), buf.as_ptr())
+    }
+    fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> Status {
+        assert_eq!(vrs.len(), values.len());
+        let (_owned, pointers) = super::c_strings(values);
+        call!(self, set_string, vrs.as_ptr(), vrs.len(), pointers.as_ptr())
+    }
+    fn set_binary(&mut self, _vrs: &[u32], _values: &[&[u8]]) -> Status {
+        self.refuse("FMI 1.0 has no Binary variables")
     }
 
     fn enter_event_mode(&mut self) -> Status {

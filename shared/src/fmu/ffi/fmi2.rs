@@ -353,6 +353,14 @@ impl FmiCalls for Component {
         assert_eq!(vrs.len(), values.len());
         call!(self, set_boolean, vrs.as_ptr(), vrs.len(), values.as_ptr())
     }
+    fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> Status {
+        assert_eq!(vrs.len(), values.len());
+        let (_owned, pointers) = super::c_strings(values);
+        call!(self, set_string, vrs.as_ptr(), vrs.len(), pointers.as_ptr())
+    }
+    fn set_binary(&mut self, _vrs: &[u32], _values: &[&[u8]]) -> Status {
+        Status::Error
+    }
 
     fn enter_event_mode(&mut self) -> Status {
         call!(self, enter_event_mode)

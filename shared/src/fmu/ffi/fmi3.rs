@@ -44,6 +44,8 @@ type Set<T> = unsafe extern "C" fn(Inst, *const u32, usize, *const T, usize) -> 
 // FMU must not become an invalid Rust bool.
 type UpdateDiscreteStates = unsafe extern "C" fn(Inst, *mut u8, *mut u8, *mut u8, *mut u8, *mut u8, *mut f64) -> c_int;
 type CompletedIntegratorStep = unsafe extern "C" fn(Inst, bool, *mut u8, *mut u8) -> c_int;
+type SetString = unsafe extern "C" fn(Inst, *const u32, usize, *const *const c_char, usize) -> c_int;
+type SetBinary = unsafe extern "C" fn(Inst, *const u32, usize, *const usize, *const *const u8, usize) -> c_int;
 type SetTime = unsafe extern "C" fn(Inst, f64) -> c_int;
 type SetArray = unsafe extern "C" fn(Inst, *const f64, usize) -> c_int;
 type GetArray = unsafe extern "C" fn(Inst, *mut f64, usize) -> c_int;
@@ -111,6 +113,8 @@ fmi3_api! {
     set_uint64: "fmi3SetUInt64" => Set<u64>, Optional,
     get_boolean: "fmi3GetBoolean" => Get<u8>, Optional,
     set_boolean: "fmi3SetBoolean" => Set<u8>, Optional,
+    set_string: "fmi3SetString" => SetString, Optional,
+    set_binary: "fmi3SetBinary" => SetBinary, Optional,
     update_discrete_states: "fmi3UpdateDiscreteStates" => UpdateDiscreteStates, ModelExchange,
     enter_continuous_time_mode: "fmi3EnterContinuousTimeMode" => Call, ModelExchange,
     completed_integrator_step: "fmi3CompletedIntegratorStep" => CompletedIntegratorStep, ModelExchange,
@@ -381,6 +385,19 @@ impl Instance {
         }
     }
 
+    /// The FMU's value references of fmucal's `vrs` of type `ty`, which must be scalars.
+    fn scalar_references(&self, vrs: &[u32], ty: Fmi3Type) -> Result<Vec<u32>, Status> {
+        vrs.iter()
+            .map(|vr| {
+                let s = self.storage_of(*vr, ty);
+                if s.element.is_some() {
+                    return Err(self.refuse(format!("setting an element of a {ty:?} array is not supported")));
+                }
+                Ok(s.value_reference)
+            })
+            .collect()
+    }
+
     /// The storage of fmucal's value reference `vr`: a scalar Float64 unless listed.
     fn storage_of(&self, vr: u32, default: Fmi3Type) -> Fmi3Storage {
         self.storage.get(&vr).cloned().unwrap_or(Fmi3Storage {
@@ -603,10 +620,34 @@ impl FmiCalls for Instance {
             // reach the end of the step.
             return self.refuse(format!("fmi3DoStep returned early at t={last} though early return was not allowed"));
         }
+        // FMI 3.0 asks to end the simulation through `terminateSimulation` with fmi3OK, where
+        // FMI 2.0 returns fmi2Discard and reports fmi2Terminated: the drivers read the 2.0 shape.
+        if terminate && st <= Status::Warning {
+            return Status::Discard;
+        }
         st
     }
     fn terminated(&mut self) -> Option<bool> {
         Some(self.terminated)
+    }
+    fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> Status {
+        assert_eq!(vrs.len(), values.len());
+        let refs = match self.scalar_references(vrs, Fmi3Type::String) {
+            Ok(refs) => refs,
+            Err(st) => return st,
+        };
+        let (_owned, pointers) = super::c_strings(values);
+        call!(self, set_string, refs.as_ptr(), refs.len(), pointers.as_ptr(), pointers.len())
+    }
+    fn set_binary(&mut self, vrs: &[u32], values: &[&[u8]]) -> Status {
+        assert_eq!(vrs.len(), values.len());
+        let refs = match self.scalar_references(vrs, Fmi3Type::Binary) {
+            Ok(refs) => refs,
+            Err(st) => return st,
+        };
+        let sizes: Vec<usize> = values.iter().map(|v| v.len()).collect();
+        let pointers: Vec<*const u8> = values.iter().map(|v| v.as_ptr()).collect();
+        call!(self, set_binary, refs.as_ptr(), refs.len(), sizes.as_ptr(), pointers.as_ptr(), pointers.len())
     }
     fn last_successful_time(&mut self) -> Option<f64> {
         self.last_successful_time

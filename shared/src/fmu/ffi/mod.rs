@@ -122,6 +122,15 @@ pub enum FfiError {
     Unprefixed { path: PathBuf, symbol: String, expected: String },
 }
 
+/// Texts as C strings (NUL bytes removed) and the array of their pointers, which lives as long
+/// as the first.
+pub(crate) fn c_strings(values: &[&str]) -> (Vec<std::ffi::CString>, Vec<*const c_char>) {
+    let owned: Vec<std::ffi::CString> =
+        values.iter().map(|v| std::ffi::CString::new(v.replace('\0', "")).unwrap_or_default()).collect();
+    let pointers = owned.iter().map(|c| c.as_ptr()).collect();
+    (owned, pointers)
+}
+
 pub(crate) fn lossy(p: *const c_char) -> String {
     if p.is_null() {
         return String::new();
@@ -151,6 +160,10 @@ pub trait FmiCalls {
     fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Status;
     fn get_boolean(&mut self, vrs: &[u32], out: &mut [i32]) -> Status;
     fn set_boolean(&mut self, vrs: &[u32], values: &[i32]) -> Status;
+    /// Sets String variables (NUL bytes are removed; the FMU copies the text in the call).
+    fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> Status;
+    /// Sets Binary variables, which only FMI 3.0 has.
+    fn set_binary(&mut self, vrs: &[u32], values: &[&[u8]]) -> Status;
     fn enter_event_mode(&mut self) -> Status;
     fn new_discrete_states(&mut self, info: &mut EventInfo) -> Status;
     fn enter_continuous_time_mode(&mut self) -> Status;

@@ -5,8 +5,9 @@
 //! model structure: as FMPy does, a variable named `der(x)` is taken as the derivative of the
 //! state `x`, in the order of the description (which must give `numberOfContinuousStates` of
 //! them), and the outputs are the variables with causality output. Variability `parameter`
-//! becomes causality parameter; `fixed="false"` start values are approximate. Negated aliases
-//! are left out (reading them through their value reference would give the wrong sign).
+//! becomes causality parameter; `fixed="false"` start values are approximate. An `alias` or
+//! `negatedAlias` names its base (the variable of the same type and value reference that is no
+//! alias); a negated alias is read and set as minus its base (FMPy reads it without the sign).
 
 use super::{
     Attrs, BaseUnit, Causality, DisplayUnit, EnumItem, Initial, InterfaceInfo, ModelDescription, ScalarVariable,
@@ -19,8 +20,8 @@ struct Parser {
     model_identifier: String,
     number_of_states: usize,
     co_simulation: Option<InterfaceInfo>,
-    /// Whether the variable being read is a negated alias (left out).
-    negated: Vec<bool>,
+    /// Per variable: its `alias` attribute is `alias` or `negatedAlias` (`Some(negated)`).
+    aliases: Vec<Option<bool>>,
 }
 
 /// Parses an FMI 1.0 description.
@@ -112,7 +113,11 @@ impl Parser {
                 self.md(name)?.default_experiment = Some(de);
             }
             (Some("ModelVariables"), "ScalarVariable") => {
-                self.negated.push(a.get("alias") == Some("negatedAlias"));
+                self.aliases.push(match a.get("alias") {
+                    Some("alias") => Some(false),
+                    Some("negatedAlias") => Some(true),
+                    _ => None,
+                });
                 let var = scalar_variable(a)?;
                 self.md(name)?.variables.push(var);
             }
@@ -135,17 +140,38 @@ impl Parser {
                     Some(InterfaceInfo { model_identifier: self.model_identifier.clone(), ..InterfaceInfo::default() })
             }
         }
-        let kept: Vec<ScalarVariable> =
-            md.variables.drain(..).zip(&self.negated).filter(|(_, negated)| !**negated).map(|(v, _)| v).collect();
-        md.variables = kept;
-        // States from der(x) names, in the order written.
-        let index_of: std::collections::HashMap<&str, usize> =
-            md.variables.iter().enumerate().map(|(k, v)| (v.name.as_str(), k)).rev().collect();
+        let bases: std::collections::HashMap<(super::VarType, u32), String> = md
+            .variables
+            .iter()
+            .zip(&self.aliases)
+            .filter(|(_, alias)| alias.is_none())
+            .map(|(v, _)| ((v.var_type, v.value_reference), v.name.clone()))
+            .collect();
+        for (var, alias) in md.variables.iter_mut().zip(&self.aliases) {
+            if let Some(negated) = *alias {
+                var.alias_of = bases.get(&(var.var_type, var.value_reference)).cloned();
+                var.negated = negated;
+            }
+        }
+        // States from der(x) names, in the order written. An alias is never a derivative, and
+        // an x that is an alias stands for its base.
+        let index_of: std::collections::HashMap<&str, usize> = md
+            .variables
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| !v.negated)
+            .map(|(k, v)| (v.name.as_str(), k))
+            .rev()
+            .collect();
         let mut derivatives = vec![];
-        for (k, var) in md.variables.iter().enumerate() {
+        for (k, (var, alias)) in md.variables.iter().zip(&self.aliases).enumerate() {
+            if alias.is_some() {
+                continue;
+            }
             let Some(state) = var.name.strip_prefix("der(").and_then(|s| s.strip_suffix(')')) else { continue };
-            if let Some(s) = index_of.get(state) {
-                derivatives.push((k, *s));
+            if let Some(&s) = index_of.get(state) {
+                let base = md.variables[s].alias_of.as_deref().and_then(|b| index_of.get(b)).copied();
+                derivatives.push((k, base.unwrap_or(s)));
             }
         }
         if derivatives.len() != self.number_of_states {
@@ -248,7 +274,10 @@ mod tests {
         assert!(c.settable_before_init());
         assert_eq!(md.variable("w").unwrap().initial, Some(Initial::Approx));
         assert_eq!(md.variable("phi").unwrap().unit.as_deref(), Some("rad"));
-        assert!(md.variable("minusPhi").is_none(), "a negated alias reads with the wrong sign");
+        let minus = md.variable("minusPhi").unwrap();
+        assert!(minus.negated, "a negated alias reads with the wrong sign");
+        assert_eq!(minus.alias_of.as_deref(), Some("phi"));
+        assert_eq!(md.variable("mode").unwrap().alias_of, None, "an Enumeration is no alias of a Real");
         let mode = md.type_definitions.iter().find(|t| t.name == "Mode").unwrap();
         assert_eq!(mode.items.iter().map(|i| i.value).collect::<Vec<_>>(), [1, 2]);
         assert_eq!(md.default_experiment.as_ref().unwrap().stop_time, Some(3.0));

@@ -48,6 +48,8 @@ struct RawVariable {
     start: Vec<String>,
     /// The value reference of the state this is the derivative of.
     derivative_of: Option<u32>,
+    /// Its `<Alias>` elements: name, description, display unit.
+    aliases: Vec<(String, Option<String>, Option<String>)>,
 }
 
 enum DimensionSize {
@@ -214,6 +216,11 @@ impl Parser {
                 };
                 raw.dimensions.push(size);
             }
+            (Some(var_elem), "Alias") if fmi3_type(var_elem).is_some() => {
+                let raw = self.raw.last_mut().ok_or_else(|| err_invalid("<Alias> outside a variable"))?;
+                let alias = a.required(name, "name").map_err(super::in_variable(&raw.var.name))?;
+                raw.aliases.push((alias, a.string("description"), a.string("displayUnit")));
+            }
             (Some("String" | "Binary"), "Start") => {
                 let raw = self.raw.last_mut().ok_or_else(|| err_invalid("<Start> outside a variable"))?;
                 raw.start.push(a.string("value").unwrap_or_default());
@@ -299,9 +306,11 @@ impl Parser {
         let mut total: usize = 0;
         for (raw, dims) in self.raw.iter().zip(&sizes) {
             let n = dims.iter().try_fold(1usize, |acc, d| acc.checked_mul(*d));
-            total = n.and_then(|n| total.checked_add(n.max(1))).filter(|t| *t <= MAX_VARIABLES).ok_or_else(|| {
+            // Each alias of the variable copies every element.
+            let copies = n.and_then(|n| n.max(1).checked_mul(1 + raw.aliases.len()));
+            total = copies.and_then(|n| total.checked_add(n)).filter(|t| *t <= MAX_VARIABLES).ok_or_else(|| {
                 err_invalid(format!(
-                    "variable {:?}: its array takes the description past {MAX_VARIABLES} variables (array elements count one each)",
+                    "variable {:?}: its array takes the description past {MAX_VARIABLES} variables (array elements and their aliases count one each)",
                     raw.var.name
                 ))
             })?;
@@ -392,6 +401,30 @@ impl Parser {
                 }
             }
         }
+        // Each <Alias> is a variable of its own that shares its base's value (element by
+        // element for an array), listed after every variable so the model structure's indices
+        // stay as they are, and never itself an output or a state.
+        let mut names: std::collections::HashSet<String> = md.variables.iter().map(|v| v.name.clone()).collect();
+        for raw in self.raw.iter().filter(|r| !r.aliases.is_empty()) {
+            let elements = indices_of.get(&raw.var.value_reference).cloned().unwrap_or_default();
+            for (alias, description, display_unit) in &raw.aliases {
+                for &index in &elements {
+                    let base = &md.variables[index - 1];
+                    let mut var = base.clone();
+                    var.name = format!("{alias}{}", &base.name[raw.var.name.len()..]);
+                    var.alias_of = Some(base.name.clone());
+                    var.description = description.clone().or_else(|| base.description.clone());
+                    var.display_unit = display_unit.clone().or_else(|| base.display_unit.clone());
+                    if !names.insert(var.name.clone()) {
+                        return Err(err_invalid(format!(
+                            "alias {:?} of variable {:?}: another variable has that name",
+                            var.name, raw.var.name
+                        )));
+                    }
+                    md.variables.push(var);
+                }
+            }
+        }
         for vr in &self.event_indicators {
             md.number_of_event_indicators += indices_of.get(vr).map(Vec::len).ok_or_else(|| {
                 err_invalid(format!("ModelStructure/EventIndicator: no variable has valueReference {vr}"))
@@ -432,7 +465,7 @@ fn start_texts(raw: &RawVariable, n: usize) -> Result<Option<Vec<&str>>, SchemaE
     Ok(Some(values))
 }
 
-/// One start value, typed (Binary start values are not kept).
+/// One start value, typed (a Binary's in hex).
 fn typed_start(raw: &RawVariable, text: &str) -> Result<Option<Value>, SchemaError> {
     // A UInt64 start past i64::MAX is kept as the nearest Real.
     if raw.ty == Fmi3Type::UInt64 && text.trim().parse::<i64>().is_err() {
@@ -468,6 +501,7 @@ fn variable(ty: Fmi3Type, a: &Attrs) -> Result<RawVariable, SchemaError> {
     var.max = a.f64(&elem, "max").map_err(&ectx)?;
     var.nominal = a.f64(&elem, "nominal").map_err(&ectx)?;
     var.unit = a.string("unit");
+    var.display_unit = a.string("displayUnit");
     var.reinit = a.bool(&elem, "reinit").map_err(&ectx)?;
     Ok(RawVariable {
         var,
@@ -475,6 +509,7 @@ fn variable(ty: Fmi3Type, a: &Attrs) -> Result<RawVariable, SchemaError> {
         dimensions: vec![],
         start: a.string("start").into_iter().collect(),
         derivative_of: a.int(&elem, "derivative").map_err(&ectx)?,
+        aliases: vec![],
     })
 }
 
@@ -561,6 +596,61 @@ mod tests {
         vrs.sort_unstable();
         vrs.dedup();
         assert_eq!(vrs.len(), n, "value references are not unique");
+    }
+
+    #[test]
+    fn alias_elements_are_variables_that_share_their_base_value() {
+        let xml = MINIMAL
+            .replace(
+                r#"initial="exact" start="2" declaredType="Length"/>"#,
+                r#"initial="exact" start="2" declaredType="Length"><Alias name="x_ft" description="x in feet" displayUnit="ft"/></Float64>"#,
+            )
+            .replacen(r#"<Dimension start="3"/>"#, r#"<Dimension start="3"/><Alias name="gains"/>"#, 1);
+        let md = ModelDescription::parse(&xml).unwrap();
+        let (x, alias) = (md.variable("x").unwrap(), md.variable("x_ft").unwrap());
+        assert_eq!(
+            (alias.value_reference, alias.causality, alias.start.clone()),
+            (x.value_reference, x.causality, x.start.clone())
+        );
+        assert_eq!((alias.alias_of.as_deref(), alias.display_unit.as_deref()), (Some("x"), Some("ft")));
+        assert_eq!(alias.description.as_deref(), Some("x in feet"));
+        assert_eq!(md.base_of(alias).name, "x");
+        // An alias of an array aliases each element; neither becomes an output or a state.
+        for i in 1..=3 {
+            let (k, g) = (md.variable(&format!("k[{i}]")).unwrap(), md.variable(&format!("gains[{i}]")).unwrap());
+            assert_eq!((g.value_reference, g.fmi3.clone()), (k.value_reference, k.fmi3.clone()));
+            assert_eq!(g.alias_of.as_deref(), Some(k.name.as_str()));
+        }
+        let names = |vars: Vec<&ScalarVariable>| vars.iter().map(|v| v.name.clone()).collect::<Vec<_>>();
+        assert_eq!(names(md.outputs()), ["x", "y"]);
+        assert_eq!(md.states().len(), 1);
+        assert_eq!(names(md.array_elements("gains").unwrap()), ["gains[1]", "gains[2]", "gains[3]"]);
+        assert_eq!(names(md.array_elements("k").unwrap()), ["k[1]", "k[2]", "k[3]"]);
+        assert!(md.array_elements("x").is_none());
+        let clash = xml.replace(r#"name="x_ft""#, r#"name="z""#);
+        let err = ModelDescription::parse(&clash).unwrap_err().to_string();
+        assert!(err.contains(r#"alias "z" of variable "x": another variable has that name"#), "{err}");
+    }
+
+    #[test]
+    fn binary_start_elements_are_read_as_hex_and_do_not_refuse_an_input() {
+        let xml = MINIMAL.replace(
+            "</ModelVariables>",
+            r#"<Binary name="Binary_input" valueReference="30" causality="input"><Start value="666f6f"/></Binary>
+<Binary name="Binary_parameter" valueReference="31" causality="parameter" variability="fixed"><Start value="0x0A0b"/></Binary>
+</ModelVariables>"#,
+        );
+        let md = ModelDescription::parse(&xml).unwrap();
+        assert_eq!(md.variable("Binary_input").unwrap().start, Some(Value::Binary(b"foo".to_vec())));
+        let p = md.variable("Binary_parameter").unwrap();
+        assert_eq!(p.start, Some(Value::Binary(vec![10, 11])));
+        assert_eq!(p.start.as_ref().unwrap().to_string(), "0x0a0b");
+        // A String or Binary input without a start value is no reason to refuse the FMU.
+        let no_start = xml.replace(r#"<Start value="666f6f"/>"#, "");
+        assert_eq!(ModelDescription::parse(&no_start).unwrap().variable("Binary_input").unwrap().start, None);
+        let bad = xml.replace("666f6f", "66z");
+        let err = ModelDescription::parse(&bad).unwrap_err().to_string();
+        assert!(err.contains("Binary_input") && err.contains("hex"), "{err}");
     }
 
     #[test]

@@ -12,6 +12,8 @@ mod fmi3;
 
 use quick_xml::Reader;
 use quick_xml::events::{BytesStart, Event};
+use std::collections::HashMap;
+
 use serde::Serialize;
 
 /// Why a model description could not be read.
@@ -65,7 +67,7 @@ pub enum Initial {
 
 /// The base type of a scalar variable (FMI 3.0's types by kind: Float32 and Float64 are Real,
 /// every integer width is Integer; [`ScalarVariable::fmi3`] keeps the exact type).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
 pub enum VarType {
     Real,
     Integer,
@@ -135,6 +137,34 @@ pub enum Value {
     Integer(i64),
     Boolean(bool),
     String(String),
+    /// An FMI 3.0 Binary start value (written in hex in the description), shown as hex.
+    #[serde(serialize_with = "serialize_hex")]
+    Binary(Vec<u8>),
+}
+
+/// Lower-case hex digits of `bytes`, two per byte.
+pub fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The bytes of a hex text (an optional `0x` prefix, white space ignored), as FMI 3.0 writes
+/// Binary start values; `None` for anything else.
+pub fn parse_hex(text: &str) -> Option<Vec<u8>> {
+    let digits: Vec<u8> = text
+        .trim()
+        .trim_start_matches("0x")
+        .trim_start_matches("0X")
+        .bytes()
+        .filter(|b| !b.is_ascii_whitespace())
+        .collect();
+    if digits.len() % 2 != 0 {
+        return None;
+    }
+    digits.chunks(2).map(|pair| std::str::from_utf8(pair).ok().and_then(|p| u8::from_str_radix(p, 16).ok())).collect()
+}
+
+fn serialize_hex<S: serde::Serializer>(bytes: &[u8], s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&hex(bytes))
 }
 
 impl std::fmt::Display for Value {
@@ -144,6 +174,7 @@ impl std::fmt::Display for Value {
             Value::Integer(v) => write!(f, "{v}"),
             Value::Boolean(v) => write!(f, "{v}"),
             Value::String(v) => write!(f, "{v:?}"),
+            Value::Binary(v) => write!(f, "0x{}", hex(v)),
         }
     }
 }
@@ -169,6 +200,17 @@ pub struct ScalarVariable {
     /// 1-based index of the state this variable is the derivative of.
     pub derivative: Option<usize>,
     pub reinit: bool,
+    /// The unit in which tools show the value (`displayUnit`); values stay in `unit`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub display_unit: Option<String>,
+    /// For an alias, the variable whose value it shares: an FMI 3.0 `<Alias>` element, an FMI
+    /// 1.0 `alias`/`negatedAlias`, or an FMI 2.0 variable with the value reference of an
+    /// earlier one. An alias is read and set through its base's value reference.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub alias_of: Option<String>,
+    /// An FMI 1.0 negated alias: its value is minus its base's (for a Boolean, the negation).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub negated: bool,
     /// FMI 3.0 only: the exact type, and the array an element belongs to.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fmi3: Option<Fmi3Storage>,
@@ -365,12 +407,30 @@ impl ModelDescription {
         self.variables.iter().find(|v| v.name == name)
     }
 
+    /// The variable an alias shares its value with (the variable itself if it is no alias).
+    pub fn base_of<'a>(&'a self, v: &'a ScalarVariable) -> &'a ScalarVariable {
+        v.alias_of.as_deref().and_then(|base| self.variable(base)).unwrap_or(v)
+    }
+
+    /// The elements of the FMI 3.0 array (or alias of one) called `name`, in row-major order;
+    /// `None` if no array has that name.
+    pub fn array_elements(&self, name: &str) -> Option<Vec<&ScalarVariable>> {
+        let elements: Vec<&ScalarVariable> = self
+            .variables
+            .iter()
+            .filter(|v| {
+                v.fmi3.as_ref().is_some_and(|s| s.element.is_some())
+                    && v.name.strip_prefix(name).is_some_and(|rest| rest.starts_with('[') && !rest[1..].contains('['))
+            })
+            .collect();
+        (!elements.is_empty()).then_some(elements)
+    }
+
     /// Why no variable is called `name`, for an error message: "unknown variable …", or, for
     /// an FMI 3.0 array, that it must be named by element or that the index is out of range.
     pub fn unknown_variable(&self, name: &str) -> String {
         let base = name.split_once('[').map_or(name, |(b, _)| b);
-        let prefix = format!("{base}[");
-        let elements: Vec<&ScalarVariable> = self.variables.iter().filter(|v| v.name.starts_with(&prefix)).collect();
+        let elements = self.array_elements(base).unwrap_or_default();
         let (Some(first), Some(last)) = (elements.first(), elements.last()) else {
             return format!("unknown variable {name:?}");
         };
@@ -764,8 +824,7 @@ fn initial(a: &Attrs, name: &str) -> Result<Option<Initial>, SchemaError> {
     })
 }
 
-/// A start value as written, typed by `var_type` (`None` for Binary and Clock, which fmucal
-/// does not keep).
+/// A start value as written, typed by `var_type` (Binary in hex; `None` for a Clock).
 fn parse_start(var_type: VarType, text: &str, name: &str) -> Result<Option<Value>, SchemaError> {
     let bad = |what: &str| err_invalid(format!("variable {name:?}: start {text:?} is not {what}"));
     Ok(Some(match var_type {
@@ -777,7 +836,8 @@ fn parse_start(var_type: VarType, text: &str, name: &str) -> Result<Option<Value
             _ => return Err(bad("a boolean")),
         }),
         VarType::String => Value::String(text.to_owned()),
-        VarType::Binary | VarType::Clock => return Ok(None),
+        VarType::Binary => Value::Binary(parse_hex(text).ok_or_else(|| bad("hex digits"))?),
+        VarType::Clock => return Ok(None),
     }))
 }
 
@@ -836,6 +896,9 @@ impl ScalarVariable {
             unit: None,
             derivative: None,
             reinit: false,
+            display_unit: None,
+            alias_of: None,
+            negated: false,
             fmi3: None,
         }
     }
@@ -847,6 +910,7 @@ fn apply_type_element(var: &mut ScalarVariable, elem: &str, a: &Attrs) -> Result
     var.var_type = var_type(elem);
     var.declared_type = a.string("declaredType");
     var.unit = a.string("unit");
+    var.display_unit = a.string("displayUnit");
     var.min = a.f64(elem, "min").map_err(&ctx)?;
     var.max = a.f64(elem, "max").map_err(&ctx)?;
     var.nominal = a.f64(elem, "nominal").map_err(&ctx)?;
@@ -899,8 +963,28 @@ fn finish(md: &mut ModelDescription) -> Result<(), SchemaError> {
         {
             return Err(err_invalid(format!("variable {:?}: derivative index {d} out of range 1..={n}", var.name)));
         }
-        if matches!(var.causality, Causality::Input) && var.start.is_none() {
+        // fmucal sets every numeric input from the start on; a String or Binary input it never
+        // sets may go without (FMPy loads such FMUs too).
+        if matches!(var.causality, Causality::Input)
+            && var.start.is_none()
+            && !matches!(var.var_type, VarType::String | VarType::Binary | VarType::Clock)
+        {
             return Err(err_invalid(format!("input {:?} has no start value", var.name)));
+        }
+    }
+    // A variable with the type and value reference of an earlier one is its alias (FMI 2.0
+    // writes aliases so; FMI 1.0 and 3.0 name the base explicitly, and their readers set it).
+    let mut first: HashMap<(VarType, u32), usize> = HashMap::new();
+    for k in 0..md.variables.len() {
+        let key = (md.variables[k].var_type, md.variables[k].value_reference);
+        match first.get(&key) {
+            Some(&base) if md.variables[k].alias_of.is_none() => {
+                md.variables[k].alias_of = Some(md.variables[base].name.clone());
+            }
+            None if md.variables[k].alias_of.is_none() => {
+                first.insert(key, k);
+            }
+            _ => {}
         }
     }
     let ms = &md.model_structure;
