@@ -514,3 +514,114 @@ async fn a_once_per_process_fmu_runs_on_a_multi_slot_worker() {
     assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
     assert_eq!(r.result.unwrap().failed_evaluations, 0, "a second instance was attempted");
 }
+
+/// A coordinator's data folder as the coordinator of the single-core-crate layout left it: two
+/// finished jobs and a third SIGKILLed mid-run (`FMUCAL_BLESS_STORE=1` writes it again, from
+/// the coordinator being built), with `expected.json` naming them.
+const STORE_FIXTURE: &str = "tests/data/store_v1";
+
+fn coordinator_process(port: u16, data_dir: &Path) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir"])
+        .arg(data_dir)
+        .args(["--worker-expiry", "30"])
+        .env("FMUCAL_TOKEN", TOKEN)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap()
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let target = to.join(entry.file_name());
+        if entry.file_type().unwrap().is_dir() {
+            copy_dir(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), target).unwrap();
+        }
+    }
+}
+
+/// Writes [`STORE_FIXTURE`]: runs a coordinator process on a fresh folder, finishes two short
+/// jobs, SIGKILLs it while a third runs.
+async fn bless_store(fixture: &Path) {
+    let dir = tempfile::tempdir().unwrap();
+    let _ = std::fs::remove_dir_all(fixture);
+    let data_dir = dir.path().join("coord");
+    let port = free_port();
+    let url = format!("http://127.0.0.1:{port}");
+    let mut coord = coordinator_process(port, &data_dir);
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let mut workers = vec![start_worker(&url, &dir.path().join("wcache"), TOKEN)];
+    let mut c = client(&url, Some(TOKEN)).await;
+    let mut finished = serde_json::Map::new();
+    for iters in [3, 4] {
+        let (spec, data) = furuta_job(dir.path(), iters);
+        let job = submit(&mut c, &spec, &data).await;
+        let (r, _) = wait_done(&mut c, &job, u64::MAX, || {}).await;
+        assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
+        finished.insert(job, serde_json::json!(x_opt(&r)));
+    }
+    let (spec, data) = furuta_job(dir.path(), 30);
+    let running = submit(&mut c, &spec, &data).await;
+    let deadline = Instant::now() + Duration::from_secs(120);
+    loop {
+        let jobs = c.list_jobs(pb::ListJobsRequest {}).await.unwrap().into_inner().jobs;
+        if jobs.iter().any(|j| j.job_id == running && j.evaluations >= 24) {
+            break;
+        }
+        assert!(Instant::now() < deadline);
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    coord.kill().unwrap();
+    coord.wait().unwrap();
+    kill_all(&mut workers);
+    copy_dir(&data_dir, fixture);
+    // The unpacked archives are a cache the coordinator makes again from models/.
+    std::fs::remove_dir_all(fixture.join("unpacked")).unwrap();
+    let expected = serde_json::json!({ "finished": finished, "running": running, "running_max_iters": 30 });
+    std::fs::write(fixture.join("expected.json"), serde_json::to_string_pretty(&expected).unwrap()).unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_store_left_by_the_earlier_coordinator_resumes_and_keeps_its_results() {
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join(STORE_FIXTURE);
+    if std::env::var_os("FMUCAL_BLESS_STORE").is_some() {
+        bless_store(&fixture).await;
+    }
+    let expected: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(fixture.join("expected.json")).unwrap()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let data_dir = dir.path().join("coord");
+    copy_dir(&fixture, &data_dir);
+    let port = free_port();
+    let url = format!("http://127.0.0.1:{port}");
+    let mut coord = coordinator_process(port, &data_dir);
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let mut workers = vec![start_worker(&url, &dir.path().join("wcache"), TOKEN)];
+    let mut c = client(&url, Some(TOKEN)).await;
+    for (job, x) in expected["finished"].as_object().unwrap() {
+        let r = c.get_job(pb::GetJobRequest { job_id: job.clone() }).await.unwrap().into_inner();
+        assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{job}: {r:?}");
+        let want: Vec<f64> = serde_json::from_value(x.clone()).unwrap();
+        assert_eq!(x_opt(&r), want, "{job}");
+    }
+    let running = expected["running"].as_str().unwrap();
+    let (spec, data) = furuta_job(dir.path(), expected["running_max_iters"].as_u64().unwrap());
+    let want = reference(&spec, &data, dir.path());
+    let (r, _) = wait_done(&mut c, running, u64::MAX, || {}).await;
+    kill_all(&mut workers);
+    let _ = coord.kill();
+    let _ = coord.wait();
+    assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
+    assert_eq!(x_opt(&r), vec![want.x_opt["armFriction"], want.x_opt["pendulumFriction"]]);
+    assert_eq!(r.result.unwrap().evaluations, want.evaluations);
+}
