@@ -33,6 +33,22 @@
 //! exported names carry the model identifier as their prefix (`Furuta_fmiGetReal`), as FMI 1.0
 //! requires; UnprefixedFmi1.fmu is the Furuta Model Exchange FMU built with
 //! `-DFMUCAL_FMI1_UNPREFIXED`, whose binary exports the plain names (`fmiGetReal`) instead.
+//!
+//! Fixtures of what exporting tools write, each shaped after the Modelica Reference FMUs'
+//! descriptions or the FMI standard's examples (the description files say which):
+//!
+//! | fixture | binary | description | what it has |
+//! |---|---|---|---|
+//! | FurutaAliasesFmi3.fmu | FurutaFmi3's | `xml/fmi3/FurutaAliases.xml` | FMI 3.0 `<Alias name description displayUnit/>` children on an output, a state, a state derivative, a parameter and an input |
+//! | FurutaAliases.fmu | Furuta's | `xml/FurutaAliases.xml` | FMI 2.0 aliases: extra ScalarVariables sharing the value reference (local; the parameter's a calculatedParameter), same names and positions |
+//! | FurutaAliasesFmi1Me.fmu | FurutaFmi1Me's | `xml/fmi1/FurutaAliasesMe.xml` | FMI 1.0 `alias="alias"` and `alias="negatedAlias"` (a negated output, `pendulumJoint.phiNeg`, and a negated parameter) |
+//! | StringsFmi3.fmu, Strings.fmu | `c/strings.c` | `xml/fmi3/Strings.xml`, `xml/Strings.xml` | String (3.0 and 2.0) and Binary (3.0) parameters, inputs and outputs with start values (`<Start value=…/>` in 3.0); the output y = len(String_parameter)·x, Binary_length = bytes of Binary_input |
+//! | StringsFmi1Me.fmu | `c/strings.c` | `xml/fmi1/StringsMe.xml` | the same String variables in FMI 1.0 |
+//! | ArrayOutputsFmi3.fmu, ArrayOutputs.fmu | `c/array_outputs.c` | `xml/fmi3/ArrayOutputs.xml`, `xml/ArrayOutputs.xml` | a Float64 array output y sized by `<Dimension valueReference/>` of the UInt64 structuralParameter n = 3 (2.0: scalars y[1] to y[3]) |
+//! | StairFmi3.fmu, Stair.fmu | `c/stair.c` | `xml/fmi3/Stair.xml`, `xml/Stair.xml` | a Co-Simulation counter that asks to terminate at t = 9 (counter 10) and refuses to go on; stop time 10, step 0.2 |
+//!
+//! The skeleton stores String variables for models that define `N_STRING`, and Binary and UInt64
+//! ones (FMI 3.0) for models that define `N_BINARY` or `N_UINT64` (models/c/fmu_framework.h).
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -63,16 +79,27 @@ const FIXTURES: &[Model] = &[
     Model { identifier: "Threshold", source: "threshold.c", resources: &[], extra_platforms: false },
     Model { identifier: "SpringMass", source: "spring_mass.c", resources: &[], extra_platforms: false },
     Model { identifier: "ArrayParams", source: "array_params.c", resources: &[], extra_platforms: false },
+    Model { identifier: "Strings", source: "strings.c", resources: &[], extra_platforms: false },
+    Model { identifier: "ArrayOutputs", source: "array_outputs.c", resources: &[], extra_platforms: false },
+    Model { identifier: "Stair", source: "stair.c", resources: &[], extra_platforms: false },
 ];
 
 /// Models also built for FMI 3.0 (identifiers of [`MODELS`] or [`FIXTURES`]), packaged as
 /// `<Identifier>Fmi3.fmu` with `xml/fmi3/<Identifier>.xml`.
-const FMI3: &[&str] = &["Furuta", "BouncingBall", "Robertson", "ArrayParams"];
+const FMI3: &[&str] = &["Furuta", "BouncingBall", "Robertson", "ArrayParams", "Strings", "ArrayOutputs", "Stair"];
 
 /// Models also built for FMI 1.0 (identifiers of [`MODELS`]; each model file defines
 /// `FMI1_PREFIX`), packaged as `<Identifier>Fmi1Me.fmu` and `<Identifier>Fmi1Cs.fmu` with
 /// `xml/fmi1/<Identifier>Me.xml` and `xml/fmi1/<Identifier>Cs.xml`.
 const FMI1: &[&str] = &["Furuta", "BouncingBall", "Robertson"];
+
+/// Alias fixtures: (file name, FMI version, description under `xml/`). Each is Furuta's binary
+/// of that version (FMI 1.0: Model Exchange) packaged with a description that adds aliases.
+const ALIASES: &[(&str, Fmi, &str)] = &[
+    ("FurutaAliases", Fmi::V2, "FurutaAliases.xml"),
+    ("FurutaAliasesFmi3", Fmi::V3, "fmi3/FurutaAliases.xml"),
+    ("FurutaAliasesFmi1Me", Fmi::V1, "fmi1/FurutaAliasesMe.xml"),
+];
 
 /// Hidden-effect fixtures: (file name, identifier of the base model, define). Each is the base
 /// model's source compiled with the define and packaged with the base model's description.
@@ -161,9 +188,27 @@ fn main() {
         }
     }
 
+    // Aliases: Furuta's binaries (built above) with descriptions that add aliases.
+    let furuta = &MODELS[0];
+    for (name, fmi, xml) in ALIASES {
+        let so = match fmi {
+            Fmi::V1 => "FurutaFmi1Me.so",
+            Fmi::V2 => "Furuta.so",
+            Fmi::V3 => "FurutaFmi3.so",
+        };
+        let xml = fs::read(root.join("xml").join(xml)).unwrap();
+        package(&root, furuta, *fmi, &xml, &out.join(so), &out.join(format!("{name}.fmu")));
+    }
+
+    // FMI 1.0 Model Exchange build of the String fixture.
+    let strings = FIXTURES.iter().find(|m| m.identifier == "Strings").unwrap();
+    let so = out.join("StringsFmi1Me.so");
+    compile(&root.join("c").join(strings.source), &so, &["-DFMUCAL_FMI1=1"]);
+    let xml = fs::read(root.join("xml").join("fmi1").join("StringsMe.xml")).unwrap();
+    package(&root, strings, Fmi::V1, &xml, &so, &out.join("StringsFmi1Me.fmu"));
+
     // Fixture: the Furuta FMI 1.0 Model Exchange FMU whose binary exports the functions without
     // the model identifier prefix (fmiGetReal instead of Furuta_fmiGetReal).
-    let furuta = &MODELS[0];
     let so = out.join("UnprefixedFmi1.so");
     compile(&root.join("c").join(furuta.source), &so, &["-DFMUCAL_FMI1=1", "-DFMUCAL_FMI1_UNPREFIXED"]);
     let xml = fs::read(root.join("xml").join("fmi1").join("FurutaMe.xml")).unwrap();

@@ -39,6 +39,17 @@
  *                                   is m->r[vr..vr+n-1]; FMI 3.0 gives it the one value reference
  *                                   vr (the macro is 0 for vr+1..vr+n-1, which name nothing),
  *                                   FMI 2.0 describes its elements as n scalars
+ *   N_STRING                        number of String variables (default none): m->s[k], at most
+ *                                   STRING_CAP - 1 bytes each (a longer value is refused); FMI 1.0
+ *                                   and 2.0 give String k the value reference k (each base type
+ *                                   numbers its own), FMI 3.0 numbers them as below. The getter
+ *                                   calls model_derivatives first (as fmi2GetReal does), so a model
+ *                                   computes String outputs there
+ *   N_BINARY                        FMI 3.0 builds: number of Binary variables (default none):
+ *                                   m->bin[k] with m->binSize[k] bytes, at most BINARY_CAP
+ *   N_UINT64                        FMI 3.0 builds: number of UInt64 variables (default none):
+ *                                   m->u64[k] (for example structural parameters, which a model
+ *                                   checks in model_initialize)
  * then implements the model_* hooks declared below and includes fmu_framework.c.
  *
  * FMI 3.0 value references are unique across all types, so the 3.0 skeleton numbers them from
@@ -47,7 +58,10 @@
  *   Int32 m->i[k]                   N_REAL + k                         (2.0's Integer k)
  *   Boolean m->b[k]                 N_REAL + N_INTEGER + k             (2.0's Boolean k)
  *   time (causality independent)    N_REAL + N_INTEGER + N_BOOLEAN
- *   event indicator k (local, read) N_REAL + N_INTEGER + N_BOOLEAN + 1 + k */
+ *   event indicator k (local, read) N_REAL + N_INTEGER + N_BOOLEAN + 1 + k
+ *   UInt64 m->u64[k]                N_REAL + N_INTEGER + N_BOOLEAN + 1 + NZ + k
+ *   String m->s[k]                  the same + N_UINT64 + k
+ *   Binary m->bin[k]                the same + N_UINT64 + N_STRING + k */
 #ifndef FMUCAL_FMU_FRAMEWORK_H
 #define FMUCAL_FMU_FRAMEWORK_H
 
@@ -65,6 +79,7 @@
 #endif
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -75,6 +90,16 @@
 
 #ifndef REPORTED_REAL
 #define REPORTED_REAL(m, vr) ((m)->r[(vr)])
+#endif
+
+#ifndef STRING_CAP
+#define STRING_CAP 256
+#endif
+#ifndef BINARY_CAP
+#define BINARY_CAP 256
+#endif
+#if (defined(N_BINARY) || defined(N_UINT64)) && !defined(FMUCAL_FMI3)
+#error "Binary and UInt64 variables exist in FMI 3.0 builds only"
 #endif
 
 #define NX_ALLOC (NX > 0 ? NX : 1)
@@ -94,6 +119,16 @@ typedef struct Model {
     double r[N_REAL];
     int i[N_INTEGER];
     int b[N_BOOLEAN];
+#ifdef N_STRING
+    char s[N_STRING][STRING_CAP];
+#endif
+#ifdef N_BINARY
+    unsigned char bin[N_BINARY][BINARY_CAP];
+    size_t binSize[N_BINARY];
+#endif
+#ifdef N_UINT64
+    uint64_t u64[N_UINT64];
+#endif
     double time;
     fmi2Type type;
     Mode mode;
@@ -129,5 +164,21 @@ static void model_event_update(Model *m);
 static double model_nominal(int stateIndex);
 
 static void fmu_log(Model *m, fmi2Status status, const char *category, const char *fmt, ...);
+
+/* Clears the optional String, Binary and UInt64 storage (at a reset, before model_defaults;
+ * inline: the FMI 1.0 Model Exchange API has no reset). */
+static inline void clear_extra_storage(Model *m) {
+    (void)m;
+#ifdef N_STRING
+    memset(m->s, 0, sizeof m->s);
+#endif
+#ifdef N_BINARY
+    memset(m->bin, 0, sizeof m->bin);
+    memset(m->binSize, 0, sizeof m->binSize);
+#endif
+#ifdef N_UINT64
+    memset(m->u64, 0, sizeof m->u64);
+#endif
+}
 
 #endif

@@ -8,12 +8,13 @@
  *     fmu_cosim.c (the 2.0 build's integrator) and handles events inside the step.
  * Every function is exported as "<modelIdentifier>_fmiXxx" (fmi1.h adds the prefix FMI1_PREFIX;
  * with FMUCAL_FMI1_UNPREFIXED the names are plain, a broken fixture). Value references are the
- * 2.0 build's: per type, Real k is m->r[k], Integer k m->i[k], Boolean k m->b[k].
+ * 2.0 build's: per type, Real k is m->r[k], Integer k m->i[k], Boolean k m->b[k], String k
+ * m->s[k] (models that define N_STRING).
  *
  * FMI 1.0 has no Continuous-Time Mode, so discrete variables may be set whenever a value may be
  * (IS_DISCRETE_REAL is not enforced here). What the descriptions do not declare (input
- * interpolation, output derivatives, cancelling or repeating a step, String variables) answers
- * fmiError with a logged message. */
+ * interpolation, output derivatives, cancelling or repeating a step, String variables of a
+ * model without N_STRING) answers fmiError with a logged message. */
 
 #define FMI1_STR2(x) #x
 #define FMI1_STR(x) FMI1_STR2(x)
@@ -130,10 +131,22 @@ FMI1_EXPORT fmiStatus fmiGetBoolean(fmiComponent c, const fmiValueReference vr[]
 }
 
 FMI1_EXPORT fmiStatus fmiGetString(fmiComponent c, const fmiValueReference vr[], size_t nvr, fmiString value[]) {
-    (void)vr; (void)value;
     INSTANCE("fmiGetString");
+#ifdef N_STRING
+    if (nvr > 0 && m->mode != MODE_INSTANTIATED) {
+        fmi2Status s = model_derivatives(m);
+        if (s > fmi2Warning) return status1(s);
+    }
+    for (size_t k = 0; k < nvr; k++) {
+        if (!vr_in_range(m, "fmiGetString", vr[k], N_STRING, "String")) return fmiError;
+        value[k] = m->s[vr[k]];
+    }
+    return fmiOK;
+#else
+    (void)vr; (void)value;
     if (nvr > 0) return FAIL(m, "fmiGetString: the model has no String variables");
     return fmiOK;
+#endif
 }
 
 FMI1_EXPORT fmiStatus fmiSetReal(fmiComponent c, const fmiValueReference vr[], size_t nvr, const fmiReal value[]) {
@@ -167,10 +180,21 @@ FMI1_EXPORT fmiStatus fmiSetBoolean(fmiComponent c, const fmiValueReference vr[]
 
 FMI1_EXPORT fmiStatus fmiSetString(fmiComponent c, const fmiValueReference vr[], size_t nvr,
                                    const fmiString value[]) {
-    (void)vr; (void)value;
     INSTANCE("fmiSetString");
+#ifdef N_STRING
+    for (size_t k = 0; k < nvr; k++) {
+        if (!vr_in_range(m, "fmiSetString", vr[k], N_STRING, "String")) return fmiError;
+        const char *v = value[k] ? value[k] : "";
+        if (strlen(v) >= STRING_CAP)
+            return FAIL(m, "fmiSetString: value reference %u: %zu bytes, at most %d", vr[k], strlen(v), STRING_CAP - 1);
+        memcpy(m->s[vr[k]], v, strlen(v) + 1);
+    }
+    return fmiOK;
+#else
+    (void)vr; (void)value;
     if (nvr > 0) return FAIL(m, "fmiSetString: the model has no String variables");
     return fmiOK;
+#endif
 }
 
 #if FMUCAL_FMI1 == 1
@@ -383,6 +407,7 @@ static void reset_to_defaults(Model *m) {
     memset(m->r, 0, sizeof m->r);
     memset(m->i, 0, sizeof m->i);
     memset(m->b, 0, sizeof m->b);
+    clear_extra_storage(m);
     m->time = 0;
     m->nextEventTimeDefined = 0;
     m->nextEventTime = 0;

@@ -143,6 +143,7 @@ FMI2_EXPORT fmi2Status fmi2Reset(fmi2Component c) {
     memset(m->r, 0, sizeof m->r);
     memset(m->i, 0, sizeof m->i);
     memset(m->b, 0, sizeof m->b);
+    clear_extra_storage(m);
     m->time = 0;
     m->nextEventTimeDefined = 0;
     m->nextEventTime = 0;
@@ -193,10 +194,25 @@ FMI2_EXPORT fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference 
 }
 
 FMI2_EXPORT fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[]) {
+#ifdef N_STRING
+    /* The pointers stay valid until the next call on this instance (FMI 2.0 section 2.1.7). */
+    Model *m = (Model *)c;
+    if (!m) return fmi2Error;
+    if (nvr > 0 && m->mode != MODE_INSTANTIATED) {
+        fmi2Status s = model_derivatives(m);
+        if (s > fmi2Warning) return s;
+    }
+    for (size_t k = 0; k < nvr; k++) {
+        if (!check_vr(m, "fmi2GetString", vr[k], N_STRING)) return fmi2Error;
+        value[k] = m->s[vr[k]];
+    }
+    return fmi2OK;
+#else
     (void)vr; (void)value;
     Model *m = (Model *)c;
     if (nvr > 0) { fmu_log(m, fmi2Error, "logStatusError", "model has no String variables"); return fmi2Error; }
     return fmi2OK;
+#endif
 }
 
 FMI2_EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[]) {
@@ -233,10 +249,27 @@ FMI2_EXPORT fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference 
 }
 
 FMI2_EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[]) {
+#ifdef N_STRING
+    Model *m = (Model *)c;
+    if (!m) return fmi2Error;
+    for (size_t k = 0; k < nvr; k++) {
+        if (!check_vr(m, "fmi2SetString", vr[k], N_STRING)) return fmi2Error;
+        if (!check_discrete_settable(m, "fmi2SetString", vr[k])) return fmi2Error;
+        const char *v = value[k] ? value[k] : "";
+        if (strlen(v) >= STRING_CAP) {
+            fmu_log(m, fmi2Error, "logStatusError", "fmi2SetString: value reference %u: %zu bytes, at most %d", vr[k],
+                    strlen(v), STRING_CAP - 1);
+            return fmi2Error;
+        }
+        memcpy(m->s[vr[k]], v, strlen(v) + 1);
+    }
+    return fmi2OK;
+#else
     (void)vr; (void)value;
     Model *m = (Model *)c;
     if (nvr > 0) { fmu_log(m, fmi2Error, "logStatusError", "model has no String variables"); return fmi2Error; }
     return fmi2OK;
+#endif
 }
 
 /* ---- FMU state (not supported: canGetAndSetFMUstate="false") ------------ */

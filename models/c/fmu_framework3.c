@@ -10,7 +10,8 @@
  * types the model has no variables of (called with no value references they succeed).
  *
  * Value references (fmu_framework.h): Float64 k is m->r[k] (arrays: FMI3_FLOAT64_SIZE), Int32
- * and Boolean follow after the Reals, then time, then the event indicators. */
+ * and Boolean follow after the Reals, then time, then the event indicators, then the optional
+ * UInt64, String and Binary variables (N_UINT64, N_STRING, N_BINARY). */
 
 #ifndef FMI3_FLOAT64_SIZE
 #define FMI3_FLOAT64_SIZE(vr) 1
@@ -20,6 +21,19 @@
 #define VR3_BOOLEAN ((fmi3ValueReference)(N_REAL + N_INTEGER))
 #define VR3_TIME ((fmi3ValueReference)(N_REAL + N_INTEGER + N_BOOLEAN))
 #define VR3_INDICATOR ((fmi3ValueReference)(N_REAL + N_INTEGER + N_BOOLEAN + 1))
+#ifdef N_UINT64
+#define N_UINT64_COUNT N_UINT64
+#else
+#define N_UINT64_COUNT 0
+#endif
+#ifdef N_STRING
+#define N_STRING_COUNT N_STRING
+#else
+#define N_STRING_COUNT 0
+#endif
+#define VR3_UINT64 ((fmi3ValueReference)(VR3_INDICATOR + NZ))
+#define VR3_STRING ((fmi3ValueReference)(VR3_UINT64 + N_UINT64_COUNT))
+#define VR3_BINARY ((fmi3ValueReference)(VR3_STRING + N_STRING_COUNT))
 
 static void fmu_log(Model *m, fmi2Status status, const char *category, const char *fmt, ...) {
     if (!m || !m->logMessage) return;
@@ -234,6 +248,7 @@ FMI3_EXPORT fmi3Status fmi3Reset(fmi3Instance instance) {
     memset(m->r, 0, sizeof m->r);
     memset(m->i, 0, sizeof m->i);
     memset(m->b, 0, sizeof m->b);
+    clear_extra_storage(m);
     m->time = 0;
     m->nextEventTimeDefined = 0;
     m->nextEventTime = 0;
@@ -392,10 +407,98 @@ NO_VARIABLES_OF(Int16, fmi3Int16)
 NO_VARIABLES_OF(UInt16, fmi3UInt16)
 NO_VARIABLES_OF(UInt32, fmi3UInt32)
 NO_VARIABLES_OF(Int64, fmi3Int64)
+#ifndef N_UINT64
 NO_VARIABLES_OF(UInt64, fmi3UInt64)
+#endif
+#ifndef N_STRING
 NO_VARIABLES_OF(String, fmi3String)
+#endif
 #undef NO_VARIABLES_OF
 
+#ifdef N_UINT64
+FMI3_EXPORT fmi3Status fmi3GetUInt64(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
+                                     fmi3UInt64 values[], size_t nValues) {
+    INSTANCE("fmi3GetUInt64");
+    if (!scalar_count(m, "fmi3GetUInt64", "UInt64", vr, nvr, nValues, VR3_UINT64, N_UINT64)) return fmi3Error;
+    for (size_t k = 0; k < nvr; k++) values[k] = m->u64[vr[k] - VR3_UINT64];
+    return fmi3OK;
+}
+
+FMI3_EXPORT fmi3Status fmi3SetUInt64(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
+                                     const fmi3UInt64 values[], size_t nValues) {
+    INSTANCE("fmi3SetUInt64");
+    if (!scalar_count(m, "fmi3SetUInt64", "UInt64", vr, nvr, nValues, VR3_UINT64, N_UINT64)) return fmi3Error;
+    for (size_t k = 0; k < nvr; k++) {
+        if (!discrete_settable(m, "fmi3SetUInt64", vr[k])) return fmi3Error;
+        m->u64[vr[k] - VR3_UINT64] = values[k];
+    }
+    return fmi3OK;
+}
+#endif
+
+#ifdef N_STRING
+/* The pointers stay valid until the next call on this instance (FMI 3.0 section 2.2.6.2). */
+FMI3_EXPORT fmi3Status fmi3GetString(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
+                                     fmi3String values[], size_t nValues) {
+    INSTANCE("fmi3GetString");
+    if (!scalar_count(m, "fmi3GetString", "String", vr, nvr, nValues, VR3_STRING, N_STRING)) return fmi3Error;
+    if (nvr > 0 && m->mode != MODE_INSTANTIATED) {
+        fmi2Status s = model_derivatives(m);
+        if (s > fmi2Warning) return status3(s);
+    }
+    for (size_t k = 0; k < nvr; k++) values[k] = m->s[vr[k] - VR3_STRING];
+    return fmi3OK;
+}
+
+FMI3_EXPORT fmi3Status fmi3SetString(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
+                                     const fmi3String values[], size_t nValues) {
+    INSTANCE("fmi3SetString");
+    if (!scalar_count(m, "fmi3SetString", "String", vr, nvr, nValues, VR3_STRING, N_STRING)) return fmi3Error;
+    for (size_t k = 0; k < nvr; k++) {
+        if (!discrete_settable(m, "fmi3SetString", vr[k])) return fmi3Error;
+        const char *v = values[k] ? values[k] : "";
+        size_t n = strlen(v);
+        if (n >= STRING_CAP)
+            return FAIL(m, "fmi3SetString: value reference %u: %zu bytes, at most %d", vr[k], n, STRING_CAP - 1);
+        memcpy(m->s[vr[k] - VR3_STRING], v, n + 1);
+    }
+    return fmi3OK;
+}
+#endif
+
+#ifdef N_BINARY
+FMI3_EXPORT fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
+                                     size_t valueSizes[], fmi3Binary values[], size_t nValues) {
+    INSTANCE("fmi3GetBinary");
+    if (!scalar_count(m, "fmi3GetBinary", "Binary", vr, nvr, nValues, VR3_BINARY, N_BINARY)) return fmi3Error;
+    if (nvr > 0 && m->mode != MODE_INSTANTIATED) {
+        fmi2Status s = model_derivatives(m);
+        if (s > fmi2Warning) return status3(s);
+    }
+    for (size_t k = 0; k < nvr; k++) {
+        values[k] = m->bin[vr[k] - VR3_BINARY];
+        valueSizes[k] = m->binSize[vr[k] - VR3_BINARY];
+    }
+    return fmi3OK;
+}
+
+FMI3_EXPORT fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
+                                     const size_t valueSizes[], const fmi3Binary values[], size_t nValues) {
+    INSTANCE("fmi3SetBinary");
+    if (!scalar_count(m, "fmi3SetBinary", "Binary", vr, nvr, nValues, VR3_BINARY, N_BINARY)) return fmi3Error;
+    for (size_t k = 0; k < nvr; k++) {
+        if (!discrete_settable(m, "fmi3SetBinary", vr[k])) return fmi3Error;
+        if (valueSizes[k] > BINARY_CAP)
+            return FAIL(m, "fmi3SetBinary: value reference %u: %zu bytes, at most %d", vr[k], valueSizes[k],
+                        BINARY_CAP);
+        if (valueSizes[k] > 0 && !values[k])
+            return FAIL(m, "fmi3SetBinary: value reference %u: %zu bytes at NULL", vr[k], valueSizes[k]);
+        if (valueSizes[k] > 0) memcpy(m->bin[vr[k] - VR3_BINARY], values[k], valueSizes[k]);
+        m->binSize[vr[k] - VR3_BINARY] = valueSizes[k];
+    }
+    return fmi3OK;
+}
+#else
 FMI3_EXPORT fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
                                      size_t valueSizes[], fmi3Binary values[], size_t nValues) {
     (void)valueSizes; (void)values; (void)nValues;
@@ -407,6 +510,7 @@ FMI3_EXPORT fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueRefer
     (void)valueSizes; (void)values; (void)nValues;
     return no_variables(instance, "fmi3SetBinary", "Binary", vr, nvr);
 }
+#endif
 
 FMI3_EXPORT fmi3Status fmi3GetClock(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,
                                     fmi3Clock values[]) {
@@ -488,12 +592,16 @@ FMI3_EXPORT fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi
     return not_provided(instance, "fmi3GetAdjointDerivative", "providesAdjointDerivatives=\"false\"");
 }
 
+/* Structural parameters (UInt64 variables of some models) are set in the Instantiated state;
+ * Configuration Mode, which would change them again, is not offered. */
 FMI3_EXPORT fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance) {
-    return not_provided(instance, "fmi3EnterConfigurationMode", "the model has no structural parameters");
+    return not_provided(instance, "fmi3EnterConfigurationMode",
+                        "structural parameters, if any, are set before fmi3EnterInitializationMode");
 }
 
 FMI3_EXPORT fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance) {
-    return not_provided(instance, "fmi3ExitConfigurationMode", "the model has no structural parameters");
+    return not_provided(instance, "fmi3ExitConfigurationMode",
+                        "structural parameters, if any, are set before fmi3EnterInitializationMode");
 }
 
 FMI3_EXPORT fmi3Status fmi3GetIntervalDecimal(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr,

@@ -87,8 +87,11 @@ pub fn example(name: &str) -> Option<PathBuf> {
 /// built with a define that adds an effect, packaged with the base model's unchanged
 /// description), and FMI 3.0 builds (`*Fmi3`: a model's C code built with `-DFMUCAL_FMI3`,
 /// packaged with its description in `models/xml/fmi3/`) and FMI 1.0 builds (`*Fmi1Me`,
-/// `*Fmi1Cs`: built with `-DFMUCAL_FMI1=1` or `2`, described in `models/xml/fmi1/`). Each FMI 3.0
-/// and FMI 1.0 build simulates exactly as its FMI 2.0 build in FMPy
+/// `*Fmi1Cs`: built with `-DFMUCAL_FMI1=1` or `2`, described in `models/xml/fmi1/`), and fixtures
+/// of what exporting tools write (aliases in FMI 1.0, 2.0 and 3.0; String and Binary
+/// variables; an array output sized by a structural parameter; a Co-Simulation model that
+/// terminates itself), each shaped after the Reference FMUs' or the standard's examples. Each
+/// FMI 3.0 and FMI 1.0 build simulates exactly as its FMI 2.0 build in FMPy
 /// (`tests/fmpy/compare_versions.py`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Fixture {
@@ -173,6 +176,47 @@ pub enum Fixture {
     RobertsonFmi1Me,
     /// FMI 1.0 Co-Simulation build of Robertson's stiff kinetics (the 2.0 build's SDIRK2).
     RobertsonFmi1Cs,
+    /// Aliases as FMI 2.0 exporters write them: the Furuta example's binary with extra
+    /// ScalarVariables sharing a value reference, `armAngleSensor.phi` (of the output
+    /// `armJoint.phi`), `pendulumSpeedSensor.w` (of the state `pendulumJoint.w`),
+    /// `der(armAngleSensor.phi)` (of `der(armJoint.phi)`), all `local`, `armBearing.d` (of the
+    /// parameter `armFriction`, a `calculatedParameter`) and `motor.tau` (of the input `u`,
+    /// `local`), each with a `displayUnit`.
+    FurutaAliases,
+    /// FMI 3.0 aliases: [`Fixture::FurutaFmi3`]'s binary with `<Alias name description
+    /// displayUnit/>` children of the same names on the same base variables as
+    /// [`Fixture::FurutaAliases`].
+    FurutaAliasesFmi3,
+    /// FMI 1.0 aliases: [`Fixture::FurutaFmi1Me`]'s binary with the aliases of
+    /// [`Fixture::FurutaAliases`] as `alias="alias"`, plus two `alias="negatedAlias"`:
+    /// `pendulumJoint.phiNeg` (an output, −`pendulumJoint.phi`) and `armBearing.tauPerSpeed`
+    /// (a parameter, −`armFriction`, start −0.012).
+    FurutaAliasesFmi1Me,
+    /// String variables (FMI 2.0): a decay x' = −x, x(0) = 1 with the outputs `x`,
+    /// y = len(`String_parameter`)·x (start "Set me!", so y = 7·e^(−t)) and `String_output`
+    /// (the parameter, echoed).
+    Strings,
+    /// String and Binary variables (FMI 3.0) after the Reference FMUs' Feedthrough: those of
+    /// [`Fixture::Strings`], their starts in `<Start value=…/>` elements, plus `Binary_input`
+    /// (start `666f6f`), `Binary_output` (the input, echoed) and the Float64 output
+    /// `Binary_length` (bytes of `Binary_input`, 3 at the start).
+    StringsFmi3,
+    /// FMI 1.0 Model Exchange build of [`Fixture::Strings`] (`Strings_fmiGetString`).
+    StringsFmi1Me,
+    /// Three outputs y[k] = k·x of a decay x' = −x, x(0) = 1, described for FMI 2.0 as the
+    /// scalars `y[1]`, `y[2]`, `y[3]`.
+    ArrayOutputs,
+    /// FMI 3.0 build of [`Fixture::ArrayOutputs`]: `y` is one Float64 array output with
+    /// `<Dimension valueReference="8"/>`, the UInt64 structural parameter `n` (start 3), as the
+    /// Reference FMUs' StateSpace declares its outputs.
+    ArrayOutputsFmi3,
+    /// After the Reference FMUs' Stair: the Integer output `counter` starts at 1 and grows by 1
+    /// at every whole second; at t = 9 (counter 10) the FMU asks to terminate (Co-Simulation:
+    /// `fmi2Discard` with `fmi2Terminated`) and refuses further steps. Stop time 10, step 0.2.
+    Stair,
+    /// FMI 3.0 build of [`Fixture::Stair`] (`fmi3DoStep` answers `fmi3OK` with
+    /// `terminateSimulation` = true at t = 9).
+    StairFmi3,
     /// Broken: [`Fixture::FurutaFmi1Me`] whose binary exports its functions without the model
     /// identifier prefix (`fmiGetReal` instead of `Furuta_fmiGetReal`), which FMI 1.0 requires;
     /// `binaries/linux64/Furuta.so` has no `Furuta_fmi*` symbol.
@@ -206,6 +250,16 @@ impl Fixture {
             Fixture::BouncingBallFmi1Cs => "BouncingBallFmi1Cs.fmu",
             Fixture::RobertsonFmi1Me => "RobertsonFmi1Me.fmu",
             Fixture::RobertsonFmi1Cs => "RobertsonFmi1Cs.fmu",
+            Fixture::FurutaAliases => "FurutaAliases.fmu",
+            Fixture::FurutaAliasesFmi3 => "FurutaAliasesFmi3.fmu",
+            Fixture::FurutaAliasesFmi1Me => "FurutaAliasesFmi1Me.fmu",
+            Fixture::Strings => "Strings.fmu",
+            Fixture::StringsFmi3 => "StringsFmi3.fmu",
+            Fixture::StringsFmi1Me => "StringsFmi1Me.fmu",
+            Fixture::ArrayOutputs => "ArrayOutputs.fmu",
+            Fixture::ArrayOutputsFmi3 => "ArrayOutputsFmi3.fmu",
+            Fixture::Stair => "Stair.fmu",
+            Fixture::StairFmi3 => "StairFmi3.fmu",
             Fixture::UnprefixedFmi1 => "UnprefixedFmi1.fmu",
         };
         fmu_dir().join(file)

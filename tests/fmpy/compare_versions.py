@@ -51,6 +51,8 @@ def torque_profile():
 
 # Models also built for FMI 1.0 (models/build.rs, FMI1); their 1.0 start values are the 2.0 ones.
 FMI1 = {"Furuta", "BouncingBall", "Robertson"}
+# Models built for FMI 1.0 Model Exchange only (StringsFmi1Me.fmu).
+FMI1_ME_ONLY = {"Strings"}
 
 # (identifier, case label, output interval, stop time, input signals or None,
 #  start values for 2.0 (and 1.0), start values for 3.0)
@@ -64,6 +66,11 @@ CASES = [
     ("ArrayParams", "default", 0.01, 10.0, None, {}, {}),
     ("ArrayParams", "k = [1.5, 0.5, 2]", 0.01, 10.0, None,
      {"k[1]": 1.5, "k[2]": 0.5, "k[3]": 2.0}, {"k": [1.5, 0.5, 2.0]}),
+    # A String parameter that scales the output y (y = len(String_parameter) x).
+    ("Strings", "default", 0.01, 2.0, None, {}, {}),
+    ("Strings", "String_parameter = ab", 0.01, 2.0, None, {"String_parameter": "ab"}, {"String_parameter": "ab"}),
+    # A counter that terminates the simulation at t = 9 (before the stop time 10).
+    ("Stair", "default", 0.2, 10.0, None, {}, {}),
 ]
 
 
@@ -77,8 +84,9 @@ def default_fmu_dir():
 
 
 def compared_variables(md):
-    """Outputs, then continuous states that are not outputs (as tests/fmpy_crosscheck.rs)."""
-    names = [v.name for v in md.modelVariables if v.causality == "output"]
+    """Numeric outputs, then continuous states that are not outputs (as
+    tests/fmpy_crosscheck.rs)."""
+    names = [v.name for v in md.modelVariables if v.causality == "output" and v.type not in ("String", "Binary")]
     for d in md.derivatives:
         state = d.variable.derivative
         if state is not None and state.name not in names:
@@ -108,6 +116,8 @@ def others(ident, interface, start2, start3):
     if ident in FMI1:
         suffix = "Me" if interface == "ModelExchange" else "Cs"
         out.append(("1.0", f"{ident}Fmi1{suffix}.fmu", start2))
+    elif ident in FMI1_ME_ONLY and interface == "ModelExchange":
+        out.append(("1.0", f"{ident}Fmi1Me.fmu", start2))
     return out
 
 

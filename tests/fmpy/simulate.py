@@ -5,7 +5,9 @@ and at the last successful time of a terminated Co-Simulation; all are written.
 FMI 1.0, 2.0 and 3.0 FMUs alike; --interface must name an interface the FMU offers (an FMI 1.0
 FMU offers one), else it exits with status 2. FMI 3.0 arrays: a start value of several numbers
 separated by spaces (--set "k=1 2 3") sets an array, and an array output NAME is written as the
-columns NAME[1], NAME[2], ... (the element names of FMI's structured naming convention)."""
+columns NAME[1], NAME[2], ... (the element names of FMI's structured naming convention).
+String and Binary start values: --set-text NAME=VALUE passes VALUE to FMPy unconverted (FMPy
+reads a Binary value as hexadecimal, two digits per byte, as FMI 3.0 writes Binary starts)."""
 import argparse
 import sys
 
@@ -24,6 +26,8 @@ def main():
     p.add_argument("--input", help="CSV with a time column and one column per input")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="start value (repeatable); several space-separated numbers set an array")
+    p.add_argument("--set-text", action="append", default=[], metavar="NAME=VALUE",
+                   help="start value of a String or Binary (hex) variable, passed as text (repeatable)")
     p.add_argument("--output", action="append", required=True)
     p.add_argument("--out", required=True)
     a = p.parse_args()
@@ -50,6 +54,9 @@ def main():
         name, value = item.split("=", 1)
         numbers = [float(v) for v in value.split()]
         start_values[name] = numbers[0] if len(numbers) == 1 else numbers
+    for item in a.set_text:
+        name, value = item.split("=", 1)
+        start_values[name] = value
     result = simulate_fmu(
         a.fmu,
         fmi_type="ModelExchange" if a.interface == "me" else "CoSimulation",
