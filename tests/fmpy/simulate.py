@@ -28,7 +28,8 @@ def main():
                    help="start value (repeatable); several space-separated numbers set an array")
     p.add_argument("--set-text", action="append", default=[], metavar="NAME=VALUE",
                    help="start value of a String or Binary (hex) variable, passed as text (repeatable)")
-    p.add_argument("--output", action="append", required=True)
+    p.add_argument("--output", action="append", default=[],
+                   help="variable to record (repeatable); none: FMPy's default outputs")
     p.add_argument("--out", required=True)
     a = p.parse_args()
 
@@ -66,12 +67,13 @@ def main():
         output_interval=a.interval,
         input=signals,
         start_values=start_values,
-        output=a.output,
+        output=a.output or None,
         record_events=False,
         validate=True,
     )
     header, columns = [], []
-    for name in ["time"] + a.output:
+    recorded = a.output or [n for n in result.dtype.names if n != "time"]
+    for name in ["time"] + recorded:
         values = np.asarray(result[name], dtype=np.float64)
         if values.ndim == 1:
             header.append(name)
