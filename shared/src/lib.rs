@@ -1,11 +1,16 @@
-//! fmucal's core library: FMU loading ([`fmu`]), time series and their files ([`series`]),
-//! simulation ([`sim`]), the ask/tell optimizers ([`optim`]), calibration jobs ([`job`]) and
-//! the analysis of what a calibrated model still gets wrong ([`diagnose`]). It knows nothing of
-//! tokio, tonic or the network, so everything in it is testable without a server.
+//! fmucal's core library: time series and their files ([`series`]), simulation ([`sim`]),
+//! calibration jobs ([`job`]) and the analysis of what a calibrated model still gets wrong
+//! ([`diagnose`]), over two leaf crates it re-exports under their old paths: the FMI runtime
+//! (`fmucal-fmi`, as [`fmu`]) and the ask/tell optimizers (`fmucal-optim`, as [`optim`]). It
+//! knows nothing of tokio, tonic or the network, so everything in it is testable without a
+//! server.
+
+#![forbid(unsafe_code)]
+
+pub use fmucal_fmi as fmu;
+pub use fmucal_optim as optim;
 
 pub mod diagnose;
-pub mod fmu;
 pub mod job;
-pub mod optim;
 pub mod series;
 pub mod sim;
