@@ -5,6 +5,7 @@
 mod cs;
 pub mod csv_io;
 pub mod inputs;
+#[cfg(feature = "integrators")]
 mod me;
 pub mod plan;
 pub mod spec;
@@ -57,7 +58,7 @@ impl Simulator {
         }
         self.used = true;
         let result = match plan.interface {
-            Interface::ModelExchange => me::run(&mut self.instance, &plan),
+            Interface::ModelExchange => model_exchange(&mut self.instance, &plan),
             Interface::CoSimulation => cs::run(&mut self.instance, &plan),
         };
         match &result {
@@ -90,8 +91,21 @@ pub(crate) fn time_eps(t: f64) -> f64 {
     1e-12 * t.abs().max(1.0)
 }
 
+/// Runs a Model Exchange simulation with diffsol's integrators.
+#[cfg(feature = "integrators")]
+fn model_exchange(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimError> {
+    me::run(inst, plan)
+}
+
+/// A build without the integrators (the coordinator never simulates) refuses Model Exchange.
+#[cfg(not(feature = "integrators"))]
+fn model_exchange(_inst: &mut Instance, _plan: &Plan) -> Result<SimResult, SimError> {
+    Err(SimError::Invalid("this build has no Model Exchange integrators (the feature `integrators` is off)".into()))
+}
+
 /// Whether `a` and `b` are the same instant up to round-off ([`time_eps`]); looser than diffsol's
 /// own test unless its step is far longer than the time (the ME driver's `set_stop` catches that).
+#[cfg_attr(not(feature = "integrators"), allow(dead_code))] // only the Model Exchange driver uses it
 pub(crate) fn same_instant(a: f64, b: f64) -> bool {
     (a - b).abs() <= time_eps(a.abs().max(b.abs()))
 }
