@@ -191,7 +191,7 @@ impl PreparedExperiment {
             let v = md
                 .variable(&i.variable)
                 .ok_or_else(|| JobError::invalid(format!("inputs[{k}].variable"), md.unknown_variable(&i.variable)))?;
-            if md.base_of(v).causality != Causality::Input {
+            if v.causality != Causality::Input && md.base_of(v).causality != Causality::Input {
                 return Err(JobError::invalid(
                     format!("inputs[{k}].variable"),
                     format!("{} is not an input of the model", i.variable),

@@ -190,6 +190,12 @@ fn plan_term(
         )));
     }
     let base = match bindings.iter().find(|b| b.var.vr == port.value_reference) {
+        Some(b) if b.var.negated => {
+            return Err(invalid(format!(
+                "port {:?} is fed by input column {:?}, a negated alias: map the column to {:?} instead",
+                t.port, b.var.name, port.name
+            )));
+        }
         Some(b) if inputs.is_some() => PortBase::Column(b.column),
         _ => {
             let set = starts
@@ -275,7 +281,7 @@ impl Plan {
                         let v = md
                             .variable(name)
                             .ok_or_else(|| invalid(format!("input column {name:?} is not a variable of the model")))?;
-                        if md.base_of(v).causality != Causality::Input {
+                        if v.causality != Causality::Input && md.base_of(v).causality != Causality::Input {
                             return Err(invalid(format!(
                                 "input column {name:?} is not an input of the model (causality {:?})",
                                 v.causality
@@ -585,18 +591,34 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
     // A String's value is the text as given, spaces included.
     let given = text;
     let text = text.trim();
+    let base = md.base_of(v);
+    // The value within the variable's own limits, and, through an alias, the value its base
+    // gets within the base's.
     let range = |x: f64| -> Result<(), SimError> {
-        if let Some(min) = v.min
-            && x < min
-        {
-            return Err(invalid(format!("{name} = {text} is below its minimum {min}")));
+        let stored = if v.negated { -x } else { x };
+        let mut checks = vec![(v, x, String::new())];
+        if !std::ptr::eq(base, v) {
+            checks.push((base, stored, format!(" (as {} = {stored})", base.name)));
         }
-        if let Some(max) = v.max
-            && x > max
-        {
-            return Err(invalid(format!("{name} = {text} is above its maximum {max}")));
+        for (var, value, what) in checks {
+            if let Some(min) = var.min
+                && value < min
+            {
+                return Err(invalid(format!("{name} = {text}{what} is below its minimum {min}")));
+            }
+            if let Some(max) = var.max
+                && value > max
+            {
+                return Err(invalid(format!("{name} = {text}{what} is above its maximum {max}")));
+            }
         }
         Ok(())
+    };
+    let negate = |x: i32| -> Result<i32, SimError> {
+        if !v.negated {
+            return Ok(x);
+        }
+        x.checked_neg().ok_or_else(|| invalid(format!("{name} = {x}: its negated base value does not fit an Integer")))
     };
     match v.var_type {
         VarType::Real => {
@@ -610,7 +632,7 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
         VarType::Integer => {
             let x: i32 = text.parse().map_err(|_| invalid(format!("{name} = {text:?} is not an integer")))?;
             range(x as f64)?;
-            Ok(Setting::Integer(v.value_reference, if v.negated { -x } else { x }))
+            Ok(Setting::Integer(v.value_reference, negate(x)?))
         }
         VarType::Enumeration => {
             let items = v
@@ -630,13 +652,17 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
                 return Err(invalid(format!("{name} = {x} is not a value of its enumeration")));
             }
             range(x as f64)?;
-            Ok(Setting::Integer(v.value_reference, x))
+            Ok(Setting::Integer(v.value_reference, negate(x)?))
         }
         VarType::Boolean => match text {
             "true" | "1" => Ok(Setting::Boolean(v.value_reference, !v.negated)),
             "false" | "0" => Ok(Setting::Boolean(v.value_reference, v.negated)),
             _ => Err(invalid(format!("{name} = {text:?} is not a boolean (true/false)"))),
         },
+        VarType::String if v.negated => Err(invalid(format!("{name} is a negated alias of a String"))),
+        VarType::String if given.contains('\0') => {
+            Err(invalid(format!("{name}: a String value cannot hold a NUL character")))
+        }
         VarType::String => Ok(Setting::String(v.value_reference, given.to_owned())),
         VarType::Binary => match crate::fmu::schema::parse_hex(text) {
             Some(bytes) => Ok(Setting::Binary(v.value_reference, bytes)),

@@ -359,6 +359,7 @@ impl FmiCalls for Component {
         call!(self, set_string, vrs.as_ptr(), vrs.len(), pointers.as_ptr())
     }
     fn set_binary(&mut self, _vrs: &[u32], _values: &[&[u8]]) -> Status {
+        self.log.receive(Status::Error, "", "fmucal", "FMI 2.0 has no Binary variables");
         Status::Error
     }
 

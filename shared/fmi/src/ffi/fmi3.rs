@@ -614,6 +614,8 @@ impl FmiCalls for Instance {
         let st = call!(self, do_step, t, h, true, &mut event, &mut terminate, &mut early, &mut last);
         let (terminate, early) = (terminate != 0, early != 0);
         self.terminated = terminate;
+        // Without early return the FMU reached the end of the step (FMI 3.0 section 4.2.1).
+        let last = if terminate && !early && last <= t { t + h } else { last };
         self.last_successful_time = (terminate || early).then_some(last);
         if early && !terminate && st <= Status::Warning {
             // Early return was not allowed at instantiation: an FMU that does it anyway did not
@@ -636,6 +638,10 @@ impl FmiCalls for Instance {
             Ok(refs) => refs,
             Err(st) => return st,
         };
+        if self.api.set_string.is_none() {
+            return self.refuse("the FMU does not export fmi3SetString".into());
+        }
+        // The C strings and the array of their pointers live until the call returns.
         let (_owned, pointers) = super::c_strings(values);
         call!(self, set_string, refs.as_ptr(), refs.len(), pointers.as_ptr(), pointers.len())
     }
@@ -645,6 +651,10 @@ impl FmiCalls for Instance {
             Ok(refs) => refs,
             Err(st) => return st,
         };
+        if self.api.set_binary.is_none() {
+            return self.refuse("the FMU does not export fmi3SetBinary".into());
+        }
+        // The sizes, the pointers and the bytes they point to live until the call returns.
         let sizes: Vec<usize> = values.iter().map(|v| v.len()).collect();
         let pointers: Vec<*const u8> = values.iter().map(|v| v.as_ptr()).collect();
         call!(self, set_binary, refs.as_ptr(), refs.len(), sizes.as_ptr(), pointers.as_ptr(), pointers.len())

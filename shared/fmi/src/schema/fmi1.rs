@@ -153,8 +153,9 @@ impl Parser {
                 var.negated = negated;
             }
         }
-        // States from der(x) names, in the order written. An alias is never a derivative, and
-        // an x that is an alias stands for its base.
+        // States from der(x) names, in the order written; an x that is an alias stands for its
+        // base, and a state named through several aliases counts once (its derivative the one
+        // that is no alias, else the first).
         let index_of: std::collections::HashMap<&str, usize> = md
             .variables
             .iter()
@@ -163,15 +164,18 @@ impl Parser {
             .map(|(k, v)| (v.name.as_str(), k))
             .rev()
             .collect();
-        let mut derivatives = vec![];
+        let mut derivatives: Vec<(usize, usize)> = vec![];
         for (k, (var, alias)) in md.variables.iter().zip(&self.aliases).enumerate() {
-            if alias.is_some() {
+            if var.negated {
                 continue;
             }
             let Some(state) = var.name.strip_prefix("der(").and_then(|s| s.strip_suffix(')')) else { continue };
-            if let Some(&s) = index_of.get(state) {
-                let base = md.variables[s].alias_of.as_deref().and_then(|b| index_of.get(b)).copied();
-                derivatives.push((k, base.unwrap_or(s)));
+            let Some(&s) = index_of.get(state) else { continue };
+            let s = md.variables[s].alias_of.as_deref().and_then(|b| index_of.get(b)).copied().unwrap_or(s);
+            match derivatives.iter_mut().find(|(_, state)| *state == s) {
+                Some(entry) if alias.is_none() && self.aliases[entry.0].is_some() => entry.0 = k,
+                Some(_) => {}
+                None => derivatives.push((k, s)),
             }
         }
         if derivatives.len() != self.number_of_states {

@@ -404,7 +404,9 @@ impl Parser {
         // Each <Alias> is a variable of its own that shares its base's value (element by
         // element for an array), listed after every variable so the model structure's indices
         // stay as they are, and never itself an output or a state.
-        let mut names: std::collections::HashSet<String> = md.variables.iter().map(|v| v.name.clone()).collect();
+        // Element names and array names are taken (an alias called like an array would hide it).
+        let mut names: std::collections::HashSet<String> =
+            md.variables.iter().map(|v| v.name.clone()).chain(self.raw.iter().map(|r| r.var.name.clone())).collect();
         for raw in self.raw.iter().filter(|r| !r.aliases.is_empty()) {
             let elements = indices_of.get(&raw.var.value_reference).cloned().unwrap_or_default();
             for (alias, description, display_unit) in &raw.aliases {

@@ -150,17 +150,14 @@ pub fn hex(bytes: &[u8]) -> String {
 /// The bytes of a hex text (an optional `0x` prefix, white space ignored), as FMI 3.0 writes
 /// Binary start values; `None` for anything else.
 pub fn parse_hex(text: &str) -> Option<Vec<u8>> {
-    let digits: Vec<u8> = text
-        .trim()
-        .trim_start_matches("0x")
-        .trim_start_matches("0X")
-        .bytes()
-        .filter(|b| !b.is_ascii_whitespace())
-        .collect();
-    if digits.len() % 2 != 0 {
+    let text = text.trim();
+    let text = text.strip_prefix("0x").or_else(|| text.strip_prefix("0X")).unwrap_or(text);
+    let digits: Vec<u8> = text.bytes().filter(|b| !b.is_ascii_whitespace()).collect();
+    if digits.len() % 2 != 0 || !digits.iter().all(u8::is_ascii_hexdigit) {
         return None;
     }
-    digits.chunks(2).map(|pair| std::str::from_utf8(pair).ok().and_then(|p| u8::from_str_radix(p, 16).ok())).collect()
+    let value = |d: u8| (d as char).to_digit(16).unwrap_or(0) as u8;
+    Some(digits.chunks(2).map(|pair| value(pair[0]) << 4 | value(pair[1])).collect())
 }
 
 fn serialize_hex<S: serde::Serializer>(bytes: &[u8], s: S) -> Result<S::Ok, S::Error> {
@@ -974,17 +971,20 @@ fn finish(md: &mut ModelDescription) -> Result<(), SchemaError> {
     }
     // A variable with the type and value reference of an earlier one is its alias (FMI 2.0
     // writes aliases so; FMI 1.0 and 3.0 name the base explicitly, and their readers set it).
-    let mut first: HashMap<(VarType, u32), usize> = HashMap::new();
+    // The base is the first that is an input, parameter or output, else the first.
+    let mut base: HashMap<(VarType, u32), usize> = HashMap::new();
+    let interface =
+        |v: &ScalarVariable| matches!(v.causality, Causality::Input | Causality::Parameter | Causality::Output);
+    for (k, v) in md.variables.iter().enumerate().filter(|(_, v)| v.alias_of.is_none()) {
+        let b = base.entry((v.var_type, v.value_reference)).or_insert(k);
+        if !interface(&md.variables[*b]) && interface(v) {
+            *b = k;
+        }
+    }
     for k in 0..md.variables.len() {
-        let key = (md.variables[k].var_type, md.variables[k].value_reference);
-        match first.get(&key) {
-            Some(&base) if md.variables[k].alias_of.is_none() => {
-                md.variables[k].alias_of = Some(md.variables[base].name.clone());
-            }
-            None if md.variables[k].alias_of.is_none() => {
-                first.insert(key, k);
-            }
-            _ => {}
+        let b = base.get(&(md.variables[k].var_type, md.variables[k].value_reference)).copied();
+        if let Some(b) = b.filter(|b| *b != k && md.variables[k].alias_of.is_none()) {
+            md.variables[k].alias_of = Some(md.variables[b].name.clone());
         }
     }
     let ms = &md.model_structure;
