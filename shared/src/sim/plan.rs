@@ -9,6 +9,7 @@ use super::spec::{OutputTimes, PortTerm, SimError, SimSpec, Solver};
 use crate::diagnose::effects::{self, PortEffect};
 use crate::fmu::schema::{Causality, ScalarVariable, VarType, Variability};
 use crate::fmu::{FmuError, Instance, Interface, ModelDescription};
+use crate::quote::quote_user_text;
 use crate::series::TimeSeries;
 
 /// A typed value to set on the FMU.
@@ -141,13 +142,14 @@ fn plan_term(
             t.parameters.len()
         )));
     }
-    let port =
-        md.variable(&t.port).ok_or_else(|| invalid(format!("port {:?} is not a variable of the model", t.port)))?;
+    let port = md
+        .variable(&t.port)
+        .ok_or_else(|| invalid(format!("port {} is not a variable of the model", quote_user_text(&t.port))))?;
     if port.causality != Causality::Input
         || port.var_type != VarType::Real
         || port.variability != Variability::Continuous
     {
-        return Err(invalid(format!("port {:?} is not a continuous Real input of the model", t.port)));
+        return Err(invalid(format!("port {} is not a continuous Real input of the model", quote_user_text(&t.port))));
     }
     if let Some((unit, domain)) = port_domain(md, port)
         && domain != effect.domain()
@@ -161,9 +163,9 @@ fn plan_term(
     }
     let signal = md
         .variable(&t.signal)
-        .ok_or_else(|| invalid(format!("signal {:?} is not a variable of the model", t.signal)))?;
+        .ok_or_else(|| invalid(format!("signal {} is not a variable of the model", quote_user_text(&t.signal))))?;
     if signal.var_type != VarType::Real {
-        return Err(invalid(format!("signal {:?} is not a Real variable", t.signal)));
+        return Err(invalid(format!("signal {} is not a Real variable", quote_user_text(&t.signal))));
     }
     let port_index = md.variables.iter().position(|v| v.name == port.name).map(|i| i + 1);
     let feeds_through = md.model_structure.outputs.iter().any(|u| {
@@ -243,9 +245,9 @@ impl Plan {
                     .iter()
                     .enumerate()
                     .map(|(column, (name, _))| {
-                        let v = md
-                            .variable(name)
-                            .ok_or_else(|| invalid(format!("input column {name:?} is not a variable of the model")))?;
+                        let v = md.variable(name).ok_or_else(|| {
+                            invalid(format!("input column {} is not a variable of the model", quote_user_text(name)))
+                        })?;
                         if v.causality != Causality::Input {
                             return Err(invalid(format!(
                                 "input column {name:?} is not an input of the model (causality {:?})",
@@ -274,7 +276,9 @@ impl Plan {
             spec.outputs
                 .iter()
                 .map(|name| {
-                    let v = md.variable(name).ok_or_else(|| invalid(format!("unknown output variable {name:?}")))?;
+                    let v = md
+                        .variable(name)
+                        .ok_or_else(|| invalid(format!("unknown output variable {}", quote_user_text(name))))?;
                     if v.var_type == VarType::String {
                         return Err(invalid(format!("String variable {name:?} cannot be recorded")));
                     }
@@ -529,7 +533,7 @@ fn build_grid(start: f64, stop: f64, times: &OutputTimes) -> Result<Vec<f64>, Si
 
 /// Parses `text` for variable `name` and checks that it may be set and lies within min/max.
 fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, SimError> {
-    let v = md.variable(name).ok_or_else(|| invalid(format!("unknown variable {name:?}")))?;
+    let v = md.variable(name).ok_or_else(|| invalid(format!("unknown variable {}", quote_user_text(name))))?;
     if !v.settable_before_init() {
         return Err(invalid(format!(
             "variable {name:?} may not be set (causality {:?}, variability {:?}, initial {:?})",
@@ -554,7 +558,8 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
     };
     match v.var_type {
         VarType::Real => {
-            let x: f64 = text.parse().map_err(|_| invalid(format!("{name} = {text:?} is not a number")))?;
+            let x: f64 =
+                text.parse().map_err(|_| invalid(format!("{name} = {} is not a number", quote_user_text(text))))?;
             if !x.is_finite() {
                 return Err(invalid(format!("{name} = {text} is not a finite number")));
             }
@@ -562,7 +567,8 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
             Ok(Setting::Real(v.value_reference, x))
         }
         VarType::Integer => {
-            let x: i32 = text.parse().map_err(|_| invalid(format!("{name} = {text:?} is not an integer")))?;
+            let x: i32 =
+                text.parse().map_err(|_| invalid(format!("{name} = {} is not an integer", quote_user_text(text))))?;
             range(x as f64)?;
             Ok(Setting::Integer(v.value_reference, x))
         }
@@ -577,7 +583,7 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
                 Ok(x) => x,
                 Err(_) => items.iter().find(|i| i.name == text).map(|i| i.value as i32).ok_or_else(|| {
                     let names: Vec<_> = items.iter().map(|i| i.name.as_str()).collect();
-                    invalid(format!("{name} = {text:?} is not one of {}", names.join(", ")))
+                    invalid(format!("{name} = {} is not one of {}", quote_user_text(text), names.join(", ")))
                 })?,
             };
             if !items.is_empty() && !items.iter().any(|i| i.value == x as i64) {
@@ -589,7 +595,7 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
         VarType::Boolean => match text {
             "true" | "1" => Ok(Setting::Boolean(v.value_reference, true)),
             "false" | "0" => Ok(Setting::Boolean(v.value_reference, false)),
-            _ => Err(invalid(format!("{name} = {text:?} is not a boolean (true/false)"))),
+            _ => Err(invalid(format!("{name} = {} is not a boolean (true/false)", quote_user_text(text)))),
         },
         VarType::String => Err(invalid(format!("setting String variable {name:?} is not supported"))),
         VarType::Binary => Err(invalid(format!("setting Binary variable {name:?} is not supported"))),

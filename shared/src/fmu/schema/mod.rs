@@ -372,7 +372,7 @@ impl ModelDescription {
         let prefix = format!("{base}[");
         let elements: Vec<&ScalarVariable> = self.variables.iter().filter(|v| v.name.starts_with(&prefix)).collect();
         let (Some(first), Some(last)) = (elements.first(), elements.last()) else {
-            return format!("unknown variable {name:?}");
+            return format!("unknown variable {}", crate::quote::quote_user_text(name));
         };
         let dims = first.fmi3.as_ref().map(|s| s.dimensions.clone()).unwrap_or_default();
         let shape = dims.iter().map(usize::to_string).collect::<Vec<_>>().join("×");
