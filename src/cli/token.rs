@@ -39,7 +39,7 @@ fn from_file_or_env(flag: &str, file: Option<&Path>, vars: &[&str]) -> Result<Op
         let n = t.chars().count();
         anyhow::ensure!(
             n >= MIN_TOKEN_FILE_CHARS,
-            "{flag}: {} holds a token of {n} characters; a token needs at least {MIN_TOKEN_FILE_CHARS} (make one with `openssl rand -hex 16`)",
+            "{flag}: the token in {} is {n} characters long; a token needs at least {MIN_TOKEN_FILE_CHARS} (make one with `openssl rand -hex 16`)",
             f.display()
         );
         return Ok(Some(t));
