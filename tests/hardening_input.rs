@@ -224,7 +224,8 @@ fn a_killed_calibration_takes_its_workers_and_the_next_run_removes_its_folder() 
     let me = std::process::id();
     let stat = std::fs::read_to_string("/proc/self/stat").unwrap();
     let start: u64 = stat[stat.rfind(')').unwrap() + 1..].split_whitespace().nth(19).unwrap().parse().unwrap();
-    std::fs::write(running.join("owner"), format!("{me} {start}\n")).unwrap();
+    let ns = std::fs::read_link("/proc/self/ns/pid").unwrap().to_string_lossy().into_owned();
+    std::fs::write(running.join("owner"), format!("{me} {start} {ns}\n")).unwrap();
 
     let quick = decay_job(d, "[workers]\ncount = 1\n");
     let out = calibrate(d, &quick, &[]);

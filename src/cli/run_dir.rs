@@ -18,7 +18,9 @@ use anyhow::{Context, Result};
 /// The prefix of a run folder's name.
 pub const PREFIX: &str = "fmucal-run-";
 
-/// The file in a run folder naming its owner: `PID START_TIME` (clock ticks after boot).
+/// The file in a run folder naming its owner: `PID START_TIME PID_NAMESPACE` (the start time
+/// in clock ticks after boot; the namespace as `/proc/self/ns/pid` names it, so a run in
+/// another container sharing the folder is never judged by a pid that is not its own).
 const OWNER: &str = "owner";
 
 /// A local run's temporary folder, removed when dropped.
@@ -42,7 +44,7 @@ impl RunDir {
             .tempdir_in(&parent)
             .with_context(|| format!("cannot make a run folder in {}", parent.display()))?;
         let me = std::process::id();
-        let line = format!("{me} {}\n", start_time(me).unwrap_or_default());
+        let line = format!("{me} {} {}\n", start_time(me).unwrap_or_default(), pid_namespace().unwrap_or_default());
         std::fs::write(dir.path().join(OWNER), line).context("cannot write the run folder's owner file")?;
         Ok(RunDir { dir })
     }
@@ -78,11 +80,12 @@ pub fn remove_stale(parent: &Path) -> usize {
 fn owner_is_dead(dir: &Path) -> bool {
     let Ok(text) = std::fs::read_to_string(dir.join(OWNER)) else { return false };
     let mut words = text.split_whitespace();
-    let (Some(Ok(pid)), Some(Ok(started))) = (words.next().map(str::parse::<u32>), words.next().map(str::parse::<u64>))
+    let (Some(Ok(pid)), Some(Ok(started)), Some(namespace)) =
+        (words.next().map(str::parse::<u32>), words.next().map(str::parse::<u64>), words.next())
     else {
         return false;
     };
-    if !Path::new("/proc/self/stat").exists() {
+    if pid_namespace().is_none_or(|mine| mine != namespace) {
         return false;
     }
     // Alive only if a process of that pid runs and started when the owner did.
@@ -95,6 +98,12 @@ fn start_time(pid: u32) -> Option<u64> {
     // The command name (field 2) is in parentheses and may hold spaces: count after it.
     let after = &stat[stat.rfind(')')? + 1..];
     after.split_whitespace().nth(19)?.parse().ok()
+}
+
+/// This process's pid namespace (`pid:[4026531836]`), if `/proc` tells it.
+fn pid_namespace() -> Option<String> {
+    let ns = std::fs::read_link("/proc/self/ns/pid").ok()?;
+    Some(ns.to_string_lossy().into_owned()).filter(|n| !n.is_empty() && !n.contains(char::is_whitespace))
 }
 
 #[cfg(unix)]
@@ -156,14 +165,16 @@ mod tests {
             }
             d
         };
-        let me = std::process::id();
-        let alive = make("fmucal-run-alive", Some(format!("{me} {}", start_time(me).unwrap())));
+        let (me, ns) = (std::process::id(), pid_namespace().unwrap());
+        let alive = make("fmucal-run-alive", Some(format!("{me} {} {ns}", start_time(me).unwrap())));
         // A pid that ran, with a start time it never had: the run is gone (or the pid reused).
-        let dead = make("fmucal-run-dead", Some(format!("{me} 1")));
+        let dead = make("fmucal-run-dead", Some(format!("{me} 1 {ns}")));
         let no_owner = make("fmucal-run-new", None);
-        let other = make("other-program", Some(format!("{me} 1")));
+        let other = make("other-program", Some(format!("{me} 1 {ns}")));
+        // Another container's run: its pids are not ours to look up.
+        let elsewhere = make("fmucal-run-elsewhere", Some(format!("{me} 1 pid:[1]")));
         assert_eq!(remove_stale(parent.path()), 1);
         assert!(!dead.exists());
-        assert!(alive.exists() && no_owner.exists() && other.exists());
+        assert!(alive.exists() && no_owner.exists() && other.exists() && elsewhere.exists());
     }
 }

@@ -46,7 +46,7 @@
 //! seed = 0
 //!
 //! [workers]
-//! count = 2                  # local runs; default: number of cores
+//! count = 2                  # local runs, 1 to 256; default: number of cores
 //!
 //! [diagnose]                 # what `fmucal diagnose` may try: see crate::diagnose::spec
 //!
@@ -402,7 +402,8 @@ impl Default for OptimizerSpec {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WorkersSpec {
-    /// Worker processes for local runs. Default: the number of cores.
+    /// Worker processes for local runs, 1 to [`super::limits::MAX_WORKERS`]. Default: the
+    /// number of cores.
     pub count: Option<usize>,
 }
 
