@@ -144,6 +144,15 @@ fn data_and_model_paths_that_are_not_regular_files_are_refused() {
     refused(&calibrate(d, &job, &[]), &["data.path: ", "missing.csv", "No such file"]);
     // `fmucal inspect` and `simulate` read models through the same archive check.
     refused(&fmucal(d, &["inspect", "/dev/zero"]), &["/dev/zero is a character device, not a regular file"]);
+    // The job file itself, the result an earlier stage's set_from names, and a simulation's
+    // input table.
+    refused(&calibrate(d, Path::new("/dev/zero"), &[]), &["job file: \"/dev/zero\" is a character device"]);
+    refused(&fmucal(d, &["diagnose", fifo.to_str().unwrap()]), &["job file: ", "is a FIFO"]);
+    let job =
+        write_job(d, "bad.toml", &text.replace("[optimizer]", "[simulation]\nset_from = \"/dev/zero\"\n[optimizer]"));
+    refused(&calibrate(d, &job, &[]), &["simulation.set_from: \"/dev/zero\" is a character device"]);
+    let out = fmucal(d, &["simulate", "example:decay", "--input", fifo.to_str().unwrap(), "-o", "sim.csv"]);
+    refused(&out, &["fifo.csv", "is a FIFO, not a regular file"]);
     assert!(!d.join("out").exists());
 }
 

@@ -46,6 +46,11 @@ probe_case model-dev-zero model.path -- "${in_calibrate[@]}" "$j"
 j=$(in_job model-folder furuta "s#path = \"example:furuta\"#path = \"$in_dir\"#")
 probe_case model-directory model.path -- "${in_calibrate[@]}" "$j"
 probe_case inspect-dev-zero "not a regular file" -- "$FMUCAL" inspect /dev/zero
+probe_case job-file-dev-zero "job file" -- "${in_calibrate[@]}" /dev/zero
+probe_case job-file-fifo "job file" -- "${in_diagnose[@]}" "$in_dir/fifo.csv"
+j=$(in_job set-from-dev-zero furuta 's/\[simulation\]/[simulation]\nset_from = "\/dev\/zero"/')
+probe_case set-from-dev-zero simulation.set_from -- "${in_calibrate[@]}" "$j"
+probe_case simulate-input-fifo "not a regular file" -- "$FMUCAL" simulate example:decay --input "$in_dir/fifo.csv" -o "$in_dir/sim.csv"
 
 # Mapping.
 j=$(in_job inputs-twice furuta 's/(\[\[inputs\]\]\ncolumn = "u"\nvariable = "u"\n)/$1\[\[inputs\]\]\ncolumn = "phi"\nvariable = "u"\n/')

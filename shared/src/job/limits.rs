@@ -41,7 +41,9 @@ pub const MAX_KEPT_RESIDUALS: usize = 10_000_000;
 /// time.
 pub const MAX_WORKERS: usize = 256;
 /// Bytes read from one measurement file (CSV or `.mat`), checked before it is read.
-pub const MAX_DATA_FILE_BYTES: u64 = 4 << 30;
+pub const MAX_DATA_FILE_BYTES: u64 = crate::series::MAX_FILE_BYTES;
+/// Bytes of a job file and of the `result.json` its `set_from` names.
+pub const MAX_JOB_FILE_BYTES: u64 = 64 << 20;
 
 fn over(field: &str, what: &str, n: impl std::fmt::Display, cap: impl std::fmt::Display) -> JobError {
     JobError::invalid(field, format!("{n} {what} exceeds the cap of {cap}"))

@@ -439,8 +439,11 @@ impl JobSpec {
     /// Reads a TOML job file.
     ///
     /// # Errors
-    /// [`JobError::Read`] if the file cannot be read, else as [`JobSpec::from_toml`].
+    /// [`JobError::Invalid`] naming `job file` or `simulation.set_from` for a path that is not
+    /// a regular file or is over [`super::limits::MAX_JOB_FILE_BYTES`], [`JobError::Read`] if
+    /// the file cannot be read, else as [`JobSpec::from_toml`].
     pub fn from_toml_file(path: &Path) -> Result<JobSpec, JobError> {
+        super::limits::check_regular_file("job file", path, super::limits::MAX_JOB_FILE_BYTES)?;
         let text = std::fs::read_to_string(path)
             .map_err(|e| JobError::Read { path: path.display().to_string(), message: e.to_string() })?;
         let base = path.parent().unwrap_or(Path::new("."));
@@ -448,6 +451,7 @@ impl JobSpec {
         if let Some(from) = spec.simulation.set_from.take() {
             let from = if from.is_relative() { base.join(from) } else { from };
             let read = |m: String| JobError::Read { path: from.display().to_string(), message: m };
+            super::limits::check_regular_file("simulation.set_from", &from, super::limits::MAX_JOB_FILE_BYTES)?;
             let text = std::fs::read_to_string(&from).map_err(|e| read(e.to_string()))?;
             let result: super::CalibrationResult = serde_json::from_str(&text).map_err(|e| read(e.to_string()))?;
             for (name, v) in result.x_opt {

@@ -8,7 +8,9 @@
 mod read;
 mod write;
 
-pub use read::{Layout, Missing, SeriesError, TimeColumn, read, read_capped, read_csv, read_mat};
+pub use read::{
+    Layout, MAX_FILE_BYTES, Missing, SeriesError, TimeColumn, read, read_capped, read_csv, read_csv_capped, read_mat,
+};
 pub use write::write_csv;
 
 /// Samples of named signals at common time stamps.

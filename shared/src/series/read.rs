@@ -63,25 +63,53 @@ impl SeriesError {
 /// # Errors
 /// See [`read_csv`] and [`read_mat`].
 pub fn read(path: &Path, layout: &Layout) -> Result<TimeSeries, SeriesError> {
-    read_capped(path, layout, u64::MAX)
+    read_capped(path, layout, MAX_FILE_BYTES)
 }
 
-/// As [`read`], reading no more than `max_bytes` bytes of the file: past them, the read
-/// fails (whatever the file claims its size is: a device or a growing file).
+/// Bytes a time-series file given on the command line or in a job is read up to
+/// ([`read_capped`]): 4 GiB, past the 10⁸ values a measurement table may hold.
+pub const MAX_FILE_BYTES: u64 = 4 << 30;
+
+/// As [`read`], for a regular file (a device, a FIFO or a folder is refused before it is
+/// opened: `/dev/zero` never ends, and opening a FIFO waits for a writer), reading no more
+/// than `max_bytes` bytes of it: past them, the read fails (also for a file that grows).
 ///
 /// # Errors
-/// As [`read`], and a [`SeriesError`] saying the cap when the file holds more.
+/// As [`read`], and a [`SeriesError`] saying what the path is, or the cap when the file holds
+/// more.
 pub fn read_capped(path: &Path, layout: &Layout, max_bytes: u64) -> Result<TimeSeries, SeriesError> {
+    let capped = open_capped(path, max_bytes)?;
+    let mat = path.extension().and_then(|e| e.to_str()).is_some_and(|ext| ext.eq_ignore_ascii_case("mat"));
+    let result = if mat { mat_from(path, capped, layout.time.name()) } else { csv_from(path, capped, layout) };
+    result.map_err(|e| said_cap(path, e, max_bytes))
+}
+
+/// As [`read_capped`], reading CSV whatever the file's name.
+///
+/// # Errors
+/// As [`read_capped`].
+pub fn read_csv_capped(path: &Path, layout: &Layout, max_bytes: u64) -> Result<TimeSeries, SeriesError> {
+    let capped = open_capped(path, max_bytes)?;
+    csv_from(path, capped, layout).map_err(|e| said_cap(path, e, max_bytes))
+}
+
+/// Opens `path` for [`read_capped`]: a regular file, of at most `max_bytes` as far as its size
+/// says, read through a [`Capped`] reader.
+fn open_capped(path: &Path, max_bytes: u64) -> Result<Capped<std::fs::File>, SeriesError> {
+    let meta = std::fs::metadata(path).map_err(|e| SeriesError::new(path, None, e.to_string()))?;
+    if let Some(kind) = crate::fmu::archive::non_regular_kind(&meta) {
+        return Err(SeriesError::new(path, None, format!("it is {kind}, not a regular file")));
+    }
     let file = std::fs::File::open(path).map_err(|e| SeriesError::new(path, None, e.to_string()))?;
     if file.metadata().is_ok_and(|m| m.len() > max_bytes) {
         return Err(SeriesError::new(path, None, format!("{CAPPED} {max_bytes} bytes")));
     }
-    let capped = Capped { inner: file, left: max_bytes };
-    let mat = path.extension().and_then(|e| e.to_str()).is_some_and(|ext| ext.eq_ignore_ascii_case("mat"));
-    let result = if mat { mat_from(path, capped, layout.time.name()) } else { csv_from(path, capped, layout) };
-    result.map_err(|e| {
-        if e.message.contains(CAPPED) { SeriesError::new(path, None, format!("{CAPPED} {max_bytes} bytes")) } else { e }
-    })
+    Ok(Capped { inner: file, left: max_bytes })
+}
+
+/// A reader's error, or the cap when the [`Capped`] reader stopped it.
+fn said_cap(path: &Path, e: SeriesError, max_bytes: u64) -> SeriesError {
+    if e.message.contains(CAPPED) { SeriesError::new(path, None, format!("{CAPPED} {max_bytes} bytes")) } else { e }
 }
 
 /// What a [`Capped`] reader says past its cap.
@@ -283,6 +311,10 @@ mod tests {
             (line, message.as_str()),
             (None, format!("the file exceeds the cap of {} bytes", exact - 1).as_str())
         );
+        let (_, message) = fault(read_capped(dir.path(), &MEASUREMENTS, 100));
+        assert_eq!(message, "it is a directory, not a regular file");
+        let (_, message) = fault(read_csv_capped(Path::new("/dev/zero"), &INPUTS, 100));
+        assert_eq!(message, "it is a character device, not a regular file");
         let mat = file(&dir, "d.mat", vec![0u8; 4096]);
         let (_, message) = fault(read_capped(&mat, &MEASUREMENTS, 1000));
         assert_eq!(message, "the file exceeds the cap of 1000 bytes");
