@@ -2,13 +2,12 @@
 //! coordinator on 127.0.0.1 (a free port) with freshly generated client and worker tokens and
 //! its state in a run folder ([`super::run_dir`]: a killed run's folder is removed by the next
 //! run), and N `fmucal worker` processes of this executable, each replaced when it dies (an
-//! FMU may crash it) and each dying with this process. [`run`] hands a connected [`Client`] to the work and stops
-//! everything when the work ends.
+//! FMU may crash it) and each dying with this process. [`run`] hands a connected [`Client`]
+//! to the work and stops everything when the work ends.
 
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-
 use fmucal_shared::job::limits::MAX_WORKERS;
 
 use super::client::Client;
