@@ -242,7 +242,8 @@ impl JobRun {
         }
         let overflowed = (self.overflowed > 0).then(|| {
             format!(
-                "{} evaluated points gave an objective that overflowed (f = inf: the squared errors exceed                  the largest number; the measurements or the model's outputs are too large, scale them)",
+                "{} evaluated points gave an objective that overflowed (f = inf: the squared errors exceed \
+                 the largest number; the measurements or the model's outputs are too large, scale them)",
                 self.overflowed
             )
         });
