@@ -93,7 +93,7 @@ fn bad_diagnose_sections_are_one_line_naming_the_field() {
         (
             "port = \"armJoint.tauExt\"",
             "port = \"armFriction\"",
-            "diagnose.ports[0].velocities[0]: port \"armFriction\" is not a continuous Real input",
+            "diagnose.ports[0].port: port \"armFriction\" is not a continuous Real input",
         ),
         (
             "velocities = [\"armJoint.w\"]",

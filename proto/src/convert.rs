@@ -144,6 +144,15 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
             .transpose()
             .map_err(|message| ConvertError::Invalid { field: "spec.interface", message })?;
         let kind = match pb::JobKind::try_from(p.kind) {
+            Ok(pb::JobKind::Calibration) if !p.points.is_empty() => {
+                return Err(ConvertError::Invalid {
+                    field: "spec.points",
+                    message: format!(
+                        "{} points given for a calibration job: only an evaluate-points job takes points",
+                        p.points.len()
+                    ),
+                });
+            }
             Ok(pb::JobKind::Calibration) => JobKind::Calibration,
             Ok(pb::JobKind::EvaluatePoints) => JobKind::EvaluatePoints(p.points.into_iter().map(|p| p.x).collect()),
             Err(_) => {
@@ -426,6 +435,48 @@ mod tests {
         };
         let e = SubmittedJob::try_from(p).unwrap_err().to_string();
         assert_eq!(e, "spec.parameters[0].scale: \"ln\" is not linear or log");
+    }
+
+    /// A valid one-experiment job over the protocol, edited by `edit`, converted and validated.
+    fn submitted(edit: impl FnOnce(&mut pb::JobSpec)) -> Result<SubmittedJob, String> {
+        let spec = JobSpec::from_toml(
+            "[model]\nid = \"m\"\n[data]\n[[outputs]]\nvariable = \"y\"\ncolumn = \"y\"\n[[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n[simulation]\nstop_time = 1.0\n",
+            std::path::Path::new("."),
+        )
+        .unwrap();
+        let data = MeasurementTable { time: vec![0.0, 1.0, 2.0], columns: vec![("y".into(), vec![1.0, 2.0, 3.0])] };
+        let mut p = job_to_proto(&spec, std::slice::from_ref(&data), "m");
+        edit(&mut p);
+        let job = SubmittedJob::try_from(p).map_err(|e| e.to_string())?;
+        job.spec.validate().map_err(|e| e.to_string())?;
+        for table in &job.data {
+            table.validate_measurements(&["y"]).map_err(|e| e.to_string())?;
+        }
+        Ok(job)
+    }
+
+    #[test]
+    fn careless_requests_are_refused_as_job_files_are() {
+        submitted(|_| {}).unwrap();
+        let e = submitted(|p| p.points = vec![pb::Point { x: vec![1.0] }]).unwrap_err();
+        assert_eq!(e, "spec.points: 1 points given for a calibration job: only an evaluate-points job takes points");
+        for (v, says) in [
+            (f64::NAN, "simulation.validation_stop_time: NaN is not a finite time"),
+            (0.5, "simulation.validation_stop_time: 0.5 is not a finite time after the calibration stop time 1"),
+        ] {
+            let e = submitted(|p| p.simulation.as_mut().unwrap().validation_stop_time = Some(v)).unwrap_err();
+            assert!(e.starts_with(says), "{e}");
+        }
+        submitted(|p| p.simulation.as_mut().unwrap().validation_stop_time = Some(2.0)).unwrap();
+        let e = submitted(|p| {
+            let data = p.data.as_mut().unwrap();
+            data.columns.push(pb::Column { name: "y".into(), values: vec![0.0; 3] });
+        })
+        .unwrap_err();
+        assert_eq!(e, "data.columns: column \"y\" appears twice");
+        let e =
+            submitted(|p| p.inputs = vec![pb::InputMap { column: "y".into(), variable: "u".into() }; 2]).unwrap_err();
+        assert!(e.starts_with("inputs[1].variable: \"u\" is already mapped by inputs[0]"), "{e}");
     }
 
     #[test]

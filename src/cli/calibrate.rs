@@ -14,6 +14,7 @@ use std::sync::Arc;
 use anyhow::{Context, Result};
 use fmucal_shared::fmu::Fmu;
 use fmucal_shared::job::{ExperimentErrors, JobSpec, PreparedJob, report};
+use fmucal_shared::quote::quote_user_text;
 
 use super::client::Client;
 
@@ -37,20 +38,26 @@ pub struct Args {
     tls: super::tls::ClientArgs,
 }
 
-/// Resolves `example:NAME` and checks the file exists.
+/// Resolves `example:NAME` and checks the file is a regular file.
 pub(super) fn model_path(spec: &JobSpec) -> Result<PathBuf> {
-    let p = spec.model.path.as_ref().context("the job's [model] needs a path for the CLI")?;
+    let p = spec.model.path.as_ref().context("model.path: the job's [model] needs a path for the CLI")?;
     let text = p.to_string_lossy();
     if let Some(name) = text.strip_prefix("example:") {
-        return super::model_arg::example(name)?.with_context(|| format!("no built-in example {name:?}"));
+        return super::model_arg::example(name)?
+            .with_context(|| format!("model.path: no built-in example {}", quote_user_text(name)));
     }
-    anyhow::ensure!(p.is_file(), "model file {} does not exist", p.display());
+    let limits = fmucal_shared::fmu::archive::ArchiveLimits::from_env();
+    fmucal_shared::job::limits::check_regular_file("model.path", p, limits.max_archive_bytes)?;
     Ok(p.clone())
 }
 
 pub fn run(args: Args) -> Result<()> {
     let mut spec = JobSpec::from_toml_file(&args.job)?;
     spec.validate()?;
+    let threads = super::local_cluster::worker_count(args.workers, &spec)?;
+    if let Some(url) = &args.coordinator {
+        super::client::check_url("--coordinator", url)?;
+    }
     let model = model_path(&spec)?;
     spec.model.path = Some(model.clone());
     let data = fmucal_shared::job::data::read_all(&spec)?;
@@ -58,9 +65,9 @@ pub fn run(args: Args) -> Result<()> {
     let fmu = Arc::new(Fmu::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
     let prepared = Arc::new(PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), &data)?);
     fmucal_shared::job::optimizer::build(&spec)?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    // Removed again if the run fails before writing anything into it.
+    let _out = super::outputs::OutDir::create(&args.out)?;
 
-    let threads = super::local_cluster::worker_count(args.workers, &spec);
     let rt = tokio::runtime::Runtime::new()?;
     // Ctrl-C or SIGTERM cancels the job and keeps its best point so far; a local cluster's
     // workers and temporary folder go with it.
@@ -137,16 +144,18 @@ pub fn run(args: Args) -> Result<()> {
         println!("  {name} = {v:.6e}{}", se.unwrap_or_default());
     }
     if let Some(e) = &result.errors {
-        let v = e.validation.as_ref().map(|v| format!(", validation {:.3}", v.scaled_rms)).unwrap_or_default();
-        println!("scaled RMS error (optimized / nominal): calibration {:.3}{v}", e.calibration.scaled_rms);
+        let v = e.validation.as_ref().map(|v| format!(", validation {}", ratio(v))).unwrap_or_default();
+        println!("scaled RMS error (optimized / nominal): calibration {}{v}", ratio(&e.calibration));
     }
     for x in &result.experiments {
         let e = &x.errors;
-        let v = e.validation.as_ref().map(|v| format!(", validation window {:.3}", v.scaled_rms)).unwrap_or_default();
+        let v = e.validation.as_ref().map(|v| format!(", validation window {}", ratio(v))).unwrap_or_default();
         let window = if x.role == "fit" { "calibration window" } else { "whole span (not fitted)" };
         println!(
-            "experiment {} ({}): scaled RMS error (optimized / nominal): {window} {:.3}{v}",
-            x.name, x.role, e.calibration.scaled_rms
+            "experiment {} ({}): scaled RMS error (optimized / nominal): {window} {}{v}",
+            x.name,
+            x.role,
+            ratio(&e.calibration)
         );
     }
     if let Some(id) = &result.identifiability
@@ -156,4 +165,17 @@ pub fn run(args: Args) -> Result<()> {
     }
     eprintln!("wrote {}", args.out.join("result.json").display());
     Ok(())
+}
+
+/// A window's scaled RMS error for the summary, or why there is none: it is optimized / nominal,
+/// which has no value when the nominal error is zero or not a number (every weight 0, a
+/// nominal model that fits exactly, or errors that overflow).
+fn ratio(w: &fmucal_shared::job::result::WindowError) -> String {
+    if w.scaled_rms.is_finite() {
+        format!("{:.3}", w.scaled_rms)
+    } else if w.rms_nominal == 0.0 {
+        "n/a (the nominal error is 0: every weight is 0, or the nominal model fits exactly)".into()
+    } else {
+        "n/a (an RMS error is not a finite number)".into()
+    }
 }

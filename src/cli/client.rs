@@ -19,6 +19,22 @@ use fmucal_shared::job::{CalibrationResult, EvaluatedPoint, HistoryPoint, JobSpe
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
 
+/// Checks a coordinator URL given in `flag`: `http://` or `https://` and a host.
+///
+/// # Errors
+/// In one line naming the flag and quoting the URL.
+pub fn check_url(flag: &str, url: &str) -> Result<()> {
+    let rest = url.strip_prefix("http://").or_else(|| url.strip_prefix("https://"));
+    match rest {
+        Some(host) if !host.is_empty() && !host.starts_with('/') => Ok(()),
+        Some(_) => bail!("{flag}: {} names no host", fmucal_shared::quote::quote_user_text(url)),
+        None => bail!(
+            "{flag}: {} is not an http:// or https:// URL of a coordinator",
+            fmucal_shared::quote::quote_user_text(url)
+        ),
+    }
+}
+
 /// A connection to a coordinator, with the token attached to every call. Clones share the
 /// connection, so one client can follow several jobs at once.
 #[derive(Clone)]

@@ -1,28 +1,37 @@
 //! A cluster for one local run (`fmucal calibrate` without `--coordinator`): an in-process
-//! coordinator on 127.0.0.1 (a free port) with freshly generated client and worker tokens and its state in a
-//! temporary folder, and N `fmucal worker` processes of this executable, each replaced when it
-//! dies (an FMU may crash it). [`run`] hands a connected [`Client`] to the work and stops
-//! everything when the work ends.
+//! coordinator on 127.0.0.1 (a free port) with freshly generated client and worker tokens and
+//! its state in a run folder ([`super::run_dir`]: a killed run's folder is removed by the next
+//! run), and N `fmucal worker` processes of this executable, each replaced when it dies (an
+//! FMU may crash it) and each dying with this process. [`run`] hands a connected [`Client`]
+//! to the work and stops everything when the work ends.
 
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
+use fmucal_shared::job::limits::MAX_WORKERS;
 
 use super::client::Client;
 
-/// Worker processes of a local run: `--workers`, else the job's `[workers] count`, else the
-/// number of cores; at least 1.
-pub fn worker_count(flag: Option<usize>, spec: &fmucal_shared::job::JobSpec) -> usize {
-    flag.or(spec.workers.count)
-        .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1))
-        .max(1)
+/// Worker processes of a local run: `--workers`, else the job's `[workers] count` (checked
+/// with the job), else the number of cores (at most the cap).
+///
+/// # Errors
+/// `--workers` of 0 or above [`MAX_WORKERS`], in one line naming the flag.
+pub fn worker_count(flag: Option<usize>, spec: &fmucal_shared::job::JobSpec) -> Result<usize> {
+    if let Some(n) = flag
+        && !(1..=MAX_WORKERS).contains(&n)
+    {
+        bail!("--workers: {n} is not in 1..={MAX_WORKERS} (the cap on local worker processes)");
+    }
+    let cores = || std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(MAX_WORKERS);
+    Ok(flag.or(spec.workers.count).unwrap_or_else(cores).max(1))
 }
 
 /// Starts the coordinator and `workers` worker processes, runs `work` on a client connected to
 /// them while supervising the workers, then stops them all and returns the work's result.
 pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>) -> Result<T> {
     let (token, worker_token) = (super::token::generate()?, super::token::generate()?);
-    let state = tempfile::tempdir()?;
+    let state = super::run_dir::RunDir::create()?;
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let url = format!("http://{}", listener.local_addr()?);
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
@@ -44,16 +53,18 @@ pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>)
     let exe = std::env::current_exe()?;
     let cache = state.path().join("worker-cache");
     let spawn = |k: usize| {
-        tokio::process::Command::new(&exe)
-            .args(["worker", "--coordinator", &url, "--cache-dir"])
+        let mut cmd = tokio::process::Command::new(&exe);
+        cmd.args(["worker", "--coordinator", &url, "--cache-dir"])
             .arg(&cache)
             .env("FMUCAL_WORKER_TOKEN", &worker_token)
             .env_remove("FMUCAL_TOKEN")
             .env("HOSTNAME", format!("local{k}"))
             .stdin(std::process::Stdio::null())
             .stdout(std::process::Stdio::null())
-            .kill_on_drop(true)
-            .spawn()
+            .kill_on_drop(true);
+        // Workers die with this process, also when it is killed with SIGKILL.
+        super::run_dir::die_with_parent(&mut cmd);
+        cmd.spawn()
     };
     let mut children =
         (0..workers).map(&spawn).collect::<std::io::Result<Vec<_>>>().context("cannot start worker processes")?;

@@ -11,6 +11,7 @@ mod local_cluster;
 mod metrics_http;
 mod model_arg;
 mod outputs;
+mod run_dir;
 mod servers;
 mod simulate;
 mod tls;
@@ -134,7 +135,12 @@ pub fn main() -> ExitCode {
             ExitCode::from(130)
         }
         Err(e) => {
-            let line = format!("{e:#}").replace('\n', " ");
+            // What the error quotes may come from a job file: bounded and escaped as a whole
+            // too, so a long or hostile value the message did not quote itself stays harmless.
+            let line = fmucal_shared::quote::escape_user_text(
+                &format!("{e:#}").replace('\n', " "),
+                fmucal_shared::quote::MAX_ERROR_LINE_CHARS,
+            );
             if JSON_LOGS.load(Ordering::Relaxed) {
                 tracing::error!("{line}");
             } else {

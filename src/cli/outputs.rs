@@ -11,6 +11,39 @@ use fmucal_shared::job::{CalibrationResult, FitTable};
 
 const KINDS: [&str; 3] = ["measured", "nominal", "optimized"];
 
+/// An output folder (`--out`) made for a run: if the run ends without writing anything into
+/// it, the folders it made are removed again, so a failed job leaves no empty folder behind
+/// (a folder that existed before is left as it was, and so is one with anything in it).
+pub struct OutDir {
+    /// The folders this run made, the deepest first.
+    made: Vec<std::path::PathBuf>,
+}
+
+impl OutDir {
+    /// Makes `path` and any missing parents.
+    ///
+    /// # Errors
+    /// If the folder cannot be made; the error names it.
+    pub fn create(path: &Path) -> Result<OutDir> {
+        let made: Vec<std::path::PathBuf> =
+            path.ancestors().take_while(|a| !a.as_os_str().is_empty() && !a.exists()).map(Path::to_owned).collect();
+        let dir = OutDir { made };
+        std::fs::create_dir_all(path).with_context(|| format!("--out: cannot create {}", path.display()))?;
+        Ok(dir)
+    }
+}
+
+impl Drop for OutDir {
+    fn drop(&mut self) {
+        // `remove_dir` removes only empty folders: whatever the run wrote stays.
+        for dir in &self.made {
+            if std::fs::remove_dir(dir).is_err() {
+                break;
+            }
+        }
+    }
+}
+
 /// Writes `fit.csv`, `result.json` and `convergence.csv` into `dir`.
 pub fn write(dir: &Path, result: &CalibrationResult, fit: &FitTable) -> Result<()> {
     write_fit(dir, fit)?;

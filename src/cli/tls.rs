@@ -149,7 +149,36 @@ pub fn make_certificates(hosts: &[String]) -> Result<(String, (String, String), 
     Ok((ca_pem, coordinator, client))
 }
 
+/// Checks a `--host` of `fmucal certs`: an IP address, or a DNS name of at most 253
+/// characters in dot-separated labels of 1 to 63 letters, digits and hyphens (not at either
+/// end of a label), the first label optionally `*`.
+///
+/// # Errors
+/// In one line naming `--host` and quoting the name.
+pub fn check_host(host: &str) -> Result<()> {
+    if host.parse::<std::net::IpAddr>().is_ok() {
+        return Ok(());
+    }
+    let label_ok = |(k, l): (usize, &str)| {
+        (k == 0 && l == "*")
+            || (!l.is_empty()
+                && l.len() <= 63
+                && l.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-')
+                && !l.starts_with('-')
+                && !l.ends_with('-'))
+    };
+    anyhow::ensure!(
+        !host.is_empty() && host.len() <= 253 && host.split('.').enumerate().all(label_ok),
+        "--host: {} is not an IP address or a DNS name (labels of letters, digits and '-', at most 63 characters each and 253 in all)",
+        fmucal_shared::quote::quote_user_text(host)
+    );
+    Ok(())
+}
+
 pub fn certs(args: CertsArgs) -> Result<()> {
+    for host in &args.host {
+        check_host(host)?;
+    }
     let present = FILES.iter().filter(|f| args.out.join(f).is_file()).count();
     if args.keep && present == FILES.len() {
         eprintln!("kept the certificates in {}", args.out.display());

@@ -114,6 +114,14 @@ def test_csv_cells_read_as_the_cli_reads_them(tmp_path: Path) -> None:
     assert z == [0.5, 20.0, -math.inf]
 
 
+def test_a_csv_with_a_byte_order_mark_reads_as_the_cli_reads_it(tmp_path: Path) -> None:
+    path = tmp_path / "d.csv"
+    path.write_bytes(b"\xef\xbb\xbftime,y\n0,1.5\n1,2.5\n")
+    table = read_table(path, "time")
+    assert table.time == [0.0, 1.0]
+    assert table.columns == [("y", [1.5, 2.5])]
+
+
 def test_relative_paths_are_resolved_against_the_job_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     job = write_job(tmp_path)
     monkeypatch.chdir("/")

@@ -66,6 +66,36 @@ pub enum ArchiveError {
     TooLarge { path: PathBuf, what: String },
     #[error("{path} has no modelDescription.xml at its top level")]
     NoModelDescription { path: PathBuf },
+    /// A directory, a device, a FIFO or a socket given where an archive file is read.
+    #[error("{path} is {kind}, not a regular file")]
+    NotAFile { path: PathBuf, kind: &'static str },
+}
+
+/// What a path that is not a regular file is, for an error (`a directory`, `a FIFO`, ...);
+/// `None` for a regular file. Symbolic links are followed by the `metadata` given.
+pub fn non_regular_kind(meta: &fs::Metadata) -> Option<&'static str> {
+    let t = meta.file_type();
+    if t.is_file() {
+        return None;
+    }
+    if t.is_dir() {
+        return Some("a directory");
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        for (is, kind) in [
+            (t.is_fifo(), "a FIFO"),
+            (t.is_char_device(), "a character device"),
+            (t.is_block_device(), "a block device"),
+            (t.is_socket(), "a socket"),
+        ] {
+            if is {
+                return Some(kind);
+            }
+        }
+    }
+    Some("a special file")
 }
 
 /// An archive unpacked into the cache.
@@ -103,7 +133,11 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 /// [`ArchiveError`] for unreadable or corrupt archives, unsafe entries, and archives over the limits.
 pub fn unpack(path: &Path, cache_dir: &Path, limits: &ArchiveLimits) -> Result<Unpacked, ArchiveError> {
     let io = |source| ArchiveError::Io { path: path.to_owned(), source };
-    let len = fs::metadata(path).map_err(io)?.len();
+    let meta = fs::metadata(path).map_err(io)?;
+    if let Some(kind) = non_regular_kind(&meta) {
+        return Err(ArchiveError::NotAFile { path: path.to_owned(), kind });
+    }
+    let len = meta.len();
     if len > limits.max_archive_bytes {
         return Err(ArchiveError::TooLarge {
             path: path.to_owned(),
@@ -113,7 +147,7 @@ pub fn unpack(path: &Path, cache_dir: &Path, limits: &ArchiveLimits) -> Result<U
     // Read from the file, never held whole in memory (an upload may be a gigabyte).
     let mut file = fs::File::open(path).map_err(io)?;
     let mut hasher = Sha256::new();
-    std::io::copy(&mut file, &mut hasher).map_err(io)?;
+    std::io::copy(&mut std::io::Read::take(&mut file, limits.max_archive_bytes), &mut hasher).map_err(io)?;
     let sha256: String = hasher.finalize().iter().map(|b| format!("{b:02x}")).collect();
     std::io::Seek::rewind(&mut file).map_err(io)?;
     let dir = cache_dir.join(&sha256);

@@ -2,17 +2,19 @@
 //! 2.0 and 3.0 FMUs. [`archive`] unpacks the zip safely, [`schema`] reads
 //! `modelDescription.xml` of any version into one [`ModelDescription`], [`ffi`] loads the
 //! platform binary and holds every `unsafe` call behind one instance trait ([`ffi::FmiCalls`]),
-//! [`log`] takes what an instance logs, and [`instance`] wraps one live FMU instance with `Drop`
-//! and `reset()`.
+//! [`log`] takes what an instance logs, [`instance`] wraps one live FMU instance with `Drop`
+//! and `reset()`, and [`quote`] bounds and escapes the user text an error quotes (every crate
+//! above uses it).
 
 #![deny(unsafe_code)]
 
 pub mod archive;
-// Every `unsafe` block of the project is in this module.
+// Every `unsafe` block of the libraries is in this module.
 #[allow(unsafe_code)]
 pub mod ffi;
 pub mod instance;
 pub mod log;
+pub mod quote;
 pub mod schema;
 
 use std::path::{Path, PathBuf};

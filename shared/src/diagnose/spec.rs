@@ -30,6 +30,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::job::JobError;
+use crate::quote::quote_user_text;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -159,7 +160,7 @@ impl DiagnoseSpec {
                 return bad(&field("port"), "is empty".into());
             }
             if self.ports[..k].iter().any(|q| q.port == p.port) {
-                return bad(&field("port"), format!("{:?} is listed twice", p.port));
+                return bad(&field("port"), format!("{} is listed twice", quote_user_text(&p.port)));
             }
             let (wrong, needed): (&[(&str, &Vec<String>)], &str) = match p.domain {
                 PortDomain::Mechanical => (&[("temperatures", &p.temperatures)], "velocities or positions"),
@@ -169,10 +170,22 @@ impl DiagnoseSpec {
                 return bad(&field(name), format!("a {:?} port takes no {name}", p.domain).to_lowercase());
             }
             if p.signals().next().is_none() {
-                return bad(&field("domain"), format!("port {:?} lists no {needed}", p.port));
+                return bad(&field("domain"), format!("port {} lists no {needed}", quote_user_text(&p.port)));
             }
             if let Some((f, _)) = p.signals().find(|(_, s)| s.trim().is_empty()) {
                 return bad(&field(&f), "is empty".into());
+            }
+            if let Some((f, _)) = p.signals().find(|(_, s)| *s == p.port) {
+                return bad(
+                    &field(&f),
+                    format!(
+                        "{} is the port itself: an effect on a port depends on another signal",
+                        quote_user_text(&p.port)
+                    ),
+                );
+            }
+            if p.domain == PortDomain::Mechanical && p.ambient.is_some() {
+                return bad(&field("ambient"), "a mechanical port takes no ambient temperature".into());
             }
             if let Some(s) = p.scale
                 && !(s > 0.0 && s.is_finite())
@@ -228,6 +241,15 @@ mod tests {
             (
                 &format!("{port}velocities = [\"v\"]\n{port}positions = [\"x\"]"),
                 "diagnose.ports[1].port: \"p\" is listed twice",
+            ),
+            (
+                &format!("{port}velocities = [\"v\", \"p\"]"),
+                "diagnose.ports[0].velocities[1]: \"p\" is the port itself",
+            ),
+            (&format!("{port}positions = [\"p\"]"), "diagnose.ports[0].positions[0]: \"p\" is the port itself"),
+            (
+                &format!("{port}velocities = [\"v\"]\nambient = 300.0"),
+                "diagnose.ports[0].ambient: a mechanical port takes no ambient temperature",
             ),
         ] {
             let e = spec(text).unwrap_err();

@@ -9,6 +9,7 @@ use std::str::FromStr;
 use serde::{Deserialize, Serialize};
 
 use crate::fmu::Interface;
+use crate::quote::quote_user_text;
 
 /// What a job does with its parameter points.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -61,7 +62,10 @@ impl FromStr for Algorithm {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         Self::NAMES.iter().find(|(_, n)| *n == s).map(|(a, _)| *a).ok_or_else(|| {
-            format!("{s:?} is not nelder-mead, differential-evolution, genetic, cma-es or least-squares")
+            format!(
+                "{} is not nelder-mead, differential-evolution, genetic, cma-es or least-squares",
+                quote_user_text(s)
+            )
         })
     }
 }
@@ -90,7 +94,7 @@ impl FromStr for Scale {
         match s {
             "linear" => Ok(Scale::Linear),
             "log" => Ok(Scale::Log),
-            other => Err(format!("{other:?} is not linear or log")),
+            other => Err(format!("{} is not linear or log", quote_user_text(other))),
         }
     }
 }
@@ -118,7 +122,7 @@ impl FromStr for ExperimentRole {
         match s {
             "fit" => Ok(ExperimentRole::Fit),
             "validation" => Ok(ExperimentRole::Validation),
-            other => Err(format!("{other:?} is not fit or validation")),
+            other => Err(format!("{} is not fit or validation", quote_user_text(other))),
         }
     }
 }
@@ -139,7 +143,7 @@ pub fn parse_interface(s: &str) -> Result<Interface, String> {
     match s {
         "me" => Ok(Interface::ModelExchange),
         "cs" => Ok(Interface::CoSimulation),
-        other => Err(format!("{other:?} is not me or cs")),
+        other => Err(format!("{} is not me or cs", quote_user_text(other))),
     }
 }
 

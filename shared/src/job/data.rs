@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use super::JobError;
+use crate::quote::quote_user_text;
 use crate::series::{self, Layout, Missing, SeriesError, TimeColumn, TimeFault, TimeSeries};
 
 /// Measured signals; NaN marks a missing value. The name the job's users (the gRPC conversion,
@@ -19,7 +20,7 @@ impl TimeSeries {
     /// [`JobError::Read`] for unreadable files, a missing time column or non-numeric cells.
     pub fn read(path: &Path, time_column: &str) -> Result<Self, JobError> {
         let layout = Layout { time: TimeColumn::Named(time_column), missing: Missing::Allowed };
-        series::read(path, &layout).map_err(read_error)
+        series::read_capped(path, &layout, super::limits::MAX_DATA_FILE_BYTES).map_err(read_error)
     }
 
     /// Checks the time column and the named columns: no more than the caps
@@ -27,9 +28,13 @@ impl TimeSeries {
     /// matching, and every value finite or missing (NaN).
     ///
     /// # Errors
-    /// [`JobError::Invalid`] with field `data`, `data.time` or `data.columns[NAME]`.
+    /// [`JobError::Invalid`] with field `data`, `data.time`, `data.columns` (a name given twice)
+    /// or `data.columns[NAME]`.
     pub fn validate_measurements(&self, used: &[&str]) -> Result<(), JobError> {
         super::limits::check_table("data", self.time.len(), self.columns.len())?;
+        if let Some(name) = self.duplicate_column() {
+            return Err(JobError::invalid("data.columns", format!("column {} appears twice", quote_user_text(name))));
+        }
         self.check_time().map_err(|fault| match fault {
             TimeFault::NoRows => JobError::invalid("data", "no rows"),
             _ => JobError::invalid("data.time", fault.to_string()),
@@ -62,8 +67,9 @@ impl TimeSeries {
 /// file; experiments that share the job's file share one read.
 ///
 /// # Errors
-/// [`JobError::Invalid`] naming `data` (or `experiments[K].data`) when there is no path, else as
-/// [`TimeSeries::read`].
+/// [`JobError::Invalid`] naming `data` (or `experiments[K].data`) when there is no path, and
+/// `data.path` when it is not a regular file or is over [`super::limits::MAX_DATA_FILE_BYTES`];
+/// else as [`TimeSeries::read`].
 pub fn read_all(spec: &super::JobSpec) -> Result<Vec<MeasurementTable>, JobError> {
     let mut read: Vec<(std::path::PathBuf, String, MeasurementTable)> = vec![];
     let mut out = vec![];
@@ -75,6 +81,8 @@ pub fn read_all(spec: &super::JobSpec) -> Result<Vec<MeasurementTable>, JobError
         let table = match read.iter().find(|(p, c, _)| *p == path && *c == d.time_column) {
             Some((_, _, t)) => t.clone(),
             None => {
+                let field = format!("{}data.path", view.field_prefix);
+                super::limits::check_regular_file(&field, &path, super::limits::MAX_DATA_FILE_BYTES)?;
                 let t = MeasurementTable::read(&path, &d.time_column)?;
                 read.push((path, d.time_column.clone(), t.clone()));
                 t
@@ -123,12 +131,38 @@ mod tests {
     }
 
     #[test]
+    fn data_paths_that_are_not_regular_files_or_too_large_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let job = |path: &str| {
+            let text = crate::job::spec::tests::JOB.replace("path = \"d.csv\"", &format!("path = \"{path}\""));
+            crate::job::JobSpec::from_toml(&text, dir.path()).unwrap()
+        };
+        let e = read_all(&job("/dev/zero")).unwrap_err().to_string();
+        assert_eq!(e, "data.path: \"/dev/zero\" is a character device, not a regular file");
+        let e = read_all(&job(".")).unwrap_err().to_string();
+        assert!(e.starts_with("data.path: ") && e.ends_with("is a directory, not a regular file"), "{e}");
+        std::fs::write(dir.path().join("d.csv"), "time,y\n0,1\n").unwrap();
+        assert_eq!(read_all(&job("d.csv")).unwrap()[0].time, [0.0]);
+        let e = super::super::limits::check_regular_file("data.path", &dir.path().join("d.csv"), 5).unwrap_err();
+        assert!(e.to_string().ends_with("d.csv\" is 11 bytes, which exceeds the cap of 5"), "{e}");
+    }
+
+    #[test]
     fn bad_tables_name_the_problem() {
         let t = MeasurementTable { time: vec![0.0, 2.0, 1.0], columns: vec![("y".into(), vec![0.0; 3])] };
         assert!(t.validate_measurements(&["y"]).unwrap_err().to_string().contains("not monotonic"));
         let t = MeasurementTable { time: vec![0.0, 1.0], columns: vec![("y".into(), vec![0.0; 3])] };
         assert!(t.validate_measurements(&["y"]).unwrap_err().to_string().contains("3 values for 2 time stamps"));
         assert!(MeasurementTable::default().validate_measurements(&[]).unwrap_err().to_string().contains("no rows"));
+        // A table built from a request (no CSV header to check) names each column once too.
+        let t = MeasurementTable {
+            time: vec![0.0, 1.0],
+            columns: vec![("y".into(), vec![0.0; 2]), ("z".into(), vec![0.0; 2]), ("y".into(), vec![1.0; 2])],
+        };
+        assert_eq!(
+            t.validate_measurements(&["z"]).unwrap_err().to_string(),
+            "data.columns: column \"y\" appears twice"
+        );
         let t = MeasurementTable { time: vec![0.0, 1.0], columns: vec![("y".into(), vec![0.0, f64::INFINITY])] };
         let e = t.validate_measurements(&["y"]).unwrap_err().to_string();
         assert!(e.starts_with("data.columns[y]: the value at time 1 is inf"), "{e}");

@@ -39,6 +39,7 @@ use serde::{Deserialize, Serialize};
 use super::JobError;
 use super::choices::{ExperimentRole, Scale, text};
 use super::spec::{Bounds, DataRef, InputMap, JobSpec, OutputMap, SetValue};
+use crate::quote::quote_user_text;
 
 /// One `[[experiments]]` entry; unset fields take the job's.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -261,19 +262,23 @@ impl JobSpec {
             if p.per_experiment && self.experiments.is_empty() {
                 return Err(JobError::invalid(
                     format!("parameters[{k}].per_experiment"),
-                    format!("{}: a per-experiment parameter needs [[experiments]]", p.name),
+                    format!("{}: a per-experiment parameter needs [[experiments]]", quote_user_text(&p.name)),
                 ));
             }
             if p.scale == Scale::Log && !(p.lower > 0.0) {
                 return Err(JobError::invalid(
                     format!("parameters[{k}].lower"),
-                    format!("{}: scale = \"log\" needs a positive lower bound, got {}", p.name, p.lower),
+                    format!(
+                        "{}: scale = \"log\" needs a positive lower bound, got {}",
+                        quote_user_text(&p.name),
+                        p.lower
+                    ),
                 ));
             }
             if p.scale == Scale::Log && p.upper == f64::INFINITY {
                 return Err(JobError::invalid(
                     format!("parameters[{k}].upper"),
-                    format!("{}: scale = \"log\" needs a finite upper bound", p.name),
+                    format!("{}: scale = \"log\" needs a finite upper bound", quote_user_text(&p.name)),
                 ));
             }
         }
@@ -288,11 +293,14 @@ impl JobSpec {
             if !valid_name(&e.name) {
                 return Err(JobError::invalid(
                     field("name"),
-                    format!("{:?}: use 1 to 64 letters, digits, '_' or '-' (it names a folder of the results)", e.name),
+                    format!(
+                        "{}: use 1 to 64 letters, digits, '_' or '-' (it names a folder of the results)",
+                        quote_user_text(&e.name)
+                    ),
                 ));
             }
             if self.experiments[..k].iter().any(|o| o.name == e.name) {
-                return Err(JobError::invalid(field("name"), format!("{:?} appears twice", e.name)));
+                return Err(JobError::invalid(field("name"), format!("{} appears twice", quote_user_text(&e.name))));
             }
             for (name, start) in &e.starts {
                 let Some(p) = self.parameters.iter().find(|p| &p.name == name && p.per_experiment) else {
@@ -316,6 +324,7 @@ impl JobSpec {
         }
         for view in self.experiment_views() {
             view.spec.validate_mapping().map_err(|e| prefixed(&view.field_prefix, e))?;
+            view.spec.simulation.check_times().map_err(|e| prefixed(&view.field_prefix, e))?;
         }
         Ok(())
     }

@@ -36,6 +36,15 @@ pub const MAX_ROUND_VALUES: usize = 10_000_000;
 /// measured values of its fitted experiments), 80 MB of numbers.
 pub const MAX_KEPT_RESIDUALS: usize = 10_000_000;
 
+/// Worker processes of a local run (`--workers`, `[workers] count`): each is a process with
+/// its own FMU instances, and far more than the machine's cores only adds memory and start-up
+/// time.
+pub const MAX_WORKERS: usize = 256;
+/// Bytes read from one measurement file (CSV or `.mat`), checked before it is read.
+pub const MAX_DATA_FILE_BYTES: u64 = crate::series::MAX_FILE_BYTES;
+/// Bytes of a job file and of the `result.json` its `set_from` names.
+pub const MAX_JOB_FILE_BYTES: u64 = 64 << 20;
+
 fn over(field: &str, what: &str, n: impl std::fmt::Display, cap: impl std::fmt::Display) -> JobError {
     JobError::invalid(field, format!("{n} {what} exceeds the cap of {cap}"))
 }
@@ -137,6 +146,27 @@ fn check_optimizer(spec: &JobSpec) -> Result<(), JobError> {
         return Err(over("optimizer.max_fevals", "evaluations", n, MAX_FEVALS));
     }
     Ok(())
+}
+
+/// Checks that `path`, given in `field` (`data.path`, `model.path`), is a regular file
+/// (a symbolic link to one is fine) of at most `max_bytes` bytes, and returns its size.
+///
+/// # Errors
+/// [`JobError::Invalid`] naming the field and the path: missing, unreadable, a directory, a
+/// device or a FIFO (`/dev/zero` never ends), or larger than the cap.
+pub fn check_regular_file(field: &str, path: &std::path::Path, max_bytes: u64) -> Result<u64, JobError> {
+    let shown = crate::quote::quote_user_text(&path.to_string_lossy());
+    let meta = std::fs::metadata(path).map_err(|e| JobError::invalid(field, format!("{shown}: {e}")))?;
+    if let Some(kind) = crate::fmu::archive::non_regular_kind(&meta) {
+        return Err(JobError::invalid(field, format!("{shown} is {kind}, not a regular file")));
+    }
+    if meta.len() > max_bytes {
+        return Err(JobError::invalid(
+            field,
+            format!("{shown} is {} bytes, which exceeds the cap of {max_bytes}", meta.len()),
+        ));
+    }
+    Ok(meta.len())
 }
 
 /// Checks the residuals an evaluate-points job of `points` points keeps, `per_point` each.

@@ -15,6 +15,7 @@ use super::{JobError, JobKind, limits};
 use crate::diagnose::effects;
 use crate::fmu::schema::{Causality, VarType};
 use crate::fmu::{Interface, ModelDescription};
+use crate::quote::quote_user_text;
 use crate::sim::plan::Plan;
 use crate::sim::{InputTable, OutputTimes, PortTerm, SimResult, SimSpec};
 
@@ -208,7 +209,10 @@ impl PreparedExperiment {
         }
         for name in spec.simulation.set.keys() {
             if spec.parameters.iter().any(|p| &p.name == name) {
-                return Err(JobError::invalid(format!("simulation.set.{name}"), "is also a calibrated parameter"));
+                return Err(JobError::invalid(
+                    "simulation.set",
+                    format!("{} is also a calibrated parameter", quote_user_text(name)),
+                ));
             }
         }
         let template = SimSpec {
@@ -331,6 +335,7 @@ fn objective_of(spec: &JobSpec, data: &MeasurementTable) -> Result<(Objective, O
     if !(stop > start) {
         return Err(JobError::invalid("simulation.stop_time", format!("{stop} is not after the start time {start}")));
     }
+    spec.simulation.check_validation_stop(stop)?;
     let tol = 1e-12 * stop.abs().max(start.abs()).max(1.0);
     let mut times: Vec<f64> = vec![];
     let mut groups: Vec<(usize, usize)> = vec![];

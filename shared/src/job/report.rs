@@ -79,6 +79,10 @@ pub fn error_report(
                 continue;
             }
             counts[w] += 1;
+            if target.weight == 0.0 {
+                // Adds nothing, even where the error overflows (0 × inf would be NaN).
+                continue;
+            }
             for (k, model) in [&columns.nominal, &columns.optimized].into_iter().enumerate() {
                 sums[w][k] += target.weight * (model[i].unwrap_or(f64::NAN) - m).powi(2);
             }
@@ -149,6 +153,7 @@ fn compare_with(
         Some(stop) => {
             let mut s = e.spec.clone();
             s.simulation.stop_time = Some(stop);
+            s.simulation.validation_stop_time = None;
             Arc::new(job.with_experiment(experiment, e.with_spec(s, md, &interfaces, data, &x0)?))
         }
         None => job.clone(),

@@ -69,6 +69,9 @@ pub struct JobRun {
     /// Why the start point failed, if it did.
     #[serde(default)]
     start_error: Option<String>,
+    /// Evaluations whose objective was not finite (the squared errors overflowed).
+    #[serde(default)]
+    overflowed: u64,
 }
 
 fn one_experiment() -> Vec<usize> {
@@ -96,6 +99,7 @@ impl JobRun {
             start: if job.spec.kind.wants_residuals() { vec![] } else { job.spec.parameter_vectors().1 },
             first_error: None,
             start_error: None,
+            overflowed: 0,
         })
     }
 
@@ -188,6 +192,9 @@ impl JobRun {
         } else {
             self.optimizer.tell(id, evaluation.value.map_or(Outcome::Failed, Outcome::Value))?;
         }
+        if evaluation.value.is_some_and(|f| !f.is_finite()) {
+            self.overflowed += 1;
+        }
         if evaluation.value.is_none() {
             self.failed_evaluations += 1;
             tracing::debug!(?x, error = ?evaluation.error, "evaluation failed");
@@ -233,8 +240,22 @@ impl JobRun {
         if self.start.is_empty() || !self.is_done() || self.optimizer.best().is_some() {
             return None;
         }
-        let first = self.first_error.as_deref().unwrap_or("none was evaluated");
-        Some(format!("no evaluation succeeded; the first error: {first}"))
+        let overflowed = (self.overflowed > 0).then(|| {
+            format!(
+                "{} evaluated points gave an objective that overflowed (f = inf: the squared errors exceed \
+                 the largest number; the measurements or the model's outputs are too large, scale them)",
+                self.overflowed
+            )
+        });
+        Some(match (overflowed, self.first_error.as_deref()) {
+            (Some(o), None) => format!("no evaluation gave a finite objective: {o}"),
+            (Some(o), Some(first)) => {
+                format!("no evaluation gave a finite objective: {o}; the others failed, the first with: {first}")
+            }
+            (None, first) => {
+                format!("no evaluation succeeded; the first error: {}", first.unwrap_or("none was evaluated"))
+            }
+        })
     }
 
     /// Whether the optimizer has stopped.

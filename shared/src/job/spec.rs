@@ -46,7 +46,7 @@
 //! seed = 0
 //!
 //! [workers]
-//! count = 2                  # local runs; default: number of cores
+//! count = 2                  # local runs, 1 to 256; default: number of cores
 //!
 //! [diagnose]                 # what `fmucal diagnose` may try: see crate::diagnose::spec
 //!
@@ -63,6 +63,7 @@ use super::experiments::ExperimentSpec;
 use crate::diagnose::effects::{self, Domain};
 use crate::diagnose::spec::DiagnoseSpec;
 use crate::fmu::Interface;
+use crate::quote::quote_user_text;
 use crate::sim::Solver;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -267,6 +268,49 @@ pub struct SimulationSpec {
     pub fixed_from_earlier_stage: Vec<String>,
 }
 
+impl SimulationSpec {
+    /// The window times given: numbers, and a validation window that ends after the
+    /// calibration window when both ends are given ([`Self::check_validation_stop`] checks it
+    /// again once the data give the default stop time).
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] naming `simulation.start_time`, `simulation.stop_time` or
+    /// `simulation.validation_stop_time`.
+    pub fn check_times(&self) -> Result<(), JobError> {
+        for (field, value) in [
+            ("simulation.start_time", self.start_time),
+            ("simulation.stop_time", self.stop_time),
+            ("simulation.validation_stop_time", self.validation_stop_time),
+        ] {
+            if let Some(v) = value
+                && !v.is_finite()
+            {
+                return Err(JobError::invalid(field, format!("{v} is not a finite time")));
+            }
+        }
+        match self.stop_time {
+            Some(stop) => self.check_validation_stop(stop),
+            None => Ok(()),
+        }
+    }
+
+    /// The one check of the validation window, for every command and the protocol alike: it
+    /// ends at a finite time after `stop`, the end of the calibration window (the job's
+    /// `stop_time`, else its data's last time).
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] naming `simulation.validation_stop_time`.
+    pub fn check_validation_stop(&self, stop: f64) -> Result<(), JobError> {
+        match self.validation_stop_time {
+            Some(v) if !(v.is_finite() && v > stop) => Err(JobError::invalid(
+                "simulation.validation_stop_time",
+                format!("{v} is not a finite time after the calibration stop time {stop}"),
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
 /// A fixed value in `[simulation] set`: a number, a boolean or text (enumeration item names).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
@@ -358,7 +402,8 @@ impl Default for OptimizerSpec {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WorkersSpec {
-    /// Worker processes for local runs. Default: the number of cores.
+    /// Worker processes for local runs, 1 to [`super::limits::MAX_WORKERS`]. Default: the
+    /// number of cores.
     pub count: Option<usize>,
 }
 
@@ -394,8 +439,11 @@ impl JobSpec {
     /// Reads a TOML job file.
     ///
     /// # Errors
-    /// [`JobError::Read`] if the file cannot be read, else as [`JobSpec::from_toml`].
+    /// [`JobError::Invalid`] naming `job file` or `simulation.set_from` for a path that is not
+    /// a regular file or is over [`super::limits::MAX_JOB_FILE_BYTES`], [`JobError::Read`] if
+    /// the file cannot be read, else as [`JobSpec::from_toml`].
     pub fn from_toml_file(path: &Path) -> Result<JobSpec, JobError> {
+        super::limits::check_regular_file("job file", path, super::limits::MAX_JOB_FILE_BYTES)?;
         let text = std::fs::read_to_string(path)
             .map_err(|e| JobError::Read { path: path.display().to_string(), message: e.to_string() })?;
         let base = path.parent().unwrap_or(Path::new("."));
@@ -403,6 +451,7 @@ impl JobSpec {
         if let Some(from) = spec.simulation.set_from.take() {
             let from = if from.is_relative() { base.join(from) } else { from };
             let read = |m: String| JobError::Read { path: from.display().to_string(), message: m };
+            super::limits::check_regular_file("simulation.set_from", &from, super::limits::MAX_JOB_FILE_BYTES)?;
             let text = std::fs::read_to_string(&from).map_err(|e| read(e.to_string()))?;
             let result: super::CalibrationResult = serde_json::from_str(&text).map_err(|e| read(e.to_string()))?;
             for (name, v) in result.x_opt {
@@ -435,13 +484,14 @@ impl JobSpec {
                 return Err(JobError::invalid(f("name"), "is empty"));
             }
             if !names.insert(p.name.as_str()) {
-                return Err(JobError::invalid(f("name"), format!("{:?} appears twice", p.name)));
+                return Err(JobError::invalid(f("name"), format!("{} appears twice", quote_user_text(&p.name))));
             }
-            check_bounds(p.lower, p.upper).map_err(|m| JobError::invalid(f("lower"), format!("{}: {m}", p.name)))?;
+            check_bounds(p.lower, p.upper)
+                .map_err(|m| JobError::invalid(f("lower"), format!("{}: {m}", quote_user_text(&p.name))))?;
             if !(p.start.is_finite() && p.start >= p.lower && p.start <= p.upper) {
                 return Err(JobError::invalid(
                     f("start"),
-                    format!("{}: start {} is outside [{}, {}]", p.name, p.start, p.lower, p.upper),
+                    format!("{}: start {} is outside [{}, {}]", quote_user_text(&p.name), p.start, p.lower, p.upper),
                 ));
             }
         }
@@ -459,7 +509,9 @@ impl JobSpec {
         Ok(())
     }
 
-    /// The simulation's own settings: a tolerance an integrator can meet.
+    /// The simulation's own settings: a tolerance an integrator can meet, finite window times
+    /// (a validation window after the calibration window), and a local worker count within
+    /// [`super::limits::MAX_WORKERS`].
     ///
     /// # Errors
     /// [`JobError::Invalid`] naming the field.
@@ -474,11 +526,26 @@ impl JobSpec {
                 ),
             ));
         }
+        if self.experiments.is_empty() {
+            self.simulation.check_times()?;
+        }
+        if let Some(n) = self.workers.count
+            && !(1..=super::limits::MAX_WORKERS).contains(&n)
+        {
+            return Err(JobError::invalid(
+                "workers.count",
+                format!(
+                    "{n} is not in 1..={}: give at least one worker, and no more than the cap",
+                    super::limits::MAX_WORKERS
+                ),
+            ));
+        }
         Ok(())
     }
 
-    /// One experiment's mapping: outputs present with valid weights, and the outputs and inputs
-    /// the sensor and actuator effects name among them.
+    /// One experiment's mapping: outputs present with valid weights and none given twice, each
+    /// FMU input fed by one column, and the outputs and inputs the sensor and actuator effects
+    /// name among them.
     ///
     /// # Errors
     /// [`JobError::Invalid`] naming the field.
@@ -486,11 +553,34 @@ impl JobSpec {
         if self.outputs.is_empty() {
             return Err(JobError::invalid("outputs", "at least one output is needed"));
         }
+        let mut outputs = std::collections::HashMap::with_capacity(self.outputs.len());
         for (k, o) in self.outputs.iter().enumerate() {
             if !(o.weight >= 0.0 && o.weight.is_finite()) {
                 return Err(JobError::invalid(
                     format!("outputs[{k}].weight"),
                     format!("{} must be a non-negative number", o.weight),
+                ));
+            }
+            if let Some(j) = outputs.insert((o.variable.as_str(), o.column.as_str()), k) {
+                return Err(JobError::invalid(
+                    format!("outputs[{k}]"),
+                    format!(
+                        "{} against column {} is the same as outputs[{j}]: it would count twice",
+                        quote_user_text(&o.variable),
+                        quote_user_text(&o.column)
+                    ),
+                ));
+            }
+        }
+        let mut inputs = std::collections::HashMap::with_capacity(self.inputs.len());
+        for (k, i) in self.inputs.iter().enumerate() {
+            if let Some(j) = inputs.insert(i.variable.as_str(), k) {
+                return Err(JobError::invalid(
+                    format!("inputs[{k}].variable"),
+                    format!(
+                        "{} is already mapped by inputs[{j}]: an FMU input takes one column",
+                        quote_user_text(&i.variable)
+                    ),
                 ));
             }
         }
@@ -499,12 +589,18 @@ impl JobSpec {
             if let Some(out) = &e.output
                 && !self.outputs.iter().any(|o| &o.variable == out)
             {
-                return Err(JobError::invalid(field("output"), format!("{out:?} is not one of the job's [[outputs]]")));
+                return Err(JobError::invalid(
+                    field("output"),
+                    format!("{} is not one of the job's [[outputs]]", quote_user_text(out)),
+                ));
             }
             if let Some(input) = &e.input
                 && !self.inputs.iter().any(|i| &i.variable == input)
             {
-                return Err(JobError::invalid(field("input"), format!("{input:?} is not one of the job's [[inputs]]")));
+                return Err(JobError::invalid(
+                    field("input"),
+                    format!("{} is not one of the job's [[inputs]]", quote_user_text(input)),
+                ));
             }
         }
         Ok(())
@@ -541,6 +637,17 @@ impl JobSpec {
             if value.is_some() && !needed.iter().any(|(n, _)| *n == name) {
                 return Err(JobError::invalid(field(name), format!("{} takes no {name}", e.kind)));
             }
+        }
+        if let (Some(port), Some(signal)) = (&e.port, &e.signal)
+            && port == signal
+        {
+            return Err(JobError::invalid(
+                field("signal"),
+                format!(
+                    "{} is the port itself: an effect on a port depends on another signal",
+                    quote_user_text(signal)
+                ),
+            ));
         }
         Ok(())
     }
@@ -635,7 +742,7 @@ upper = 2.0
             JobSpec::from_toml(&JOB.replace(from, to), Path::new(".")).unwrap().validate().map_err(|e| e.to_string())
         };
         let e = check("lower = 0.0\nupper = 2.0", "lower = -1e308\nupper = 1e308").unwrap_err();
-        assert!(e.starts_with("parameters[0].lower: k: the bounds [-1e308, 1e308] are too far apart"), "{e}");
+        assert!(e.starts_with("parameters[0].lower: \"k\": the bounds [-1e308, 1e308] are too far apart"), "{e}");
         check("lower = 0.0\nupper = 2.0", "lower = -inf\nupper = inf").unwrap();
         let e = check("[data]", "[simulation]\ntolerance = 1e-300\n[data]").unwrap_err();
         assert!(e.starts_with("simulation.tolerance: 1e-300 is not in [1e-14, 1)"), "{e}");
@@ -643,6 +750,49 @@ upper = 2.0
         let twice = format!("{JOB}[[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n");
         let e = JobSpec::from_toml(&twice, Path::new(".")).unwrap().validate().unwrap_err().to_string();
         assert_eq!(e, "parameters[1].name: \"k\" appears twice");
+    }
+
+    #[test]
+    fn careless_mappings_windows_and_worker_counts_name_the_field() {
+        let check = |extra: &str| {
+            JobSpec::from_toml(&format!("{JOB}{extra}"), Path::new(".")).unwrap().validate().map_err(|e| e.to_string())
+        };
+        let input = "[[inputs]]\ncolumn = \"u\"\nvariable = \"u\"\n";
+        check(input).unwrap();
+        let e = check(&format!("{input}[[inputs]]\ncolumn = \"v\"\nvariable = \"u\"\n")).unwrap_err();
+        assert_eq!(e, "inputs[1].variable: \"u\" is already mapped by inputs[0]: an FMU input takes one column");
+        let e = check("[[outputs]]\nvariable = \"y\"\ncolumn = \"y\"\nweight = 2.0\n").unwrap_err();
+        assert!(e.starts_with("outputs[1]: \"y\" against column \"y\" is the same as outputs[0]"), "{e}");
+        check("[[outputs]]\nvariable = \"y\"\ncolumn = \"y2\"\n").unwrap();
+        for (count, ok) in [("0", false), ("1", true), ("256", true), ("257", false), ("1000000", false)] {
+            let r = check(&format!("[workers]\ncount = {count}\n"));
+            assert_eq!(r.is_ok(), ok, "{count}: {r:?}");
+            if let Err(e) = r {
+                assert!(e.starts_with(&format!("workers.count: {count} is not in 1..=256")), "{e}");
+            }
+        }
+        for (window, says) in [
+            (
+                "stop_time = 5.0\nvalidation_stop_time = 4.0",
+                "simulation.validation_stop_time: 4 is not a finite time after",
+            ),
+            ("stop_time = 5.0\nvalidation_stop_time = 5.0", "simulation.validation_stop_time: 5 is not"),
+            ("validation_stop_time = nan", "simulation.validation_stop_time: NaN is not a finite time"),
+            ("start_time = nan", "simulation.start_time: NaN is not a finite time"),
+            ("stop_time = inf", "simulation.stop_time: inf is not a finite time"),
+        ] {
+            let e = check(&format!("[simulation]\n{window}\n")).unwrap_err();
+            assert!(e.starts_with(says), "{e}");
+        }
+        check("[simulation]\nstop_time = 5.0\nvalidation_stop_time = 6.0\n").unwrap();
+        let spec = JobSpec::from_toml(&format!("{JOB}[simulation]\nvalidation_stop_time = 3.0\n"), Path::new("."));
+        let sim = spec.unwrap().simulation;
+        sim.check_validation_stop(2.0).unwrap();
+        let e = sim.check_validation_stop(3.0).unwrap_err().to_string();
+        assert_eq!(e, "simulation.validation_stop_time: 3 is not a finite time after the calibration stop time 3");
+        let effect = "[[effects]]\nkind = \"viscous_damping\"\nport = \"tau\"\nsignal = \"tau\"\nparameters = { c = { start = 0.0, lower = 0.0, upper = 1.0 } }\n";
+        let e = check(effect).unwrap_err();
+        assert!(e.starts_with("effects[0].signal: \"tau\" is the port itself"), "{e}");
     }
 
     #[test]

@@ -8,7 +8,9 @@
 mod read;
 mod write;
 
-pub use read::{Layout, Missing, SeriesError, TimeColumn, read, read_csv, read_mat};
+pub use read::{
+    Layout, MAX_FILE_BYTES, Missing, SeriesError, TimeColumn, read, read_capped, read_csv, read_csv_capped, read_mat,
+};
 pub use write::write_csv;
 
 /// Samples of named signals at common time stamps.
@@ -30,7 +32,19 @@ pub enum TimeFault {
     Decreasing { row: usize, t: f64, previous: f64 },
 }
 
+/// The first name that appears twice among `names`: a file's header or a table's columns,
+/// which must name each column once (the one check the CSV reader and the protocol share).
+pub fn first_duplicate<'a>(names: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    let mut seen = std::collections::HashSet::new();
+    names.into_iter().find(|n| !seen.insert(*n))
+}
+
 impl TimeSeries {
+    /// The name of the first column named twice, if any.
+    pub fn duplicate_column(&self) -> Option<&str> {
+        first_duplicate(self.columns.iter().map(|(n, _)| n.as_str()))
+    }
+
     /// The values of the column named `name` (the first, if several are).
     pub fn column(&self, name: &str) -> Option<&[f64]> {
         self.columns.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice())

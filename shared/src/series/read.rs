@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use super::TimeSeries;
+use crate::quote::quote_user_text;
 
 /// Where the time column stands in a CSV file. In a `.mat` file, the variable of that name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -62,9 +63,78 @@ impl SeriesError {
 /// # Errors
 /// See [`read_csv`] and [`read_mat`].
 pub fn read(path: &Path, layout: &Layout) -> Result<TimeSeries, SeriesError> {
-    match path.extension().and_then(|e| e.to_str()) {
-        Some(ext) if ext.eq_ignore_ascii_case("mat") => read_mat(path, layout.time.name()),
-        _ => read_csv(path, layout),
+    read_capped(path, layout, MAX_FILE_BYTES)
+}
+
+/// Bytes a time-series file given on the command line or in a job is read up to
+/// ([`read_capped`]): 4 GiB, past the 10⁸ values a measurement table may hold.
+pub const MAX_FILE_BYTES: u64 = 4 << 30;
+
+/// As [`read`], for a regular file (a device, a FIFO or a folder is refused before it is
+/// opened: `/dev/zero` never ends, and opening a FIFO waits for a writer), reading no more
+/// than `max_bytes` bytes of it: past them, the read fails (also for a file that grows).
+///
+/// # Errors
+/// As [`read`], and a [`SeriesError`] saying what the path is, or the cap when the file holds
+/// more.
+pub fn read_capped(path: &Path, layout: &Layout, max_bytes: u64) -> Result<TimeSeries, SeriesError> {
+    let capped = open_capped(path, max_bytes)?;
+    let mat = path.extension().and_then(|e| e.to_str()).is_some_and(|ext| ext.eq_ignore_ascii_case("mat"));
+    let result = if mat { mat_from(path, capped, layout.time.name()) } else { csv_from(path, capped, layout) };
+    result.map_err(|e| said_cap(path, e, max_bytes))
+}
+
+/// As [`read_capped`], reading CSV whatever the file's name.
+///
+/// # Errors
+/// As [`read_capped`].
+pub fn read_csv_capped(path: &Path, layout: &Layout, max_bytes: u64) -> Result<TimeSeries, SeriesError> {
+    let capped = open_capped(path, max_bytes)?;
+    csv_from(path, capped, layout).map_err(|e| said_cap(path, e, max_bytes))
+}
+
+/// Opens `path` for [`read_capped`]: a regular file, of at most `max_bytes` as far as its size
+/// says, read through a [`Capped`] reader.
+fn open_capped(path: &Path, max_bytes: u64) -> Result<Capped<std::fs::File>, SeriesError> {
+    let meta = std::fs::metadata(path).map_err(|e| SeriesError::new(path, None, e.to_string()))?;
+    if let Some(kind) = crate::fmu::archive::non_regular_kind(&meta) {
+        return Err(SeriesError::new(path, None, format!("it is {kind}, not a regular file")));
+    }
+    let file = std::fs::File::open(path).map_err(|e| SeriesError::new(path, None, e.to_string()))?;
+    if file.metadata().is_ok_and(|m| m.len() > max_bytes) {
+        return Err(SeriesError::new(path, None, format!("{CAPPED} {max_bytes} bytes")));
+    }
+    Ok(Capped { inner: file, left: max_bytes })
+}
+
+/// A reader's error, or the cap when the [`Capped`] reader stopped it.
+fn said_cap(path: &Path, e: SeriesError, max_bytes: u64) -> SeriesError {
+    if e.message.contains(CAPPED) { SeriesError::new(path, None, format!("{CAPPED} {max_bytes} bytes")) } else { e }
+}
+
+/// What a [`Capped`] reader says past its cap.
+const CAPPED: &str = "the file exceeds the cap of";
+
+/// A reader that fails once more than `left` bytes are asked of it.
+struct Capped<R> {
+    inner: R,
+    left: u64,
+}
+
+impl<R: std::io::Read> std::io::Read for Capped<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        if self.left == 0 {
+            // At the cap: fine if the file ends here, an error if it holds more.
+            let mut probe = [0u8; 1];
+            return match self.inner.read(&mut probe)? {
+                0 => Ok(0),
+                _ => Err(std::io::Error::other(CAPPED)),
+            };
+        }
+        let n = buf.len().min(usize::try_from(self.left).unwrap_or(usize::MAX));
+        let got = self.inner.read(&mut buf[..n])?;
+        self.left -= got as u64;
+        Ok(got)
     }
 }
 
@@ -75,17 +145,19 @@ pub fn read(path: &Path, layout: &Layout) -> Result<TimeSeries, SeriesError> {
 /// named twice, a row with too few or too many cells, a cell that is not a number (an empty
 /// one too, unless [`Missing::Allowed`]) or no data rows, naming the line where there is one.
 pub fn read_csv(path: &Path, layout: &Layout) -> Result<TimeSeries, SeriesError> {
-    let mut reader = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .flexible(true)
-        .from_path(path)
-        .map_err(|e| SeriesError::new(path, None, e.to_string()))?;
+    let file = std::fs::File::open(path).map_err(|e| SeriesError::new(path, None, e.to_string()))?;
+    csv_from(path, file, layout)
+}
+
+/// [`read_csv`] from an open reader of `path`.
+fn csv_from(path: &Path, source: impl std::io::Read, layout: &Layout) -> Result<TimeSeries, SeriesError> {
+    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).flexible(true).from_reader(source);
     let header_err = |message: String| SeriesError::new(path, Some(1), message);
     let headers: Vec<String> =
         reader.headers().map_err(|e| header_err(e.to_string()))?.iter().map(str::to_owned).collect();
     let t = time_index(&headers, layout.time).map_err(header_err)?;
-    if let Some(dup) = headers.iter().enumerate().find(|(i, h)| headers[..*i].contains(h)) {
-        return Err(header_err(format!("column {:?} appears twice", dup.1)));
+    if let Some(dup) = super::first_duplicate(headers.iter().map(String::as_str)) {
+        return Err(header_err(format!("column {} appears twice", quote_user_text(dup))));
     }
     let mut values: Vec<Vec<f64>> = vec![vec![]; headers.len()];
     for (row, record) in reader.records().enumerate() {
@@ -93,12 +165,16 @@ pub fn read_csv(path: &Path, layout: &Layout) -> Result<TimeSeries, SeriesError>
         let err = |message: String| SeriesError::new(path, Some(line), message);
         let record = record.map_err(|e| err(e.to_string()))?;
         if record.len() != headers.len() {
-            let missing = headers.get(record.len()).map(|h| format!(", column {h:?} is missing")).unwrap_or_default();
+            let missing = headers
+                .get(record.len())
+                .map(|h| format!(", column {} is missing", quote_user_text(h)))
+                .unwrap_or_default();
             return Err(err(format!("{} cells for {} columns{missing}", record.len(), headers.len())));
         }
         for ((cell, name), column) in record.iter().zip(&headers).zip(&mut values) {
-            let v = parse_cell(cell, layout.missing)
-                .ok_or_else(|| err(format!("column {name:?}: {cell:?} is not a number")))?;
+            let v = parse_cell(cell, layout.missing).ok_or_else(|| {
+                err(format!("column {}: {} is not a number", quote_user_text(name), quote_user_text(cell)))
+            })?;
             column.push(v);
         }
     }
@@ -114,9 +190,9 @@ pub fn read_csv(path: &Path, layout: &Layout) -> Result<TimeSeries, SeriesError>
 fn time_index(headers: &[String], time: TimeColumn) -> Result<usize, String> {
     match time {
         TimeColumn::First(name) if headers.first().is_some_and(|h| h == name) => Ok(0),
-        TimeColumn::First(name) => Err(format!("the first column must be named {name:?}")),
+        TimeColumn::First(name) => Err(format!("the first column must be named {}", quote_user_text(name))),
         TimeColumn::Named(name) => {
-            headers.iter().position(|h| h == name).ok_or_else(|| format!("no column named {name:?}"))
+            headers.iter().position(|h| h == name).ok_or_else(|| format!("no column named {}", quote_user_text(name)))
         }
     }
 }
@@ -133,12 +209,20 @@ fn parse_cell(cell: &str, missing: Missing) -> Option<f64> {
 /// [`SeriesError`] for an unreadable or non-v5 file, a time variable missing, not real and
 /// numeric, or empty.
 pub fn read_mat(path: &Path, time_column: &str) -> Result<TimeSeries, SeriesError> {
+    let file = std::fs::File::open(path).map_err(|e| SeriesError::new(path, None, e.to_string()))?;
+    mat_from(path, file, time_column)
+}
+
+/// [`read_mat`] from an open reader of `path`.
+fn mat_from(path: &Path, source: impl std::io::Read, time_column: &str) -> Result<TimeSeries, SeriesError> {
     let err = |message: String| SeriesError::new(path, None, message);
-    let file = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
-    let mat = matfile::MatFile::parse(std::io::BufReader::new(file))
+    let mat = matfile::MatFile::parse(std::io::BufReader::new(source))
         .map_err(|e| err(format!("not a MATLAB v5 file: {e:?}")))?;
-    let time_array = mat.find_by_name(time_column).ok_or_else(|| err(format!("no variable named {time_column:?}")))?;
-    let time = real_values(time_array).ok_or_else(|| err(format!("{time_column:?} is not a real numeric array")))?;
+    let time_array = mat
+        .find_by_name(time_column)
+        .ok_or_else(|| err(format!("no variable named {}", quote_user_text(time_column))))?;
+    let time = real_values(time_array)
+        .ok_or_else(|| err(format!("{} is not a real numeric array", quote_user_text(time_column))))?;
     if time.is_empty() {
         return Err(err("no data rows".into()));
     }
@@ -212,6 +296,28 @@ mod tests {
         assert_eq!(read_csv(&p, &MEASUREMENTS).unwrap().time, [0.0]);
         let named_t = Layout { time: TimeColumn::Named("t"), ..MEASUREMENTS };
         assert_eq!(fault(read_csv(&p, &named_t)), (Some(1), "no column named \"t\"".into()));
+    }
+
+    #[test]
+    fn reads_stop_at_the_cap_and_a_byte_order_mark_is_skipped() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = file(&dir, "d.csv", "\u{feff}time,y\n0,1\n1,2\n");
+        let t = read_capped(&p, &MEASUREMENTS, 100).unwrap();
+        assert_eq!((t.time.as_slice(), t.columns[0].0.as_str()), ([0.0, 1.0].as_slice(), "y"));
+        let exact = std::fs::metadata(&p).unwrap().len();
+        read_capped(&p, &MEASUREMENTS, exact).unwrap();
+        let (line, message) = fault(read_capped(&p, &MEASUREMENTS, exact - 1));
+        assert_eq!(
+            (line, message.as_str()),
+            (None, format!("the file exceeds the cap of {} bytes", exact - 1).as_str())
+        );
+        let (_, message) = fault(read_capped(dir.path(), &MEASUREMENTS, 100));
+        assert_eq!(message, "it is a directory, not a regular file");
+        let (_, message) = fault(read_csv_capped(Path::new("/dev/zero"), &INPUTS, 100));
+        assert_eq!(message, "it is a character device, not a regular file");
+        let mat = file(&dir, "d.mat", vec![0u8; 4096]);
+        let (_, message) = fault(read_capped(&mat, &MEASUREMENTS, 1000));
+        assert_eq!(message, "the file exceeds the cap of 1000 bytes");
     }
 
     #[test]

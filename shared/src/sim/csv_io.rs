@@ -16,7 +16,9 @@ const FMPY: Layout = Layout { time: TimeColumn::First("time"), missing: Missing:
 /// # Errors
 /// [`SeriesError`] naming the line and column of a missing or non-numeric cell.
 pub fn read_table(path: &Path) -> Result<TimeSeries, SeriesError> {
-    series::read_csv(path, &FMPY)
+    // Capped and a regular file only, as every file a user names (not `read_csv`: a `.mat`
+    // name would read as CSV here either way, so the extension is set aside).
+    series::read_csv_capped(path, &FMPY, series::MAX_FILE_BYTES)
 }
 
 /// Reads output times from the first column of a CSV file (header row required).

@@ -9,6 +9,7 @@ use super::spec::{OutputTimes, PortTerm, SimError, SimSpec, Solver};
 use crate::diagnose::effects::{self, PortEffect};
 use crate::fmu::schema::{Causality, ScalarVariable, VarType, Variability};
 use crate::fmu::{FmuError, Instance, Interface, ModelDescription};
+use crate::quote::quote_user_text;
 use crate::series::TimeSeries;
 
 /// A typed value to set on the FMU.
@@ -162,7 +163,7 @@ fn plan_term(
         || port.var_type != VarType::Real
         || port.variability != Variability::Continuous
     {
-        return Err(invalid(format!("port {:?} is not a continuous Real input of the model", t.port)));
+        return Err(invalid(format!("port {} is not a continuous Real input of the model", quote_user_text(&t.port))));
     }
     if let Some((unit, domain)) = port_domain(md, port)
         && domain != effect.domain()
@@ -176,7 +177,7 @@ fn plan_term(
     }
     let signal = term_variable(md, &t.signal, "signal")?;
     if signal.var_type != VarType::Real {
-        return Err(invalid(format!("signal {:?} is not a Real variable", t.signal)));
+        return Err(invalid(format!("signal {} is not a Real variable", quote_user_text(&t.signal))));
     }
     let port_index = md.variables.iter().position(|v| v.name == port.name).map(|i| i + 1);
     let feeds_through = md.model_structure.outputs.iter().any(|u| {
@@ -225,7 +226,9 @@ fn var_ref(v: &ScalarVariable) -> VarRef {
 
 /// A port or signal of a port term: an alias stands for its base, a negated one is refused.
 fn term_variable<'a>(md: &'a ModelDescription, name: &str, what: &str) -> Result<&'a ScalarVariable, SimError> {
-    let v = md.variable(name).ok_or_else(|| invalid(format!("{what} {name:?} is not a variable of the model")))?;
+    let v = md
+        .variable(name)
+        .ok_or_else(|| invalid(format!("{what} {} is not a variable of the model", quote_user_text(name))))?;
     if v.negated {
         return Err(invalid(format!(
             "{what} {name:?} is a negated alias of {:?}: name {0:?} instead",
@@ -278,9 +281,9 @@ impl Plan {
                     .iter()
                     .enumerate()
                     .map(|(column, (name, _))| {
-                        let v = md
-                            .variable(name)
-                            .ok_or_else(|| invalid(format!("input column {name:?} is not a variable of the model")))?;
+                        let v = md.variable(name).ok_or_else(|| {
+                            invalid(format!("input column {} is not a variable of the model", quote_user_text(name)))
+                        })?;
                         if v.causality != Causality::Input && md.base_of(v).causality != Causality::Input {
                             return Err(invalid(format!(
                                 "input column {name:?} is not an input of the model (causality {:?})",
@@ -310,9 +313,9 @@ impl Plan {
                 // An FMI 3.0 array's own name stands for its elements, in order.
                 let vars = match md.variable(name) {
                     Some(v) => vec![v],
-                    None => {
-                        md.array_elements(name).ok_or_else(|| invalid(format!("unknown output variable {name:?}")))?
-                    }
+                    None => md
+                        .array_elements(name)
+                        .ok_or_else(|| invalid(format!("unknown output variable {}", quote_user_text(name))))?,
                 };
                 for v in vars {
                     if !recordable(v) {
@@ -577,7 +580,7 @@ fn recordable(v: &ScalarVariable) -> bool {
 
 /// Parses `text` for variable `name` and checks that it may be set and lies within min/max.
 fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, SimError> {
-    let v = md.variable(name).ok_or_else(|| invalid(format!("unknown variable {name:?}")))?;
+    let v = md.variable(name).ok_or_else(|| invalid(format!("unknown variable {}", quote_user_text(name))))?;
     // An alias may be set where its base may (tools often write an alias of a parameter as a
     // calculated local).
     if !v.settable_before_init() && !md.base_of(v).settable_before_init() {
@@ -622,7 +625,8 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
     };
     match v.var_type {
         VarType::Real => {
-            let x: f64 = text.parse().map_err(|_| invalid(format!("{name} = {text:?} is not a number")))?;
+            let x: f64 =
+                text.parse().map_err(|_| invalid(format!("{name} = {} is not a number", quote_user_text(text))))?;
             if !x.is_finite() {
                 return Err(invalid(format!("{name} = {text} is not a finite number")));
             }
@@ -630,7 +634,8 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
             Ok(Setting::Real(v.value_reference, if v.negated { -x } else { x }))
         }
         VarType::Integer => {
-            let x: i32 = text.parse().map_err(|_| invalid(format!("{name} = {text:?} is not an integer")))?;
+            let x: i32 =
+                text.parse().map_err(|_| invalid(format!("{name} = {} is not an integer", quote_user_text(text))))?;
             range(x as f64)?;
             Ok(Setting::Integer(v.value_reference, negate(x)?))
         }
@@ -645,7 +650,7 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
                 Ok(x) => x,
                 Err(_) => items.iter().find(|i| i.name == text).map(|i| i.value as i32).ok_or_else(|| {
                     let names: Vec<_> = items.iter().map(|i| i.name.as_str()).collect();
-                    invalid(format!("{name} = {text:?} is not one of {}", names.join(", ")))
+                    invalid(format!("{name} = {} is not one of {}", quote_user_text(text), names.join(", ")))
                 })?,
             };
             if !items.is_empty() && !items.iter().any(|i| i.value == x as i64) {
@@ -657,7 +662,7 @@ fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, Sim
         VarType::Boolean => match text {
             "true" | "1" => Ok(Setting::Boolean(v.value_reference, !v.negated)),
             "false" | "0" => Ok(Setting::Boolean(v.value_reference, v.negated)),
-            _ => Err(invalid(format!("{name} = {text:?} is not a boolean (true/false)"))),
+            _ => Err(invalid(format!("{name} = {} is not a boolean (true/false)", quote_user_text(text)))),
         },
         VarType::String if v.negated => Err(invalid(format!("{name} is a negated alias of a String"))),
         VarType::String if given.contains('\0') => {

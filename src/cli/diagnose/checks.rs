@@ -25,9 +25,8 @@ pub fn windows(spec: &mut JobSpec, data: &MeasurementTable, settings: &DiagnoseS
     let start = spec.simulation.start_time.unwrap_or(first);
     let stop = spec.simulation.stop_time.unwrap_or(last);
     if let Some(v) = spec.simulation.validation_stop_time {
-        if v <= stop {
-            bail!("simulation.validation_stop_time: {v} is not after the calibration stop time {stop}");
-        }
+        // The check `calibrate` and a coordinator make too.
+        spec.simulation.check_validation_stop(stop)?;
         return Ok(Windows { start_time: start, calibration_stop: stop, validation_stop: v, holdout: false });
     }
     let fraction = settings.holdout.unwrap_or(DEFAULT_HOLDOUT);
@@ -87,7 +86,11 @@ pub fn job_and_candidates(spec: &JobSpec, settings: &DiagnoseSpec, fmu: &Fmu, da
                 JobError::Invalid { message, .. } => message,
                 other => other.to_string(),
             };
-            bail!("{}: {message} (candidate {})", c.source, c.describe());
+            // A fault of the port itself is the port's, not that of the signal it was tried with.
+            let port_field = c.effect.port.as_ref().filter(|_| message.starts_with("port ")).and_then(|port| {
+                settings.ports.iter().position(|p| &p.port == port).map(|k| format!("diagnose.ports[{k}].port"))
+            });
+            bail!("{}: {message} (candidate {})", port_field.as_deref().unwrap_or(&c.source), c.describe());
         }
     }
     Ok(())

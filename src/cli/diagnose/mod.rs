@@ -96,14 +96,18 @@ pub fn run(args: Args) -> Result<()> {
         spec.experiments.is_empty(),
         "experiments: diagnose takes a job with one experiment; give it one of them as its own job"
     );
+    let threads = super::local_cluster::worker_count(args.workers, &spec)?;
+    if let Some(url) = &args.coordinator {
+        super::client::check_url("--coordinator", url)?;
+    }
     let model = super::calibrate::model_path(&spec)?;
     spec.model.path = Some(model.clone());
-    let data_path = spec.data.path.clone().context("the job's [data] needs a path for the CLI")?;
-    let data = MeasurementTable::read(&data_path, &spec.data.time_column)?;
+    let data = fmucal_shared::job::data::read_all(&spec)?.pop().context("data: the job has no data")?;
     let windows = checks::windows(&mut spec, &data, &settings)?;
     let fmu = Arc::new(Fmu::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
     checks::job_and_candidates(&spec, &settings, &fmu, &data)?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    // Removed again if the run fails before writing anything into it.
+    let _out = super::outputs::OutDir::create(&args.out)?;
     // `job.toml` in the output folder must not be the job being read (`diagnose diagnosis/job.toml`).
     let written = args.out.join("job.toml");
     if let (Ok(a), Ok(b)) = (written.canonicalize(), args.job.canonicalize())
@@ -112,7 +116,6 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--out {}: its job.toml would overwrite the job file; choose another folder", args.out.display());
     }
 
-    let threads = super::local_cluster::worker_count(args.workers, &spec);
     let ctx = Context { fmu, data: Arc::new(data), model, settings, windows };
     let rt = tokio::runtime::Runtime::new()?;
     let outcome = rt.block_on(async {

@@ -95,7 +95,8 @@ def _cell(text: str) -> float | None:
 def read_csv(path: Path, time_column: str) -> Table:
     """Reads a CSV file with a header row (see the module docs)."""
     try:
-        with path.open(newline="", encoding="utf-8") as f:
+        # utf-8-sig: a byte-order mark (as Excel writes) is skipped, as the CLI's reader does.
+        with path.open(newline="", encoding="utf-8-sig") as f:
             rows = [row for row in csv.reader(f) if row]
     except (OSError, UnicodeDecodeError, csv.Error) as e:
         raise _ReadError(str(e)) from e

@@ -429,7 +429,7 @@ impl ModelDescription {
         let base = name.split_once('[').map_or(name, |(b, _)| b);
         let elements = self.array_elements(base).unwrap_or_default();
         let (Some(first), Some(last)) = (elements.first(), elements.last()) else {
-            return format!("unknown variable {name:?}");
+            return format!("unknown variable {}", crate::quote::quote_user_text(name));
         };
         let dims = first.fmi3.as_ref().map(|s| s.dimensions.clone()).unwrap_or_default();
         let shape = dims.iter().map(usize::to_string).collect::<Vec<_>>().join("×");
