@@ -69,6 +69,10 @@ pub struct JobRun {
     /// Why the start point failed, if it did.
     #[serde(default)]
     start_error: Option<String>,
+    /// How many residuals an evaluation of each experiment gives, by experiment index (empty
+    /// for a run stored before they were kept: then not known).
+    #[serde(default)]
+    residual_counts: Vec<usize>,
 }
 
 fn one_experiment() -> Vec<usize> {
@@ -96,7 +100,13 @@ impl JobRun {
             start: if job.spec.kind.wants_residuals() { vec![] } else { job.spec.parameter_vectors().1 },
             first_error: None,
             start_error: None,
+            residual_counts: job.experiments.iter().map(|e| e.objective.residual_count()).collect(),
         })
+    }
+
+    /// How many residuals an evaluation of `experiment` gives (`None`: not known).
+    pub fn residual_count(&self, experiment: usize) -> Option<usize> {
+        self.residual_counts.get(experiment).copied()
     }
 
     /// Whether the items' residual vectors are wanted back, not only their values.
