@@ -61,3 +61,19 @@ pub fn endpoint(url: &str, tls: Option<&ClientTls>) -> Result<Endpoint, String> 
     }
     endpoint.tls_config(config).map_err(|e| format!("TLS settings for {url}: {e}"))
 }
+
+/// `e` and every error it was caused by, joined by `: ` (tonic's transport errors say only
+/// "transport error" by themselves; the cause, such as a certificate refused, is in the chain).
+pub fn error_chain(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let next = s.to_string();
+        if !text.ends_with(&next) {
+            text.push_str(": ");
+            text.push_str(&next);
+        }
+        source = s.source();
+    }
+    text
+}
