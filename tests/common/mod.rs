@@ -190,6 +190,11 @@ impl Servers {
         Servers { url, children: vec![worker, coord] }
     }
 
+    /// The processes' ids: the worker's, then the coordinator's.
+    pub fn pids(&self) -> Vec<u32> {
+        self.children.iter().map(std::process::Child::id).collect()
+    }
+
     /// Sends every child SIGTERM and waits for each (killing one that has not exited 30 s
     /// later), whatever the others did; whether all exited cleanly.
     pub fn stop(mut self) -> bool {
