@@ -71,7 +71,10 @@ port="$(probe_port)"
 probe_start tls -- "$FMUCAL" coordinator --listen "127.0.0.1:$port" --data-dir "$WORK/tls" \
     --tls-cert "$WORK/certs/coordinator.pem" --tls-key "$WORK/certs/coordinator-key.pem"
 probe_wait_healthy "https://localhost:$port" --tls-ca "$WORK/certs/ca.pem"
-probe_case "http:// to a TLS coordinator" TLS -- "$FMUCAL" health "http://127.0.0.1:$port"
+for i in 1 2 3; do
+    probe_case "health http:// to a TLS coordinator ($i)" TLS -- "$FMUCAL" health "http://127.0.0.1:$port"
+done
+probe_case "worker http:// to a TLS coordinator" TLS -- "$FMUCAL" worker --coordinator "http://127.0.0.1:$port"
 probe_case "worker trusting another CA" "$WORK/other-certs/ca.pem" -- \
     "$FMUCAL" worker --coordinator "https://localhost:$port" --tls-ca "$WORK/other-certs/ca.pem"
 probe_case "worker with a garbage CA file" garbage.pem -- \

@@ -54,7 +54,14 @@ pub fn run(args: Args) -> Result<()> {
         })
         .await
         .with_context(|| format!("{} did not answer within {} s", args.url, args.timeout))?
-    })?;
+    });
+    let status = match status {
+        Ok(status) => status,
+        Err(e) if fmucal_proto::tls::http_url_serves_tls(&args.url) => {
+            return Err(e.context(format!("{} serves TLS: use an https:// URL with --tls-ca", args.url)));
+        }
+        Err(e) => return Err(e),
+    };
     let status = ServingStatus::try_from(status).unwrap_or(ServingStatus::Unknown);
     if status != ServingStatus::Serving {
         bail!("{} is {}", args.url, status.as_str_name());

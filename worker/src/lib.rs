@@ -218,7 +218,8 @@ async fn register(client: &mut Client, config: &Config) -> Result<pb::RegisterRe
         // A connection that failed (a certificate refused, say) says why only in its source.
         let why = match std::error::Error::source(&s) {
             Some(source) if s.message().is_empty() || s.code() == tonic::Code::Unknown || s.code() == tonic::Code::Unavailable => {
-                format!("{}: {}", s.message(), fmucal_proto::tls::error_chain(source))
+                let chain = fmucal_proto::tls::error_chain(source);
+                if chain.starts_with(s.message()) { chain } else { format!("{}: {chain}", s.message()) }
             }
             _ => s.message().to_owned(),
         };
