@@ -201,7 +201,11 @@ async fn over_long_strings_are_refused_naming_the_field_in_a_short_message() {
     let e = c.submit_job(pb::SubmitJobRequest { spec: Some(job) }).await.unwrap_err();
     check("a long parameter name", e, "parameters[0]");
 
-    let (spec, data) = decay_spec(dir.path(), &format!("[simulation]\nset = {{ crashTime = \"{}\" }}\n", "x".repeat(1 << 20)), &[("k", 1.0, 0.5, 3.0)]);
+    let (spec, data) = decay_spec(
+        dir.path(),
+        &format!("[simulation]\nset = {{ crashTime = \"{}\" }}\n", "x".repeat(1 << 20)),
+        &[("k", 1.0, 0.5, 3.0)],
+    );
     let job = job_to_proto(&spec, std::slice::from_ref(&data), &model);
     let e = c.submit_job(pb::SubmitJobRequest { spec: Some(job) }).await.unwrap_err();
     check("a long set value", e, "crashTime");
@@ -337,7 +341,12 @@ fn health_waits_its_whole_timeout_and_tls_mistakes_are_named() {
     certs(&other);
     let port = free_port();
     let tls = |cert: &str, key: &str| {
-        vec!["--tls-cert".to_owned(), ours.join(cert).display().to_string(), "--tls-key".into(), ours.join(key).display().to_string()]
+        vec![
+            "--tls-cert".to_owned(),
+            ours.join(cert).display().to_string(),
+            "--tls-key".into(),
+            ours.join(key).display().to_string(),
+        ]
     };
     let args = tls("coordinator.pem", "coordinator-key.pem");
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
@@ -358,7 +367,8 @@ fn health_waits_its_whole_timeout_and_tls_mistakes_are_named() {
         let line = refused(&mut fmucal(&["health", &format!("http://127.0.0.1:{port}")]), "http to TLS");
         assert!(line.contains("TLS"), "{line}");
     }
-    let line = refused(&mut fmucal(&["worker", "--coordinator", &format!("http://127.0.0.1:{port}")]), "a worker on http");
+    let line =
+        refused(&mut fmucal(&["worker", "--coordinator", &format!("http://127.0.0.1:{port}")]), "a worker on http");
     assert!(line.contains("TLS"), "{line}");
     // A worker trusting another CA names the CA file and says certificate.
     let other_ca = other.join("ca.pem");
@@ -380,7 +390,11 @@ fn health_waits_its_whole_timeout_and_tls_mistakes_are_named() {
     let garbage = dir.path().join("garbage.pem");
     std::fs::write(&garbage, "-----BEGIN CERTIFICATE-----\nnot base64 at all!\n-----END CERTIFICATE-----\n").unwrap();
     let mut cmd = fmucal(&["coordinator", "--listen", &listen, "--data-dir"]);
-    cmd.arg(dir.path().join("coord2")).arg("--tls-cert").arg(&garbage).arg("--tls-key").arg(ours.join("coordinator-key.pem"));
+    cmd.arg(dir.path().join("coord2"))
+        .arg("--tls-cert")
+        .arg(&garbage)
+        .arg("--tls-key")
+        .arg(ours.join("coordinator-key.pem"));
     let line = refused(&mut cmd, "a garbage certificate");
     assert!(line.contains(&*garbage.to_string_lossy()) && line.contains("certificate"), "{line}");
     let mut cmd = fmucal(&["health", "https://localhost:9", "--tls-ca"]);
@@ -396,7 +410,8 @@ fn health_waits_its_whole_timeout_and_tls_mistakes_are_named() {
 async fn health_and_token_holders_are_served_under_a_flood_of_held_sockets() {
     let dir = tempfile::tempdir().unwrap();
     let port = free_port();
-    let coord = coordinator(&dir.path().join("coord"), port, &["--max-connections", "16"], &dir.path().join("coord.log"));
+    let coord =
+        coordinator(&dir.path().join("coord"), port, &["--max-connections", "16"], &dir.path().join("coord.log"));
     let url = format!("http://127.0.0.1:{port}");
     wait_healthy(&url, None);
     let mut c = client(&url).await;
@@ -409,7 +424,9 @@ async fn health_and_token_holders_are_served_under_a_flood_of_held_sockets() {
     }
     // A client with a token, on its existing connection and on a new one.
     c.list_jobs(pb::ListJobsRequest {}).await.unwrap();
-    let fresh = tokio::time::timeout(Duration::from_secs(5), async { client(&url).await.list_jobs(pb::ListJobsRequest {}).await });
+    let fresh = tokio::time::timeout(Duration::from_secs(5), async {
+        client(&url).await.list_jobs(pb::ListJobsRequest {}).await
+    });
     assert!(fresh.await.is_ok_and(|r| r.is_ok()), "a new client with a token was not served under the flood");
     drop(held);
     stop(coord);
@@ -437,12 +454,13 @@ async fn a_hung_model_in_one_job_does_not_hold_back_another_jobs_points() {
     // the other job's with it.
     let hung = c.submit_job(pb::SubmitJobRequest { spec: Some(hung) }).await.unwrap().into_inner().job_id;
     let quick = c.submit_job(pb::SubmitJobRequest { spec: Some(quick) }).await.unwrap().into_inner().job_id;
-    let worker = fmucal(&["worker", "--coordinator", &url, "--slots", "2", "--evaluation-deadline", "60", "--cache-dir"])
-        .arg(dir.path().join("wcache"))
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let worker =
+        fmucal(&["worker", "--coordinator", &url, "--slots", "2", "--evaluation-deadline", "60", "--cache-dir"])
+            .arg(dir.path().join("wcache"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
     let end = Instant::now() + Duration::from_secs(45);
     while status_of(&mut c, &quick).await == RUNNING {
         assert!(Instant::now() < end, "the quick job did not end within 45 s");

@@ -175,7 +175,10 @@ impl ModelStore {
         }
         let path = self.path(id);
         if !is_model_id(id) || !path.is_file() {
-            return Err(CoordinatorError::InvalidArgument(format!("spec.model_id: unknown model id {}", crate::error::quote(id))));
+            return Err(CoordinatorError::InvalidArgument(format!(
+                "spec.model_id: unknown model id {}",
+                crate::error::quote(id)
+            )));
         }
         let d = fmu::describe(&path, &self.opts)
             .map_err(|e| CoordinatorError::InvalidArgument(self.hide_paths(&e.to_string(), &path)))?;
@@ -197,7 +200,9 @@ impl ModelStore {
         if !is_model_id(id) {
             return Err(CoordinatorError::NotFound(format!("model {}", crate::error::quote(id))));
         }
-        std::fs::read(self.path(id)).map(Arc::new).map_err(|_| CoordinatorError::NotFound(format!("model {}", crate::error::quote(id))))
+        std::fs::read(self.path(id))
+            .map(Arc::new)
+            .map_err(|_| CoordinatorError::NotFound(format!("model {}", crate::error::quote(id))))
     }
 }
 
@@ -285,9 +290,12 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut store = ModelStore::open(dir.path(), DEFAULT_MAX_STORE_BYTES).unwrap();
         store.opts.limits.max_total_bytes = 1000;
-        let big = zip(&[("modelDescription.xml", b"<fmiModelDescription/>".to_vec()), ("big.bin", vec![0; 5000])], true);
+        let big =
+            zip(&[("modelDescription.xml", b"<fmiModelDescription/>".to_vec()), ("big.bin", vec![0; 5000])], true);
         let broken = zip(&[("modelDescription.xml", b"<fmiModelDescription".to_vec())], false);
-        for (bytes, what) in [(big, "exceeds the unpacking limit"), (broken, "modelDescription.xml"), (b"garbage".to_vec(), "zip")] {
+        for (bytes, what) in
+            [(big, "exceeds the unpacking limit"), (broken, "modelDescription.xml"), (b"garbage".to_vec(), "zip")]
+        {
             let e = store.put(&bytes).unwrap_err().to_string();
             assert!(e.contains(what), "{e}");
             let root = dir.path().to_string_lossy();

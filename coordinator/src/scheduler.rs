@@ -344,7 +344,8 @@ impl Scheduler {
         for id in ids {
             if self.jobs.get(id).is_some_and(|j| is_running(j.state.status)) {
                 tracing::warn!(job = %id, "cancelling a job of a diagnosis that ended with the previous coordinator");
-                if let Err(e) = self.finish(id, JobStatus::Cancelled, Some("its diagnosis ended with the coordinator")) {
+                if let Err(e) = self.finish(id, JobStatus::Cancelled, Some("its diagnosis ended with the coordinator"))
+                {
                     tracing::error!(job = %id, "cannot save the job state: {e}");
                 }
             }
@@ -803,7 +804,12 @@ impl Scheduler {
                     if let Some(m) = &self.metrics {
                         m.refused_result();
                     }
-                    self.attempt_failed(&r.job_id, r.point_id, &wid, &format!("the worker's result was refused: {why}"));
+                    self.attempt_failed(
+                        &r.job_id,
+                        r.point_id,
+                        &wid,
+                        &format!("the worker's result was refused: {why}"),
+                    );
                     continue;
                 }
             }

@@ -119,7 +119,8 @@ impl Sched {
         let models = Arc::new(Mutex::new(ModelStore::open(dir, DEFAULT_MAX_STORE_BYTES).unwrap()));
         let timing = Timing { heartbeat_interval: HEARTBEAT, worker_expiry: EXPIRY, evaluation_timeout: TIMEOUT };
         let (tx, rx) = mpsc::channel(64);
-        let scheduler = Scheduler::new(store, models.clone(), timing).unwrap().with_retention(keep).with_metrics(metrics);
+        let scheduler =
+            Scheduler::new(store, models.clone(), timing).unwrap().with_retention(keep).with_metrics(metrics);
         let task = tokio::spawn(scheduler.run(rx));
         Sched { tx, task, models }
     }
@@ -726,7 +727,8 @@ async fn a_job_whose_state_cannot_be_written_fails_visibly_and_the_store_recover
 fn metric(registry: &prometheus_client::registry::Registry, name: &str) -> f64 {
     let mut text = String::new();
     prometheus_client::encoding::prometheus_text::encode(&mut text, registry).unwrap();
-    let line = text.lines().find(|l| l.split(' ').next() == Some(name)).unwrap_or_else(|| panic!("no {name} in\n{text}"));
+    let line =
+        text.lines().find(|l| l.split(' ').next() == Some(name)).unwrap_or_else(|| panic!("no {name} in\n{text}"));
     line.rsplit(' ').next().unwrap().parse().unwrap()
 }
 
@@ -784,7 +786,8 @@ async fn an_impossible_result_is_refused_and_its_point_tried_again() {
 
     // A calibration: -1e300 cannot become its optimum.
     let job = s.submit(de_job(dir.path(), 4, 1)).await;
-    let (r, _) = s.drive(&job, &[&a, &b], |w, p| if w == a { pb::PointResult { value: -1e300, ..ok(p) } } else { ok(p) }).await;
+    let (r, _) =
+        s.drive(&job, &[&a, &b], |w, p| if w == a { pb::PointResult { value: -1e300, ..ok(p) } } else { ok(p) }).await;
     assert_eq!(r.status, SUCCEEDED, "{r:?}");
     assert!(result(&r).f_opt >= 0.0, "{:?}", result(&r));
 }

@@ -113,10 +113,12 @@ pub(crate) struct Interrupted;
 /// What an HTTP/2 error that a plaintext client gets from a TLS server (the server's TLS
 /// alert read as an HTTP/2 frame) likely means.
 fn protocol_hint(line: &str) -> Option<&'static str> {
-    let garbled = ["frame with invalid size", "h2 protocol error", "invalid HTTP/2 preface", "connection error: PROTOCOL_ERROR"];
-    garbled.iter().any(|g| line.contains(g)).then_some(
-        " (the server did not speak plaintext HTTP/2: if it serves TLS, use an https:// URL with --tls-ca)",
-    )
+    let garbled =
+        ["frame with invalid size", "h2 protocol error", "invalid HTTP/2 preface", "connection error: PROTOCOL_ERROR"];
+    garbled
+        .iter()
+        .any(|g| line.contains(g))
+        .then_some(" (the server did not speak plaintext HTTP/2: if it serves TLS, use an https:// URL with --tls-ca)")
 }
 
 /// Runs the CLI with the process arguments.

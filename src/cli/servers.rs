@@ -170,8 +170,10 @@ pub fn worker(args: WorkerArgs) -> Result<()> {
     let ca = args.tls.ca_path();
     let url = args.coordinator.clone();
     worker_with(args).map_err(|e| {
-        if matches!(e.downcast_ref::<fmucal_worker::WorkerError>(), Some(fmucal_worker::WorkerError::Connect { .. } | fmucal_worker::WorkerError::Registration(_)))
-            && fmucal_proto::tls::http_url_serves_tls(&url)
+        if matches!(
+            e.downcast_ref::<fmucal_worker::WorkerError>(),
+            Some(fmucal_worker::WorkerError::Connect { .. } | fmucal_worker::WorkerError::Registration(_))
+        ) && fmucal_proto::tls::http_url_serves_tls(&url)
         {
             return e.context(format!("{url} serves TLS: use an https:// URL with --tls-ca"));
         }

@@ -71,8 +71,9 @@ fn certificates(pem: &[u8], path: &Path, what: &str) -> Result<Vec<Vec<u8>>> {
         .enumerate()
         .map(|(k, der)| {
             // A certificate is a DER SEQUENCE.
-            der.filter(|d| d.len() > 64 && d[0] == 0x30)
-                .with_context(|| format!("the {what} {}: certificate {} is damaged (not base64 DER)", path.display(), k + 1))
+            der.filter(|d| d.len() > 64 && d[0] == 0x30).with_context(|| {
+                format!("the {what} {}: certificate {} is damaged (not base64 DER)", path.display(), k + 1)
+            })
         })
         .collect()
 }

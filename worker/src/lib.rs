@@ -217,7 +217,11 @@ async fn register(client: &mut Client, config: &Config) -> Result<pb::RegisterRe
     client.register(req).await.map(|r| r.into_inner()).map_err(|s| {
         // A connection that failed (a certificate refused, say) says why only in its source.
         let why = match std::error::Error::source(&s) {
-            Some(source) if s.message().is_empty() || s.code() == tonic::Code::Unknown || s.code() == tonic::Code::Unavailable => {
+            Some(source)
+                if s.message().is_empty()
+                    || s.code() == tonic::Code::Unknown
+                    || s.code() == tonic::Code::Unavailable =>
+            {
                 let chain = fmucal_proto::tls::error_chain(source);
                 if chain.starts_with(s.message()) { chain } else { format!("{}: {chain}", s.message()) }
             }

@@ -334,14 +334,21 @@ mod tests {
     #[test]
     fn a_truncated_mat_file_is_called_truncated() {
         let dir = tempfile::tempdir().unwrap();
-        let whole = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/furuta/FurutaData.mat")).unwrap();
+        let whole =
+            std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/furuta/FurutaData.mat")).unwrap();
         assert_eq!(mat_truncated_at(&whole), None);
-        let synthetic = mat_v5(&[matrix("time", 6, 3, &[doubles(&[0.0, 0.5, 1.0])]), matrix("y", 6, 3, &[doubles(&[1.0; 3])])]);
+        let synthetic =
+            mat_v5(&[matrix("time", 6, 3, &[doubles(&[0.0, 0.5, 1.0])]), matrix("y", 6, 3, &[doubles(&[1.0; 3])])]);
         assert_eq!(mat_truncated_at(&synthetic), None);
-        for bytes in [&whole[..whole.len() / 2], &whole[..whole.len() - 1], &whole[..100], &synthetic[..synthetic.len() - 9]] {
+        for bytes in
+            [&whole[..whole.len() / 2], &whole[..whole.len() - 1], &whole[..100], &synthetic[..synthetic.len() - 9]]
+        {
             let p = file(&dir, "cut.mat", bytes);
             let message = fault(read(&p, &MEASUREMENTS)).1;
-            assert!(message.contains("truncated or invalid") || message.starts_with("not a MATLAB v5 file"), "{message}");
+            assert!(
+                message.contains("truncated or invalid") || message.starts_with("not a MATLAB v5 file"),
+                "{message}"
+            );
             assert!(!message.contains("no variable named"), "{message}");
         }
     }
