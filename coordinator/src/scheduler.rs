@@ -554,7 +554,7 @@ impl Scheduler {
     }
 
     fn get(&self, job_id: &str) -> Result<pb::GetJobResponse, CoordinatorError> {
-        let j = self.jobs.get(job_id).ok_or(CoordinatorError::NotFound(format!("job {}", quote(&job_id))))?;
+        let j = self.jobs.get(job_id).ok_or(CoordinatorError::NotFound(format!("job {}", quote(job_id))))?;
         Ok(pb::GetJobResponse {
             job_id: job_id.to_owned(),
             status: wire(j.state.status),
