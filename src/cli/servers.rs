@@ -121,11 +121,11 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
     let idle_timeout = seconds_within("--idle-timeout", args.idle_timeout, 1.0, DAY)?;
     let auth_timeout = seconds_within("--auth-timeout", args.auth_timeout, 1.0, DAY)?;
     anyhow::ensure!(args.max_connections >= 1, "--max-connections must be at least 1, not 0");
-    fmucal_coordinator::check_data_dir(&args.data_dir)?;
     let token = super::token::load(args.token_file.as_deref())?;
     let worker_token = super::token::load_worker_token(args.worker_token_file.as_deref())?;
     fmucal_coordinator::check_tokens(token.as_deref(), worker_token.as_deref())?;
     let tls = args.tls.load(args.listen)?;
+    fmucal_coordinator::check_data_dir(&args.data_dir)?;
     let rt = tokio::runtime::Runtime::new()?;
     rt.block_on(async move {
         let listener = tokio::net::TcpListener::bind(args.listen)
