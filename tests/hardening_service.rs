@@ -75,15 +75,26 @@ fn free_port() -> u16 {
     TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
 }
 
-/// `fmucal coordinator` on `port` with `args`, its stderr in `dir/coordinator-N.log`.
-fn coordinator(data_dir: &Path, port: u16, args: &[&str], log: &Path) -> Child {
-    fmucal(&["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir"])
+/// A process a test started: stopped (SIGTERM, then SIGKILL after 5 s) when dropped, so a
+/// failing test leaves none behind.
+struct Proc(Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        common::stop_child(&mut self.0, Duration::from_secs(5));
+    }
+}
+
+/// `fmucal coordinator` on `port` with `args`, its stderr in `log`.
+fn coordinator(data_dir: &Path, port: u16, args: &[&str], log: &Path) -> Proc {
+    let child = fmucal(&["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir"])
         .arg(data_dir)
         .args(args)
         .stdout(Stdio::null())
         .stderr(Stdio::from(std::fs::File::create(log).unwrap()))
         .spawn()
-        .unwrap()
+        .unwrap();
+    Proc(child)
 }
 
 /// Waits until `url` answers a health check (over `tls_ca` if given), for up to 60 s.
@@ -103,8 +114,8 @@ fn wait_healthy(url: &str, tls_ca: Option<&Path>) {
 }
 
 /// Stops a process the test started (SIGTERM, then SIGKILL after 5 s).
-fn stop(mut child: Child) {
-    common::stop_child(&mut child, Duration::from_secs(5));
+fn stop(process: Proc) {
+    drop(process);
 }
 
 fn alive(pid: u32) -> bool {
@@ -454,13 +465,14 @@ async fn a_hung_model_in_one_job_does_not_hold_back_another_jobs_points() {
     // the other job's with it.
     let hung = c.submit_job(pb::SubmitJobRequest { spec: Some(hung) }).await.unwrap().into_inner().job_id;
     let quick = c.submit_job(pb::SubmitJobRequest { spec: Some(quick) }).await.unwrap().into_inner().job_id;
-    let worker =
+    let worker = Proc(
         fmucal(&["worker", "--coordinator", &url, "--slots", "2", "--evaluation-deadline", "60", "--cache-dir"])
             .arg(dir.path().join("wcache"))
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
-            .unwrap();
+            .unwrap(),
+    );
     let end = Instant::now() + Duration::from_secs(45);
     while status_of(&mut c, &quick).await == RUNNING {
         assert!(Instant::now() < end, "the quick job did not end within 45 s");
@@ -470,7 +482,7 @@ async fn a_hung_model_in_one_job_does_not_hold_back_another_jobs_points() {
     assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{r:?}");
     assert!(r.result.unwrap().evaluated.iter().all(|p| p.ok));
     assert_eq!(status_of(&mut c, &hung).await, RUNNING, "the hung point ended before the other job did");
-    common::stop_child(&mut { worker }, Duration::from_secs(1));
+    stop(worker);
     stop(coord);
 }
 
@@ -517,8 +529,8 @@ async fn a_diagnosis_killed_with_its_coordinator_leaves_no_job_running() {
         assert!(Instant::now() < end, "the diagnosis submitted no job");
         tokio::time::sleep(Duration::from_millis(100)).await;
     };
-    coord.kill().unwrap();
-    coord.wait().unwrap();
+    coord.0.kill().unwrap();
+    coord.0.wait().unwrap();
     drop(c);
     // The diagnosis process ends once its coordinator is gone (its stdin closes); the next
     // coordinator starts after it, so the job is not cancelled by it.
