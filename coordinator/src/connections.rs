@@ -7,11 +7,19 @@
 //! opening is closed however busily it trickles bytes (a peer without a token cannot hold a
 //! slot; the services' interceptors call [`vouch`]), and an accept error (out of file
 //! descriptors) backs off for 100 ms instead of spinning.
+//!
+//! A reserved share: connections not yet vouched for may hold at most three quarters of the
+//! cap ([`ConnectionLimits::max_unvouched`]); past that, a new connection closes the oldest
+//! of them. So a flood of held sockets cannot lock out a health probe (answered as soon as it
+//! is accepted, long before it is the oldest) or a client with a token (vouched for by its
+//! first request), and the connections of registered workers and clients are never closed to
+//! make room.
 
+use std::collections::VecDeque;
 use std::pin::Pin;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::task::{Context, Poll};
+use std::sync::{Arc, Mutex, Weak};
+use std::task::{Context, Poll, Waker};
 use std::time::Duration;
 
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
@@ -59,6 +67,52 @@ impl ConnectionLimits {
     pub fn keepalive_interval(&self) -> Duration {
         self.idle_timeout / 3
     }
+
+    /// How many connections not yet vouched for may be open at once: three quarters of
+    /// [`Self::max_connections`] (at least 1); the rest is reserved for connections that
+    /// carried a valid token.
+    pub fn max_unvouched(&self) -> usize {
+        let max = self.max_connections.max(1);
+        (max - max / 4).max(1)
+    }
+}
+
+/// What a connection and the listener share: whether a request vouched for it, and whether
+/// the listener closed it to make room (waking its reader).
+#[derive(Debug, Default)]
+struct ConnState {
+    vouched: AtomicBool,
+    evicted: AtomicBool,
+    reader: Mutex<Option<Waker>>,
+}
+
+impl ConnState {
+    fn evict(&self) {
+        self.evicted.store(true, Ordering::Relaxed);
+        if let Some(w) = self.reader.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take() {
+            w.wake();
+        }
+    }
+}
+
+/// The connections not yet vouched for, oldest first.
+#[derive(Default)]
+struct Probation {
+    queue: VecDeque<Weak<ConnState>>,
+}
+
+impl Probation {
+    /// Admits `conn`, closing the oldest connections still not vouched for past `max`.
+    fn admit(&mut self, conn: &Arc<ConnState>, max: usize) {
+        self.queue.retain(|c| c.upgrade().is_some_and(|c| !c.vouched.load(Ordering::Relaxed)));
+        while self.queue.len() >= max {
+            if let Some(oldest) = self.queue.pop_front().and_then(|c| c.upgrade()) {
+                tracing::debug!("closing the oldest connection without a valid request to make room");
+                oldest.evict();
+            }
+        }
+        self.queue.push_back(Arc::downgrade(conn));
+    }
 }
 
 /// The accepted connections of `listener`, for `serve_with_incoming`. The accepting task ends
@@ -67,6 +121,8 @@ pub fn incoming(listener: TcpListener, limits: &ConnectionLimits) -> ReceiverStr
     let (tx, rx) = mpsc::channel(1);
     let permits = Arc::new(Semaphore::new(limits.max_connections.max(1)));
     let (idle_timeout, auth_timeout) = (limits.idle_timeout, limits.auth_timeout);
+    let max_unvouched = limits.max_unvouched();
+    let probation = Mutex::new(Probation::default());
     tokio::spawn(async move {
         let mut failures: u64 = 0;
         loop {
@@ -83,6 +139,10 @@ pub fn incoming(listener: TcpListener, limits: &ConnectionLimits) -> ReceiverStr
                     failures = 0;
                     let _ = stream.set_nodelay(true);
                     let guarded = GuardedStream::new(stream, permit, idle_timeout, auth_timeout);
+                    probation
+                        .lock()
+                        .unwrap_or_else(std::sync::PoisonError::into_inner)
+                        .admit(&guarded.state, max_unvouched);
                     if tx.send(Ok(guarded)).await.is_err() {
                         return;
                     }
@@ -107,7 +167,7 @@ pub fn incoming(listener: TcpListener, limits: &ConnectionLimits) -> ReceiverStr
 #[derive(Debug, Clone)]
 pub struct PeerInfo {
     pub tcp: TcpConnectInfo,
-    vouched: Arc<AtomicBool>,
+    state: Arc<ConnState>,
 }
 
 /// Marks the connection `req` came on as having carried a request with a valid token, so the
@@ -116,19 +176,20 @@ pub fn vouch<T>(req: &tonic::Request<T>) {
     let ext = req.extensions();
     let peer = ext.get::<PeerInfo>().or_else(|| ext.get::<TlsConnectInfo<PeerInfo>>().map(TlsConnectInfo::get_ref));
     if let Some(peer) = peer {
-        peer.vouched.store(true, Ordering::Relaxed);
+        peer.state.vouched.store(true, Ordering::Relaxed);
     }
 }
 
 /// An accepted connection holding one of the listener's permits, closed with an error once
-/// nothing has been read from it for the idle timeout, or once the auth timeout has passed
-/// without a request that [`vouch`]ed for it.
+/// nothing has been read from it for the idle timeout, once the auth timeout has passed
+/// without a request that [`vouch`]ed for it, or when the listener needs its place (it was
+/// the oldest not vouched for).
 pub struct GuardedStream {
     stream: TcpStream,
     _permit: OwnedSemaphorePermit,
     idle_timeout: Duration,
     idle: Pin<Box<Sleep>>,
-    vouched: Arc<AtomicBool>,
+    state: Arc<ConnState>,
     /// Until vouched for: when the connection is closed.
     auth_deadline: Option<(Duration, Pin<Box<Sleep>>)>,
 }
@@ -140,7 +201,7 @@ impl GuardedStream {
             _permit: permit,
             idle_timeout,
             idle: Box::pin(tokio::time::sleep(idle_timeout)),
-            vouched: Arc::new(AtomicBool::new(false)),
+            state: Arc::new(ConnState::default()),
             auth_deadline: Some((auth_timeout, Box::pin(tokio::time::sleep(auth_timeout)))),
         }
     }
@@ -148,8 +209,16 @@ impl GuardedStream {
     /// An error once the auth timeout has passed with no request vouching for the connection
     /// (registering the waker until then).
     fn check_auth_deadline(&mut self, cx: &mut Context<'_>) -> std::io::Result<()> {
-        if self.vouched.load(Ordering::Relaxed) {
+        if self.state.vouched.load(Ordering::Relaxed) {
             self.auth_deadline = None;
+        } else {
+            *self.state.reader.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(cx.waker().clone());
+            if self.state.evicted.load(Ordering::Relaxed) {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::ConnectionAborted,
+                    "closed to make room: no request with a valid token yet",
+                ));
+            }
         }
         let Some((timeout, deadline)) = &mut self.auth_deadline else { return Ok(()) };
         match deadline.as_mut().poll(cx) {
@@ -166,7 +235,7 @@ impl Connected for GuardedStream {
     type ConnectInfo = PeerInfo;
 
     fn connect_info(&self) -> Self::ConnectInfo {
-        PeerInfo { tcp: self.stream.connect_info(), vouched: self.vouched.clone() }
+        PeerInfo { tcp: self.stream.connect_info(), state: self.state.clone() }
     }
 }
 

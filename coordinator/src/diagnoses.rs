@@ -10,7 +10,10 @@
 //! - it streams the child's progress lines, then its report;
 //! - it stops the child when the client goes away: it closes the child's stdin, so the child
 //!   cancels the jobs it submitted and exits, and kills it if it has not after a grace period;
-//! - it runs at most [`MAX_RUNNING`] children at once.
+//! - it runs at most [`MAX_RUNNING`] children at once;
+//! - each child lists the jobs it submits in its scratch folder ([`JOB_RECORD_VAR`]), so that a
+//!   coordinator started after one that died with its diagnoses (a SIGKILL, a crash) cancels
+//!   those jobs ([`orphaned_jobs`]) instead of leaving them running with no one to follow them.
 
 use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr};
 use std::path::{Path, PathBuf};
@@ -35,6 +38,27 @@ pub const MAX_RUNNING: usize = 4;
 
 /// How long a child asked to stop may take to cancel its jobs before it is killed.
 const STOP_GRACE: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// The environment variable that tells a child where to list the ids of the jobs it submits,
+/// one a line.
+pub const JOB_RECORD_VAR: &str = "FMUCAL_JOB_RECORD";
+
+/// The file in a scratch folder where its child lists its jobs.
+const JOB_RECORD: &str = "jobs";
+
+/// The jobs the diagnoses of an earlier coordinator on `data_dir` submitted: call it before
+/// [`Diagnoses::new`] empties their folders. A diagnosis never outlives the coordinator that
+/// ran it, so every one of them that is still running is an orphan.
+pub fn orphaned_jobs(data_dir: &Path) -> Vec<String> {
+    let Ok(entries) = std::fs::read_dir(data_dir.join("diagnoses")) else { return vec![] };
+    let mut ids = vec![];
+    for entry in entries.flatten() {
+        if let Ok(text) = std::fs::read_to_string(entry.path().join(JOB_RECORD)) {
+            ids.extend(text.lines().map(str::trim).filter(|l| !l.is_empty()).map(str::to_owned));
+        }
+    }
+    ids
+}
 
 /// The name of the time column in the data file written for the child.
 const TIME_COLUMN: &str = "time";
@@ -150,6 +174,7 @@ impl Diagnoses {
                 .arg(scratch.join("out"))
                 .arg("--stop-on-stdin-eof")
                 .env("FMUCAL_CACHE_DIR", self.dir.join("cache"))
+                .env(JOB_RECORD_VAR, scratch.join(JOB_RECORD))
                 .stdin(Stdio::piped())
                 .stdout(Stdio::piped())
                 .stderr(Stdio::piped())

@@ -67,6 +67,44 @@ impl Default for Timing {
     }
 }
 
+impl Timing {
+    /// Refuses timings that make no sense: a zero heartbeat interval or evaluation timeout, and
+    /// a worker expiry shorter than two heartbeat intervals (a live worker would expire between
+    /// two heartbeats, and no job would progress).
+    ///
+    /// # Errors
+    /// [`CoordinatorError::Config`] naming the setting.
+    pub fn check(&self) -> Result<(), CoordinatorError> {
+        if self.heartbeat_interval.is_zero() {
+            return Err(CoordinatorError::Config("heartbeat_interval must be positive".into()));
+        }
+        if self.worker_expiry < 2 * self.heartbeat_interval {
+            return Err(CoordinatorError::Config(format!(
+                "worker_expiry must be at least twice the heartbeat interval of {:.3} s, not {:.3} s",
+                self.heartbeat_interval.as_secs_f64(),
+                self.worker_expiry.as_secs_f64()
+            )));
+        }
+        if self.evaluation_timeout.is_zero() {
+            return Err(CoordinatorError::Config("evaluation_timeout must be positive".into()));
+        }
+        Ok(())
+    }
+}
+
+/// Makes the data folder if it is missing and checks that it is one, naming it in the error.
+///
+/// # Errors
+/// [`CoordinatorError::Config`] naming the path.
+pub fn check_data_dir(data_dir: &std::path::Path) -> Result<(), CoordinatorError> {
+    let named = |why: String| CoordinatorError::Config(format!("data dir {}: {why}", data_dir.display()));
+    if data_dir.exists() && !data_dir.is_dir() {
+        return Err(named("not a directory".into()));
+    }
+    std::fs::create_dir_all(data_dir).map_err(|e| named(format!("cannot create it: {e}")))?;
+    Ok(())
+}
+
 /// Refuses to serve without a client token, and a worker token equal to the client token
 /// (which would let every client act as a worker). Workers run native code from the FMUs they
 /// are sent, so even a loopback listener needs a token: any local user can reach it.
@@ -133,16 +171,45 @@ pub async fn run(
     listener: TcpListener,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), CoordinatorError> {
+    run_with_ready(config, listener, shutdown, |_| {}).await
+}
+
+/// [`run`], calling `ready` with the address once the store is open and the server is about
+/// to serve (the `fmucal` binary then says it is listening: not before a store another
+/// coordinator holds has been refused).
+///
+/// # Errors
+/// As [`run`].
+pub async fn run_with_ready(
+    config: Config,
+    listener: TcpListener,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+    ready: impl FnOnce(std::net::SocketAddr),
+) -> Result<(), CoordinatorError> {
     let addr = listener.local_addr()?;
     check_tokens(config.token.as_deref(), config.worker_token.as_deref())?;
-    let models = Arc::new(Mutex::new(models::ModelStore::open(&config.data_dir, config.max_store_bytes)?));
+    config.timing.check()?;
+    check_data_dir(&config.data_dir)?;
+    let in_data_dir = |e: CoordinatorError| match e {
+        CoordinatorError::Io(e) => CoordinatorError::Config(format!("data dir {}: {e}", config.data_dir.display())),
+        CoordinatorError::Storage(m) if m.contains("already open") => CoordinatorError::Config(format!(
+            "data dir {}: its job store is in use by another coordinator ({m})",
+            config.data_dir.display()
+        )),
+        other => other,
+    };
+    let models =
+        Arc::new(Mutex::new(models::ModelStore::open(&config.data_dir, config.max_store_bytes).map_err(in_data_dir)?));
     let data_dir = config.data_dir.clone();
     let (store, models2, timing) =
         (tokio::task::spawn_blocking(move || store::Store::open(&data_dir)), models.clone(), config.timing.clone());
-    let store = store.await.map_err(|e| CoordinatorError::Storage(e.to_string()))??;
+    let store = store.await.map_err(|e| CoordinatorError::Storage(e.to_string()))?.map_err(in_data_dir)?;
     let (keep, metrics) = (config.keep_finished_jobs, config.metrics.clone());
+    // The jobs of diagnoses that died with the previous coordinator: nothing follows them now.
+    let orphans = diagnoses::orphaned_jobs(&config.data_dir);
     let sched = tokio::task::spawn_blocking(move || {
-        scheduler::Scheduler::new(store, models2, timing).map(|s| s.with_retention(keep).with_metrics(metrics))
+        scheduler::Scheduler::new(store, models2, timing)
+            .map(|s| s.with_orphans_cancelled(&orphans).with_retention(keep).with_metrics(metrics))
     })
     .await
     .map_err(|e| CoordinatorError::Storage(e.to_string()))??;
@@ -185,6 +252,7 @@ pub async fn run(
         let _ = stopping_tx.send(());
     };
     tracing::info!(%addr, tls = config.tls.is_some(), "coordinator listening");
+    ready(addr);
     let keepalive = config.connections.keepalive_interval();
     let mut server = tonic::transport::Server::builder()
         .http2_keepalive_interval(Some(keepalive))
@@ -196,7 +264,9 @@ pub async fn run(
         if let Some(ca) = &tls.client_ca_pem {
             settings = settings.client_ca_root(tonic::transport::Certificate::from_pem(ca));
         }
-        server = server.tls_config(settings).map_err(|e| CoordinatorError::Config(format!("TLS: {e}")))?;
+        server = server
+            .tls_config(settings)
+            .map_err(|e| CoordinatorError::Config(format!("TLS: {}", fmucal_proto::tls::error_chain(&e))))?;
     }
     let served = server
         .add_service(health_service)

@@ -12,7 +12,9 @@
 //! | `fmucal_worker_slots` | gauge | their evaluation slots |
 //! | `fmucal_evaluations_total` | counter | results received from workers (evaluations per second: `rate()`) |
 //! | `fmucal_failed_evaluations_total` | counter | those whose simulation failed |
-//! | `fmucal_ignored_results_total` | counter | results for points not leased to their worker (late after the worker expired, or forged): not told |
+//! | `fmucal_ignored_results_total` | counter | results for points never leased to their worker (forged, or a worker's bug): not told |
+//! | `fmucal_late_results_total` | counter | results for points taken back from their worker (its job ended, the point timed out, the worker expired): normal, not told |
+//! | `fmucal_refused_results_total` | counter | results that cannot be true (a negative or NaN sum of squares, a wrong number of residuals): the point is tried again |
 //! | `fmucal_evaluation_latency_seconds` | histogram | from a point's lease to its result |
 
 use std::time::Duration;
@@ -40,6 +42,8 @@ pub struct CoordinatorMetrics {
     evaluations: Counter,
     failed_evaluations: Counter,
     ignored_results: Counter,
+    late_results: Counter,
+    refused_results: Counter,
     latency: Histogram,
 }
 
@@ -66,6 +70,8 @@ impl CoordinatorMetrics {
             evaluations: Counter::default(),
             failed_evaluations: Counter::default(),
             ignored_results: Counter::default(),
+            late_results: Counter::default(),
+            refused_results: Counter::default(),
             // 1 ms to about 9 minutes.
             latency: Histogram::new(exponential_buckets(0.001, 2.0, 20)),
         };
@@ -82,8 +88,18 @@ impl CoordinatorMetrics {
         registry.register("fmucal_failed_evaluations", "Results whose simulation failed", m.failed_evaluations.clone());
         registry.register(
             "fmucal_ignored_results",
-            "Results for points not leased to their worker, not told",
+            "Results for points never leased to their worker, not told",
             m.ignored_results.clone(),
+        );
+        registry.register(
+            "fmucal_late_results",
+            "Results for points taken back from their worker (job ended, timed out, worker expired), not told",
+            m.late_results.clone(),
+        );
+        registry.register(
+            "fmucal_refused_results",
+            "Results that cannot be true (negative or NaN sum of squares, wrong residual count), tried again",
+            m.refused_results.clone(),
         );
         registry.register(
             "fmucal_evaluation_latency_seconds",
@@ -107,9 +123,19 @@ impl CoordinatorMetrics {
         }
     }
 
-    /// A result for a point not leased to the worker that sent it, ignored.
+    /// A result for a point never leased to the worker that sent it, ignored.
     pub fn ignored_result(&self) {
         self.ignored_results.inc();
+    }
+
+    /// A late result, for a point taken back from the worker that sent it, ignored.
+    pub fn late_result(&self) {
+        self.late_results.inc();
+    }
+
+    /// A result that cannot be true, refused.
+    pub fn refused_result(&self) {
+        self.refused_results.inc();
     }
 
     /// Sets the gauges.
@@ -136,6 +162,9 @@ mod tests {
         m.result(false, Some(Duration::from_millis(3)));
         m.result(true, None);
         m.ignored_result();
+        m.late_result();
+        m.late_result();
+        m.refused_result();
         let mut text = String::new();
         prometheus_client::encoding::prometheus_text::encode(&mut text, &registry).unwrap();
         for line in [
@@ -149,6 +178,8 @@ mod tests {
             "fmucal_evaluations_total 2",
             "fmucal_failed_evaluations_total 1",
             "fmucal_ignored_results_total 1",
+            "fmucal_late_results_total 2",
+            "fmucal_refused_results_total 1",
             "fmucal_evaluation_latency_seconds_count 1",
             "fmucal_evaluation_latency_seconds_bucket{le=\"0.004\"} 1",
             "fmucal_evaluation_latency_seconds_bucket{le=\"0.002\"} 0",

@@ -121,9 +121,10 @@ impl ModelStore {
             let checked = fmu::describe(file.path(), &self.opts);
             let unpacked_size = tree_size(&unpacked);
             let refusal = match checked {
-                Err(e) => {
-                    Some(CoordinatorError::InvalidArgument(format!("the uploaded bytes are not a usable FMU: {e}")))
-                }
+                Err(e) => Some(CoordinatorError::InvalidArgument(format!(
+                    "the uploaded bytes are not a usable FMU: {}",
+                    self.hide_paths(&e.to_string(), file.path())
+                ))),
                 Ok(_) => self.check_room(size + unpacked_size).err(),
             };
             if let Some(e) = refusal {
@@ -135,6 +136,25 @@ impl ModelStore {
         }
         let name = self.describe(&id)?.description.model_name.clone();
         Ok((id, name))
+    }
+
+    /// `message` without the coordinator's paths, which a client has no business knowing: the
+    /// archive `archive` becomes "the model", a file unpacked from it its path inside the
+    /// model, and any other path in the store "the model store".
+    fn hide_paths(&self, message: &str, archive: &Path) -> String {
+        let mut out = message.replace(&*archive.to_string_lossy(), "the model");
+        // An unpacked file: `<unpacked>/<id or .partial folder>/<path in the model>`.
+        let unpacked = format!("{}/", self.opts.cache_dir.to_string_lossy());
+        while let Some(at) = out.find(&unpacked) {
+            let rest = &out[at + unpacked.len()..];
+            let skip = rest.find('/').map_or(rest.len(), |slash| slash + 1);
+            out = format!("{}{}", &out[..at], &out[at + unpacked.len() + skip..]);
+        }
+        let data_dir = self.dir.parent().unwrap_or(&self.dir).to_string_lossy().into_owned();
+        if data_dir.len() > 1 {
+            out = out.replace(&data_dir, "the model store");
+        }
+        out
     }
 
     fn check_room(&self, bytes: u64) -> Result<(), CoordinatorError> {
@@ -155,9 +175,13 @@ impl ModelStore {
         }
         let path = self.path(id);
         if !is_model_id(id) || !path.is_file() {
-            return Err(CoordinatorError::InvalidArgument(format!("spec.model_id: unknown model id {id:?}")));
+            return Err(CoordinatorError::InvalidArgument(format!(
+                "spec.model_id: unknown model id {}",
+                crate::error::quote(id)
+            )));
         }
-        let d = fmu::describe(&path, &self.opts).map_err(|e| CoordinatorError::InvalidArgument(e.to_string()))?;
+        let d = fmu::describe(&path, &self.opts)
+            .map_err(|e| CoordinatorError::InvalidArgument(self.hide_paths(&e.to_string(), &path)))?;
         self.described.insert(id.to_owned(), d.clone());
         Ok(d)
     }
@@ -174,9 +198,11 @@ impl ModelStore {
     /// The bytes of a stored model.
     pub fn bytes(&self, id: &str) -> Result<Arc<Vec<u8>>, CoordinatorError> {
         if !is_model_id(id) {
-            return Err(CoordinatorError::NotFound(format!("model {id:?}")));
+            return Err(CoordinatorError::NotFound(format!("model {}", crate::error::quote(id))));
         }
-        std::fs::read(self.path(id)).map(Arc::new).map_err(|_| CoordinatorError::NotFound(format!("model {id:?}")))
+        std::fs::read(self.path(id))
+            .map(Arc::new)
+            .map_err(|_| CoordinatorError::NotFound(format!("model {}", crate::error::quote(id))))
     }
 }
 
@@ -257,6 +283,24 @@ mod tests {
         assert!(names(&dir.path().join("unpacked")).is_empty(), "{:?}", names(&dir.path().join("unpacked")));
         assert!(names(&dir.path().join("models")).is_empty());
         assert_eq!(store.used, 0);
+    }
+
+    #[test]
+    fn an_upload_error_names_no_path_of_the_coordinator() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut store = ModelStore::open(dir.path(), DEFAULT_MAX_STORE_BYTES).unwrap();
+        store.opts.limits.max_total_bytes = 1000;
+        let big =
+            zip(&[("modelDescription.xml", b"<fmiModelDescription/>".to_vec()), ("big.bin", vec![0; 5000])], true);
+        let broken = zip(&[("modelDescription.xml", b"<fmiModelDescription".to_vec())], false);
+        for (bytes, what) in
+            [(big, "exceeds the unpacking limit"), (broken, "modelDescription.xml"), (b"garbage".to_vec(), "zip")]
+        {
+            let e = store.put(&bytes).unwrap_err().to_string();
+            assert!(e.contains(what), "{e}");
+            let root = dir.path().to_string_lossy();
+            assert!(!e.contains(&*root) && !e.contains(".upload-") && !e.contains(".partial"), "{e}");
+        }
     }
 
     #[test]

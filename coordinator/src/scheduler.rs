@@ -31,7 +31,7 @@ use fmucal_shared::optim::Optimizer;
 use prost::Message;
 use tokio::sync::{mpsc, oneshot};
 
-use crate::error::CoordinatorError;
+use crate::error::{CoordinatorError, quote};
 use crate::metrics::{CoordinatorMetrics, Gauges};
 use crate::models::ModelStore;
 use crate::store::{JobState, Store, Write, Writer};
@@ -145,6 +145,68 @@ struct WorkerInfo {
     slots: usize,
     last_seen: Instant,
     inflight: HashSet<(String, u64)>,
+    /// Points leased to it and taken back since (their job ended, or they timed out): a
+    /// result for one of them is late, not forged.
+    released: Released,
+}
+
+/// The most taken-back points a worker remembers; past it the oldest are forgotten (a result
+/// for one of those is then logged as never leased).
+const MAX_RELEASED: usize = 4096;
+
+/// Points taken back from a worker, the newest [`MAX_RELEASED`].
+#[derive(Default)]
+struct Released {
+    set: HashSet<(String, u64)>,
+    order: VecDeque<(String, u64)>,
+}
+
+impl Released {
+    fn insert(&mut self, point: (String, u64)) {
+        if self.set.insert(point.clone()) {
+            self.order.push_back(point);
+        }
+        while self.order.len() > MAX_RELEASED {
+            if let Some(old) = self.order.pop_front() {
+                self.set.remove(&old);
+            }
+        }
+    }
+
+    /// Whether `point` was taken back (forgetting it).
+    fn take(&mut self, point: &(String, u64)) -> bool {
+        self.set.remove(point)
+    }
+}
+
+/// The part of a worker's chosen name that goes into its id: at most
+/// [`fmucal_proto::MAX_WORKER_NAME_CHARS`] letters, digits, `.`, `-` and `_` (any other
+/// character becomes `_`).
+fn worker_name(name: &str) -> String {
+    let kept: String = name
+        .chars()
+        .take(fmucal_proto::MAX_WORKER_NAME_CHARS)
+        .map(|c| if c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | '_') { c } else { '_' })
+        .collect();
+    if kept.is_empty() { "worker".into() } else { kept }
+}
+
+/// Why a worker's result for a leased point cannot be true, if it cannot: the objective is a
+/// sum of squares (never negative or NaN; +inf is an overflow, kept), and a result carrying
+/// residuals must carry as many as the experiment has measured values.
+fn impossible_result(r: &pb::PointResult, residuals: Option<usize>) -> Option<String> {
+    if r.value.is_nan() {
+        return Some("value: NaN is not a sum of squares".into());
+    }
+    if r.value < 0.0 {
+        return Some(format!("value: a sum of squares cannot be negative ({:e})", r.value));
+    }
+    match residuals {
+        Some(n) if !r.residuals.is_empty() && r.residuals.len() != n => {
+            Some(format!("residuals: {} values, but the experiment has {n} measured values", r.residuals.len()))
+        }
+        _ => None,
+    }
 }
 
 struct Parked {
@@ -275,6 +337,22 @@ impl Scheduler {
         Ok(s)
     }
 
+    /// Cancels those of `ids` that are running: jobs whose client went away with the previous
+    /// coordinator for good (the diagnoses it ran), so that no one will follow or cancel them.
+    #[must_use]
+    pub fn with_orphans_cancelled(mut self, ids: &[String]) -> Self {
+        for id in ids {
+            if self.jobs.get(id).is_some_and(|j| is_running(j.state.status)) {
+                tracing::warn!(job = %id, "cancelling a job of a diagnosis that ended with the previous coordinator");
+                if let Err(e) = self.finish(id, JobStatus::Cancelled, Some("its diagnosis ended with the coordinator"))
+                {
+                    tracing::error!(job = %id, "cannot save the job state: {e}");
+                }
+            }
+        }
+        self
+    }
+
     /// Keeps at most `keep` finished jobs from now on (deleting the oldest by submission,
     /// now and whenever a job finishes); `None` keeps every job.
     #[must_use]
@@ -356,7 +434,7 @@ impl Scheduler {
             }
             Command::Cancel { job_id, reply } => {
                 let r = match self.jobs.get(&job_id) {
-                    None => Err(CoordinatorError::NotFound(format!("job {job_id:?}"))),
+                    None => Err(CoordinatorError::NotFound(format!("job {}", quote(&job_id)))),
                     Some(j) if !is_running(j.state.status) => Ok(wire(j.state.status)),
                     Some(_) => self
                         .finish(&job_id, JobStatus::Cancelled, Some("cancelled"))
@@ -366,7 +444,7 @@ impl Scheduler {
             }
             Command::Delete { job_id, reply } => {
                 let r = match self.jobs.get(&job_id) {
-                    None => Err(CoordinatorError::NotFound(format!("job {job_id:?}"))),
+                    None => Err(CoordinatorError::NotFound(format!("job {}", quote(&job_id)))),
                     Some(j) if is_running(j.state.status) => Err(CoordinatorError::FailedPrecondition(format!(
                         "job {job_id} is running: cancel it before deleting it"
                     ))),
@@ -379,7 +457,7 @@ impl Scheduler {
             }
             Command::Watch { job_id, tx, reply } => {
                 let r = match self.jobs.get_mut(&job_id) {
-                    None => Err(CoordinatorError::NotFound(format!("job {job_id:?}"))),
+                    None => Err(CoordinatorError::NotFound(format!("job {}", quote(&job_id)))),
                     Some(job) => {
                         let event = progress(job, 0.0);
                         if is_running(job.state.status) {
@@ -394,38 +472,7 @@ impl Scheduler {
                 let _ = reply.send(r);
             }
             Command::Register { req, reply } => {
-                let r = if req.protocol_version != fmucal_proto::PROTOCOL_VERSION {
-                    Err(CoordinatorError::InvalidArgument(format!(
-                        "protocol_version: worker speaks {}, coordinator speaks {}",
-                        req.protocol_version,
-                        fmucal_proto::PROTOCOL_VERSION
-                    )))
-                } else {
-                    self.next_worker += 1;
-                    // A random part, so a worker id cannot be guessed and used to answer
-                    // another worker's points.
-                    let id = format!(
-                        "w{}-{}-{}",
-                        self.next_worker,
-                        req.name.replace(char::is_whitespace, "_"),
-                        random_hex()
-                    );
-                    self.workers.insert(
-                        id.clone(),
-                        WorkerInfo {
-                            slots: req.slots.max(1) as usize,
-                            last_seen: Instant::now(),
-                            inflight: HashSet::new(),
-                        },
-                    );
-                    tracing::info!(worker = %id, slots = req.slots, "worker registered");
-                    Ok(pb::RegisterResponse {
-                        worker_id: id,
-                        heartbeat_interval_ms: self.timing.heartbeat_interval.as_millis() as u64,
-                        evaluation_timeout_ms: self.timing.evaluation_timeout.as_millis() as u64,
-                    })
-                };
-                let _ = reply.send(r);
+                let _ = reply.send(self.register(&req));
             }
             Command::Heartbeat { worker_id, reply } => {
                 let known = match self.workers.get_mut(&worker_id) {
@@ -442,11 +489,48 @@ impl Scheduler {
                     .jobs
                     .get(&job_id)
                     .map(|j| j.spec.clone())
-                    .ok_or(CoordinatorError::NotFound(format!("job {job_id:?}")));
+                    .ok_or(CoordinatorError::NotFound(format!("job {}", quote(&job_id))));
                 let _ = reply.send(r);
             }
             Command::Poll { req, reply } => self.poll(req, reply),
         }
+    }
+
+    /// Registers a worker under a fresh, unguessable id that carries its (bounded) name.
+    fn register(&mut self, req: &pb::RegisterRequest) -> Result<pb::RegisterResponse, CoordinatorError> {
+        if req.protocol_version != fmucal_proto::PROTOCOL_VERSION {
+            return Err(CoordinatorError::InvalidArgument(format!(
+                "protocol_version: worker speaks {}, coordinator speaks {}",
+                req.protocol_version,
+                fmucal_proto::PROTOCOL_VERSION
+            )));
+        }
+        if req.slots == 0 || req.slots > fmucal_proto::MAX_SLOTS {
+            return Err(CoordinatorError::InvalidArgument(format!(
+                "slots: a worker has 1 to {} slots, not {}",
+                fmucal_proto::MAX_SLOTS,
+                req.slots
+            )));
+        }
+        self.next_worker += 1;
+        // A random part, so a worker id cannot be guessed and used to answer another
+        // worker's points.
+        let id = format!("w{}-{}-{}", self.next_worker, worker_name(&req.name), random_hex());
+        self.workers.insert(
+            id.clone(),
+            WorkerInfo {
+                slots: req.slots as usize,
+                last_seen: Instant::now(),
+                inflight: HashSet::new(),
+                released: Released::default(),
+            },
+        );
+        tracing::info!(worker = %id, slots = req.slots, "worker registered");
+        Ok(pb::RegisterResponse {
+            worker_id: id,
+            heartbeat_interval_ms: self.timing.heartbeat_interval.as_millis() as u64,
+            evaluation_timeout_ms: self.timing.evaluation_timeout.as_millis() as u64,
+        })
     }
 
     fn submit(&mut self, spec: pb::JobSpec, job: JobSpec, run: JobRun) -> Result<String, CoordinatorError> {
@@ -470,7 +554,7 @@ impl Scheduler {
     }
 
     fn get(&self, job_id: &str) -> Result<pb::GetJobResponse, CoordinatorError> {
-        let j = self.jobs.get(job_id).ok_or(CoordinatorError::NotFound(format!("job {job_id:?}")))?;
+        let j = self.jobs.get(job_id).ok_or(CoordinatorError::NotFound(format!("job {}", quote(job_id))))?;
         Ok(pb::GetJobResponse {
             job_id: job_id.to_owned(),
             status: wire(j.state.status),
@@ -527,7 +611,11 @@ impl Scheduler {
             let _ = w.try_send(Ok(event.clone()));
         }
         for w in self.workers.values_mut() {
-            w.inflight.retain(|(j, _)| j != id);
+            let taken: Vec<(String, u64)> = w.inflight.iter().filter(|(j, _)| j == id).cloned().collect();
+            for point in taken {
+                w.inflight.remove(&point);
+                w.released.insert(point);
+            }
         }
         // The ended state removes the job's log: its unwritten entries need not be written.
         self.unlogged.retain(|(j, _, _)| j != id);
@@ -669,9 +757,13 @@ impl Scheduler {
         let wid = req.worker_id.clone();
         match self.workers.get_mut(&wid) {
             None => {
-                // An expired worker's results: their points were sent again to others.
+                // An expired worker's results: their points were sent again to others. Late,
+                // not alarming.
+                if !req.results.is_empty() {
+                    tracing::debug!(worker = %wid, results = req.results.len(), "results of an expired worker ignored");
+                }
                 if let Some(m) = &self.metrics {
-                    req.results.iter().for_each(|_| m.ignored_result());
+                    req.results.iter().for_each(|_| m.late_result());
                 }
                 let _ = reply.send(pb::PollWorkResponse { assignments: vec![], known: false });
                 return;
@@ -681,17 +773,45 @@ impl Scheduler {
         for r in req.results {
             // Only a point leased to this worker (and not taken back since) may be answered:
             // a token holder cannot report values for points it was never given.
-            let leased = self.workers.get_mut(&wid).is_some_and(|w| w.inflight.remove(&(r.job_id.clone(), r.point_id)));
-            if !leased {
-                tracing::warn!(job = %r.job_id, point = r.point_id, worker = %wid, "result for a point not leased to this worker ignored");
-                if let Some(m) = &self.metrics {
-                    m.ignored_result();
+            let key = (r.job_id.clone(), r.point_id);
+            let Some(worker) = self.workers.get_mut(&wid) else { break };
+            if !worker.inflight.remove(&key) {
+                // A point taken back (its job ended, or it timed out and went to another
+                // worker) is answered late: normal, so counted and logged at debug only.
+                if worker.released.take(&key) {
+                    tracing::debug!(job = %r.job_id, point = r.point_id, worker = %wid, "late result for a point taken back ignored");
+                    if let Some(m) = &self.metrics {
+                        m.late_result();
+                    }
+                } else {
+                    tracing::warn!(job = %r.job_id, point = r.point_id, worker = %wid, "result for a point never leased to this worker ignored");
+                    if let Some(m) = &self.metrics {
+                        m.ignored_result();
+                    }
                 }
                 continue;
             }
             if r.status == pb::PointStatus::NotEvaluated as i32 {
                 self.hand_back(&r.job_id, r.point_id);
                 continue;
+            }
+            if r.status == pb::PointStatus::Ok as i32 {
+                let job = self.jobs.get(&r.job_id);
+                let experiment = job.and_then(|j| j.open.get(&r.point_id)).map(|p| p.experiment);
+                let residuals = job.zip(experiment).and_then(|(j, k)| j.state.run.residual_count(k));
+                if let Some(why) = impossible_result(&r, residuals) {
+                    tracing::warn!(job = %r.job_id, point = r.point_id, worker = %wid, "impossible result refused: {why}");
+                    if let Some(m) = &self.metrics {
+                        m.refused_result();
+                    }
+                    self.attempt_failed(
+                        &r.job_id,
+                        r.point_id,
+                        &wid,
+                        &format!("the worker's result was refused: {why}"),
+                    );
+                    continue;
+                }
             }
             let evaluation = evaluation_from_proto(&r);
             if let Some(m) = &self.metrics {
@@ -829,8 +949,10 @@ impl Scheduler {
         }
         for (id, pid, w) in late {
             tracing::warn!(job = %id, point = pid, worker = %w, "evaluation timed out");
-            if let Some(info) = self.workers.get_mut(&w) {
-                info.inflight.remove(&(id.clone(), pid));
+            if let Some(info) = self.workers.get_mut(&w)
+                && info.inflight.remove(&(id.clone(), pid))
+            {
+                info.released.insert((id.clone(), pid));
             }
             self.attempt_failed(&id, pid, &w, "the evaluation timed out");
         }

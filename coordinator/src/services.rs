@@ -20,6 +20,19 @@ use crate::scheduler::Command;
 /// Largest model accepted by `UploadModel`.
 pub const MAX_MODEL_BYTES: usize = 1 << 30;
 
+/// Refuses an id longer than any id this coordinator hands out, naming `field`, before it is
+/// looked up or quoted.
+fn check_id(field: &str, id: &str) -> Result<(), Status> {
+    if id.len() > fmucal_proto::MAX_ID_BYTES {
+        return Err(Status::invalid_argument(format!(
+            "{field}: {} is not an id (ids have at most {} bytes)",
+            crate::error::quote(id),
+            fmucal_proto::MAX_ID_BYTES
+        )));
+    }
+    Ok(())
+}
+
 /// Runs `f` on the model store (call from a blocking thread).
 fn with_models<T>(
     models: &Mutex<ModelStore>,
@@ -84,6 +97,7 @@ impl pb::calibration_server::Calibration for Handlers {
 
     async fn submit_job(&self, req: Request<pb::SubmitJobRequest>) -> Result<Response<pb::SubmitJobResponse>, Status> {
         let spec = req.into_inner().spec.ok_or_else(|| Status::invalid_argument("spec is required"))?;
+        check_id("spec.model_id", &spec.model_id)?;
         // Checking the job (and unpacking a new model) is blocking work: keep it off the
         // scheduler task, which every other request waits on.
         let models = self.models.clone();
@@ -102,6 +116,7 @@ impl pb::calibration_server::Calibration for Handlers {
 
     async fn watch_job(&self, req: Request<pb::WatchJobRequest>) -> Result<Response<Self::WatchJobStream>, Status> {
         let job_id = req.into_inner().job_id;
+        check_id("job_id", &job_id)?;
         let (tx, rx) = mpsc::channel(1024);
         self.ask(|reply| Command::Watch { job_id, tx, reply }).await?;
         Ok(Response::new(ReceiverStream::new(rx)))
@@ -109,17 +124,20 @@ impl pb::calibration_server::Calibration for Handlers {
 
     async fn get_job(&self, req: Request<pb::GetJobRequest>) -> Result<Response<pb::GetJobResponse>, Status> {
         let job_id = req.into_inner().job_id;
+        check_id("job_id", &job_id)?;
         Ok(Response::new(self.ask(|reply| Command::Get { job_id, reply }).await?))
     }
 
     async fn cancel_job(&self, req: Request<pb::CancelJobRequest>) -> Result<Response<pb::CancelJobResponse>, Status> {
         let job_id = req.into_inner().job_id;
+        check_id("job_id", &job_id)?;
         let status = self.ask(|reply| Command::Cancel { job_id, reply }).await?;
         Ok(Response::new(pb::CancelJobResponse { status }))
     }
 
     async fn delete_job(&self, req: Request<pb::DeleteJobRequest>) -> Result<Response<pb::DeleteJobResponse>, Status> {
         let job_id = req.into_inner().job_id;
+        check_id("job_id", &job_id)?;
         self.ask(|reply| Command::Delete { job_id, reply }).await?;
         Ok(Response::new(pb::DeleteJobResponse {}))
     }
@@ -165,6 +183,7 @@ impl pb::worker_pool_server::WorkerPool for Handlers {
 
     async fn heartbeat(&self, req: Request<pb::HeartbeatRequest>) -> Result<Response<pb::HeartbeatResponse>, Status> {
         let worker_id = req.into_inner().worker_id;
+        check_id("worker_id", &worker_id)?;
         let known = self.ask(|reply| Command::Heartbeat { worker_id, reply }).await?;
         Ok(Response::new(pb::HeartbeatResponse { known }))
     }
@@ -176,6 +195,7 @@ impl pb::worker_pool_server::WorkerPool for Handlers {
         req: Request<pb::FetchModelRequest>,
     ) -> Result<Response<Self::FetchModelStream>, Status> {
         let id = req.into_inner().model_id;
+        check_id("model_id", &id)?;
         let models = self.models.clone();
         let bytes = tokio::task::spawn_blocking(move || with_models(&models, |m| m.bytes(&id)))
             .await
@@ -193,6 +213,7 @@ impl pb::worker_pool_server::WorkerPool for Handlers {
 
     async fn fetch_job(&self, req: Request<pb::FetchJobRequest>) -> Result<Response<pb::FetchJobResponse>, Status> {
         let job_id = req.into_inner().job_id;
+        check_id("job_id", &job_id)?;
         let spec = self.ask(|reply| Command::FetchJob { job_id, reply }).await?;
         Ok(Response::new(pb::FetchJobResponse { spec: Some(spec) }))
     }
@@ -201,6 +222,10 @@ impl pb::worker_pool_server::WorkerPool for Handlers {
         let req = req.into_inner();
         if req.worker_id.is_empty() {
             return Err(Status::invalid_argument("worker_id is required"));
+        }
+        check_id("worker_id", &req.worker_id)?;
+        for (k, r) in req.results.iter().enumerate() {
+            check_id(&format!("results[{k}].job_id"), &r.job_id)?;
         }
         let (tx, rx) = oneshot::channel();
         self.commands.send(Command::Poll { req, reply: tx }).await.map_err(|_| Status::unavailable("shutting down"))?;

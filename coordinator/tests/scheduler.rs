@@ -10,6 +10,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use fmucal_coordinator::CoordinatorError;
+use fmucal_coordinator::metrics::CoordinatorMetrics;
 use fmucal_coordinator::models::{DEFAULT_MAX_STORE_BYTES, ModelStore};
 use fmucal_coordinator::scheduler::{Command, Scheduler, Timing};
 use fmucal_coordinator::store::Store;
@@ -21,6 +22,9 @@ use tokio::sync::{mpsc, oneshot};
 const HEARTBEAT: Duration = Duration::from_secs(1);
 const EXPIRY: Duration = Duration::from_secs(5);
 const TIMEOUT: Duration = Duration::from_secs(30);
+
+/// The residuals of an evaluation of [`job`]: its 21 measured values.
+const RESIDUALS: usize = 21;
 
 const RUNNING: i32 = pb::JobStatus::Running as i32;
 const SUCCEEDED: i32 = pb::JobStatus::Succeeded as i32;
@@ -37,7 +41,7 @@ fn ok(a: &pb::Assignment) -> pb::PointResult {
         point_id: a.point_id,
         status: pb::PointStatus::Ok as i32,
         value: objective(&a.x),
-        residuals: if a.want_residuals { vec![a.x[0], 1.0] } else { vec![] },
+        residuals: if a.want_residuals { (0..RESIDUALS).map(|i| a.x[0] + i as f64).collect() } else { vec![] },
         ..Default::default()
     }
 }
@@ -107,10 +111,17 @@ impl Sched {
 
     /// [`Sched::start`] on `store`, keeping at most `keep` finished jobs.
     fn start_with(dir: &Path, store: Store, keep: Option<usize>) -> Sched {
+        Sched::start_full(dir, store, keep, None)
+    }
+
+    /// [`Sched::start_with`], keeping `metrics` up to date.
+    fn start_full(dir: &Path, store: Store, keep: Option<usize>, metrics: Option<CoordinatorMetrics>) -> Sched {
         let models = Arc::new(Mutex::new(ModelStore::open(dir, DEFAULT_MAX_STORE_BYTES).unwrap()));
         let timing = Timing { heartbeat_interval: HEARTBEAT, worker_expiry: EXPIRY, evaluation_timeout: TIMEOUT };
         let (tx, rx) = mpsc::channel(64);
-        let task = tokio::spawn(Scheduler::new(store, models.clone(), timing).unwrap().with_retention(keep).run(rx));
+        let scheduler =
+            Scheduler::new(store, models.clone(), timing).unwrap().with_retention(keep).with_metrics(metrics);
+        let task = tokio::spawn(scheduler.run(rx));
         Sched { tx, task, models }
     }
 
@@ -710,4 +721,127 @@ async fn a_job_whose_state_cannot_be_written_fails_visibly_and_the_store_recover
     let s = Sched::start_with(dir.path(), on_disk(&disk), None);
     let r = s.get(&id).await;
     assert_eq!(r.status, pb::JobStatus::Failed as i32, "after a restart: {r:?}");
+}
+
+/// A metric's value in the Prometheus text of `registry`.
+fn metric(registry: &prometheus_client::registry::Registry, name: &str) -> f64 {
+    let mut text = String::new();
+    prometheus_client::encoding::prometheus_text::encode(&mut text, registry).unwrap();
+    let line =
+        text.lines().find(|l| l.split(' ').next() == Some(name)).unwrap_or_else(|| panic!("no {name} in\n{text}"));
+    line.rsplit(' ').next().unwrap().parse().unwrap()
+}
+
+#[tokio::test(start_paused = true)]
+async fn registration_refuses_nonsense_slot_counts_and_bounds_the_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    for slots in [0, fmucal_proto::MAX_SLOTS + 1, 4_000_000_000] {
+        let req = pb::RegisterRequest { protocol_version: fmucal_proto::PROTOCOL_VERSION, slots, name: "w".into() };
+        let e = s.call(|reply| Command::Register { req, reply }).await.unwrap_err();
+        assert!(matches!(e, CoordinatorError::InvalidArgument(_)), "{slots}: {e}");
+        assert!(e.to_string().starts_with("slots: "), "{slots}: {e}");
+    }
+    assert!(!s.register("max", fmucal_proto::MAX_SLOTS).await.is_empty());
+    // A 100 kB name, with spaces, NUL and a right-to-left override, is cut and cleaned.
+    let name = format!("{}\u{0} \u{202e}x", "n".repeat(100_000));
+    let id = s.register(&name, 1).await;
+    assert!(id.len() <= 100, "{} bytes", id.len());
+    assert!(id.chars().all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c)), "{id}");
+    let id = s.register("host \u{0}\u{202e}1", 1).await;
+    assert!(id.contains("-host___1-"), "{id}");
+}
+
+#[tokio::test(start_paused = true)]
+async fn an_impossible_result_is_refused_and_its_point_tried_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut registry = prometheus_client::registry::Registry::default();
+    let metrics = CoordinatorMetrics::register(&mut registry);
+    let s = Sched::start_full(dir.path(), Store::open(dir.path()).unwrap(), None, Some(metrics));
+    let (a, b) = (s.register("a", 1).await, s.register("b", 1).await);
+    // A points job wants residuals: their count is checked too.
+    let job = s.submit(points_job(dir.path(), 3)).await;
+    // (Two polls: one gets its fair share of the queue, two of three points for two workers.)
+    let mut held = s.take(&a, 3).await;
+    held.extend(s.take(&a, 3).await);
+    assert_eq!(held.len(), 3);
+    let bad = vec![
+        pb::PointResult { value: -1e300, ..ok(&held[0]) },
+        pb::PointResult { value: f64::NAN, ..ok(&held[1]) },
+        pb::PointResult { residuals: vec![1.0; RESIDUALS + 1], ..ok(&held[2]) },
+    ];
+    s.answer(&a, bad).await;
+    assert_eq!(metric(&registry, "fmucal_refused_results_total"), 3.0);
+    // Not told: the points go to the other worker, whose true results end the job.
+    let (r, handed) = s.drive(&job, &[&b], |_, p| ok(p)).await;
+    assert_eq!(r.status, SUCCEEDED, "{r:?}");
+    let mut again = ids(&handed.into_iter().map(|(_, p)| p).collect::<Vec<_>>());
+    again.sort_unstable();
+    assert_eq!(again, ids(&held));
+    let res = result(&r);
+    assert_eq!(res.failed_evaluations, 0, "{res:?}");
+    let values: Vec<f64> = res.evaluated.iter().map(|e| e.value).collect();
+    assert_eq!(values, held.iter().map(|p| objective(&p.x)).collect::<Vec<_>>());
+    assert!(res.evaluated.iter().all(|e| e.residuals.len() == RESIDUALS));
+
+    // A calibration: -1e300 cannot become its optimum.
+    let job = s.submit(de_job(dir.path(), 4, 1)).await;
+    let (r, _) =
+        s.drive(&job, &[&a, &b], |w, p| if w == a { pb::PointResult { value: -1e300, ..ok(p) } } else { ok(p) }).await;
+    assert_eq!(r.status, SUCCEEDED, "{r:?}");
+    assert!(result(&r).f_opt >= 0.0, "{:?}", result(&r));
+}
+
+#[tokio::test(start_paused = true)]
+async fn late_results_are_counted_apart_from_results_never_leased() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut registry = prometheus_client::registry::Registry::default();
+    let metrics = CoordinatorMetrics::register(&mut registry);
+    let s = Sched::start_full(dir.path(), Store::open(dir.path()).unwrap(), None, Some(metrics));
+    let (a, b) = (s.register("a", 1).await, s.register("b", 1).await);
+    let job = s.submit(points_job(dir.path(), 2)).await;
+    let slow = s.take(&a, 1).await;
+    // Past the evaluation timeout the point goes to b; a's answer is then late.
+    s.pass(TIMEOUT + HEARTBEAT, &[&a, &b]).await;
+    // (A poll gets its fair share of the queue: one point of two, for two workers.)
+    let mut resent = s.take(&b, 2).await;
+    resent.extend(s.take(&b, 2).await);
+    assert!(ids(&resent).contains(&slow[0].point_id), "{resent:?}");
+    s.answer(&a, slow.iter().map(ok).collect()).await;
+    // A job that ended (cancelled) is answered late too.
+    let other = s.submit(points_job(dir.path(), 1)).await;
+    let held = s.take(&a, 1).await;
+    assert_eq!(held[0].job_id, other);
+    s.cancel(&other).await.unwrap();
+    s.answer(&a, held.iter().map(ok).collect()).await;
+    assert_eq!(metric(&registry, "fmucal_late_results_total"), 2.0);
+    assert_eq!(metric(&registry, "fmucal_ignored_results_total"), 0.0);
+    // A result for a point never leased to a (b holds it; job-999999 does not exist) is not.
+    let forged = vec![ok(&resent[0]), pb::PointResult { job_id: "job-999999".into(), ..ok(&resent[0]) }];
+    s.answer(&a, forged).await;
+    assert_eq!(metric(&registry, "fmucal_ignored_results_total"), 2.0);
+    assert_eq!(metric(&registry, "fmucal_late_results_total"), 2.0);
+    // An expired worker's results are late.
+    s.pass(EXPIRY + 2 * HEARTBEAT, &[&b]).await;
+    assert!(!s.poll(&a, slow.iter().map(ok).collect(), 0).await.known);
+    assert_eq!(metric(&registry, "fmucal_late_results_total"), 3.0);
+    s.answer(&b, resent.iter().map(ok).collect()).await;
+    assert_eq!(s.get(&job).await.status, SUCCEEDED);
+}
+
+#[tokio::test(start_paused = true)]
+async fn running_jobs_named_as_orphans_are_cancelled_at_start() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let (orphan, kept) = (s.submit(points_job(dir.path(), 1)).await, s.submit(points_job(dir.path(), 1)).await);
+    s.kill().await;
+    let models = Arc::new(Mutex::new(ModelStore::open(dir.path(), DEFAULT_MAX_STORE_BYTES).unwrap()));
+    let timing = Timing { heartbeat_interval: HEARTBEAT, worker_expiry: EXPIRY, evaluation_timeout: TIMEOUT };
+    let scheduler = Scheduler::new(Store::open(dir.path()).unwrap(), models.clone(), timing)
+        .unwrap()
+        .with_orphans_cancelled(&[orphan.clone(), "job-424242".into()]);
+    let (tx, rx) = mpsc::channel(64);
+    let s = Sched { tx, task: tokio::spawn(scheduler.run(rx)), models };
+    assert_eq!(s.get(&orphan).await.status, CANCELLED);
+    assert_eq!(s.get(&kept).await.status, RUNNING);
 }

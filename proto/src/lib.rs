@@ -17,6 +17,16 @@ pub const PROTOCOL_VERSION: u32 = 3;
 /// a batch of points, a result): 256 MiB.
 pub const MAX_MESSAGE_BYTES: usize = 256 << 20;
 
+/// Most evaluation slots a worker may announce at registration (`fmucal worker --slots`).
+pub const MAX_SLOTS: u32 = 256;
+
+/// Most characters of a worker's chosen name kept in its worker id.
+pub const MAX_WORKER_NAME_CHARS: usize = 64;
+
+/// Longest job, model or worker id a request may carry: longer ones are refused without being
+/// looked up or echoed.
+pub const MAX_ID_BYTES: usize = 128;
+
 /// Size of the chunks a model travels in (`UploadModel`, `FetchModel`): 1 MiB.
 pub const MODEL_CHUNK_BYTES: usize = 1 << 20;
 

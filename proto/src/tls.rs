@@ -61,3 +61,39 @@ pub fn endpoint(url: &str, tls: Option<&ClientTls>) -> Result<Endpoint, String> 
     }
     endpoint.tls_config(config).map_err(|e| format!("TLS settings for {url}: {e}"))
 }
+
+/// `e` and every error it was caused by, joined by `: ` (tonic's transport errors say only
+/// "transport error" by themselves; the cause, such as a certificate refused, is in the chain).
+pub fn error_chain(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let next = s.to_string();
+        if !text.ends_with(&next) {
+            text.push_str(": ");
+            text.push_str(&next);
+        }
+        source = s.source();
+    }
+    text
+}
+
+/// Whether the server at an `http://` URL in fact speaks TLS: it answers the HTTP/2 preface
+/// with a TLS record (an alert) instead of HTTP/2 frames. For an error message after a
+/// plaintext call failed at the connection level; `false` when it cannot tell.
+pub fn http_url_serves_tls(url: &str) -> bool {
+    use std::io::{Read, Write};
+    use std::net::ToSocketAddrs;
+    let Some(rest) = url.strip_prefix("http://") else { return false };
+    let authority = rest.split('/').next().unwrap_or_default();
+    let Some(addr) = authority.to_socket_addrs().ok().and_then(|mut a| a.next()) else { return false };
+    let Ok(mut stream) = std::net::TcpStream::connect_timeout(&addr, Duration::from_secs(2)) else { return false };
+    let _ = stream.set_read_timeout(Some(Duration::from_secs(2)));
+    let _ = stream.set_write_timeout(Some(Duration::from_secs(2)));
+    if stream.write_all(b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n").is_err() {
+        return false;
+    }
+    let mut head = [0u8; 3];
+    // A TLS record starts with its type (21: alert, 22: handshake) and version 3.x.
+    stream.read_exact(&mut head).is_ok() && matches!(head[0], 21 | 22) && head[1] == 3
+}

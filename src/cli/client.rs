@@ -205,6 +205,7 @@ impl Client {
             .into_inner()
             .job_id;
         self.submitted.lock().expect("not poisoned").push(job_id.clone());
+        record_job(&job_id);
         Ok(job_id)
     }
 
@@ -306,6 +307,22 @@ impl Client {
 
 /// How long a client waits for a coordinator that went away while it followed a job.
 const RECONNECT_FOR: Duration = Duration::from_secs(120);
+
+/// Lists a submitted job in the file a coordinator running this process as a diagnosis named
+/// ([`fmucal_coordinator::diagnoses::JOB_RECORD_VAR`]), so that a coordinator that restarts
+/// after dying can cancel it.
+fn record_job(job_id: &str) {
+    use std::io::Write;
+    let Some(path) = std::env::var_os(fmucal_coordinator::diagnoses::JOB_RECORD_VAR) else { return };
+    let written = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&path)
+        .and_then(|mut f| writeln!(f, "{job_id}").and_then(|()| f.sync_data()));
+    if let Err(e) = written {
+        tracing::warn!("cannot list job {job_id} in {}: {e}", std::path::Path::new(&path).display());
+    }
+}
 
 /// Whether a failed call means the coordinator is not there (restarting, or the connection
 /// dropped), rather than an answer.

@@ -35,8 +35,12 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--timeout must be a positive number of seconds, not {}", args.timeout);
     }
     let tls = args.tls.load()?;
-    let endpoint = fmucal_proto::tls::endpoint(&args.url, tls.as_ref()).map_err(anyhow::Error::msg)?;
-    let timeout = Duration::from_secs_f64(args.timeout);
+    let timeout = Duration::try_from_secs_f64(args.timeout)
+        .map_err(|_| anyhow::anyhow!("--timeout must be a positive number of seconds, not {}", args.timeout))?;
+    // Connecting (with the TLS handshake) may take the whole --timeout, as under a flood of
+    // connections: the clients' usual 2 s would cut it short.
+    let endpoint =
+        fmucal_proto::tls::endpoint(&args.url, tls.as_ref()).map_err(anyhow::Error::msg)?.connect_timeout(timeout);
     let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
     let status = rt.block_on(async {
         tokio::time::timeout(timeout, async {
@@ -50,7 +54,14 @@ pub fn run(args: Args) -> Result<()> {
         })
         .await
         .with_context(|| format!("{} did not answer within {} s", args.url, args.timeout))?
-    })?;
+    });
+    let status = match status {
+        Ok(status) => status,
+        Err(e) if fmucal_proto::tls::http_url_serves_tls(&args.url) => {
+            return Err(e.context(format!("{} serves TLS: use an https:// URL with --tls-ca", args.url)));
+        }
+        Err(e) => return Err(e),
+    };
     let status = ServingStatus::try_from(status).unwrap_or(ServingStatus::Unknown);
     if status != ServingStatus::Serving {
         bail!("{} is {}", args.url, status.as_str_name());

@@ -54,17 +54,27 @@ pub(crate) fn status(line: &str) {
     }
 }
 
-fn init_logs(format: LogFormat) {
+/// Sets up logging; a FMUCAL_LOG that does not parse is refused, not ignored.
+fn init_logs(format: LogFormat) -> anyhow::Result<()> {
     let json = format == LogFormat::Json;
     JSON_LOGS.store(json, Ordering::Relaxed);
     let default_level = if json { "info" } else { "warn" };
-    let filter = tracing_subscriber::EnvFilter::try_from_env("FMUCAL_LOG").unwrap_or_else(|_| default_level.into());
+    let filter = match std::env::var("FMUCAL_LOG") {
+        Ok(v) if !v.trim().is_empty() => tracing_subscriber::EnvFilter::try_new(&v).map_err(|e| {
+            let shown: String = v.chars().take(64).flat_map(char::escape_debug).collect();
+            anyhow::anyhow!("FMUCAL_LOG: {e} in \"{shown}\" (a level such as `info`, or `fmucal=debug,warn`)")
+        })?,
+        Ok(_) => default_level.into(),
+        Err(std::env::VarError::NotPresent) => default_level.into(),
+        Err(std::env::VarError::NotUnicode(_)) => anyhow::bail!("FMUCAL_LOG: not UTF-8"),
+    };
     let logs = tracing_subscriber::fmt().with_writer(std::io::stderr).with_env_filter(filter);
     if json {
         logs.json().init();
     } else {
         logs.with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr())).init();
     }
+    Ok(())
 }
 
 #[derive(Subcommand)]
@@ -101,10 +111,28 @@ enum Command {
 #[error("interrupted")]
 pub(crate) struct Interrupted;
 
+/// What an HTTP/2 error that a plaintext client gets from a TLS server (the server's TLS
+/// alert read as an HTTP/2 frame) likely means.
+fn protocol_hint(line: &str) -> Option<&'static str> {
+    let garbled =
+        ["frame with invalid size", "h2 protocol error", "invalid HTTP/2 preface", "connection error: PROTOCOL_ERROR"];
+    garbled
+        .iter()
+        .any(|g| line.contains(g))
+        .then_some(" (the server did not speak plaintext HTTP/2: if it serves TLS, use an https:// URL with --tls-ca)")
+}
+
 /// Runs the CLI with the process arguments.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
-    init_logs(cli.log_format);
+    // Settings from the environment are checked before anything runs: a bad one is refused
+    // in one line, never silently replaced by a default.
+    if let Err(e) = init_logs(cli.log_format)
+        .and_then(|()| fmucal_shared::fmu::ArchiveLimits::try_from_env().map(|_| ()).map_err(anyhow::Error::from))
+    {
+        eprintln!("error: {e:#}");
+        return ExitCode::FAILURE;
+    }
     let result = match cli.command {
         Command::Inspect(args) => inspect::run(args),
         Command::Simulate(args) => simulate::run(args),
@@ -137,10 +165,13 @@ pub fn main() -> ExitCode {
         Err(e) => {
             // What the error quotes may come from a job file: bounded and escaped as a whole
             // too, so a long or hostile value the message did not quote itself stays harmless.
-            let line = fmucal_shared::quote::escape_user_text(
+            let mut line = fmucal_shared::quote::escape_user_text(
                 &format!("{e:#}").replace('\n', " "),
                 fmucal_shared::quote::MAX_ERROR_LINE_CHARS,
             );
+            if let Some(hint) = protocol_hint(&line) {
+                line.push_str(hint);
+            }
             if JSON_LOGS.load(Ordering::Relaxed) {
                 tracing::error!("{line}");
             } else {

@@ -21,10 +21,11 @@ pub struct CoordinatorArgs {
     /// present the client token.
     #[arg(long)]
     worker_token_file: Option<PathBuf>,
-    /// Drop a worker after this many seconds without a heartbeat.
+    /// Drop a worker after this many seconds without a heartbeat: at least 2 (workers
+    /// heartbeat every second), at most a day.
     #[arg(long, default_value_t = 5.0)]
     worker_expiry: f64,
-    /// Re-send a point after this many seconds without a result.
+    /// Re-send a point after this many seconds without a result: at least 1, at most a week.
     #[arg(long, default_value_t = 600.0)]
     evaluation_timeout: f64,
     /// Cap on the stored models (archives and their unpacked files), bytes; an upload past it
@@ -65,9 +66,9 @@ pub struct WorkerArgs {
     /// Coordinator URL, e.g. http://127.0.0.1:7070.
     #[arg(long)]
     coordinator: String,
-    /// Concurrent evaluations (FMU instances on their own threads).
-    #[arg(long, default_value_t = 1)]
-    slots: usize,
+    /// Concurrent evaluations (FMU instances on their own threads), 1 to 256.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=i64::from(fmucal_proto::MAX_SLOTS)))]
+    slots: u32,
     /// File holding the token to present (else FMUCAL_WORKER_TOKEN, else FMUCAL_TOKEN).
     #[arg(long)]
     token_file: Option<PathBuf>,
@@ -111,21 +112,25 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
     if args.salvage {
         return salvage(&args.data_dir);
     }
+    let timing = fmucal_coordinator::Timing {
+        worker_expiry: seconds_within("--worker-expiry", args.worker_expiry, 2.0, DAY)?,
+        evaluation_timeout: seconds_within("--evaluation-timeout", args.evaluation_timeout, 1.0, 7.0 * DAY)?,
+        ..Default::default()
+    };
+    timing.check()?;
+    let idle_timeout = seconds_within("--idle-timeout", args.idle_timeout, 1.0, DAY)?;
+    let auth_timeout = seconds_within("--auth-timeout", args.auth_timeout, 1.0, DAY)?;
+    anyhow::ensure!(args.max_connections >= 1, "--max-connections must be at least 1, not 0");
     let token = super::token::load(args.token_file.as_deref())?;
     let worker_token = super::token::load_worker_token(args.worker_token_file.as_deref())?;
     fmucal_coordinator::check_tokens(token.as_deref(), worker_token.as_deref())?;
     let tls = args.tls.load(args.listen)?;
+    fmucal_coordinator::check_data_dir(&args.data_dir)?;
     let rt = tokio::runtime::Runtime::new()?;
     rt.block_on(async move {
         let listener = tokio::net::TcpListener::bind(args.listen)
             .await
             .with_context(|| format!("cannot listen on {}", args.listen))?;
-        super::status(&format!("coordinator listening on {}", listener.local_addr()?));
-        let timing = fmucal_coordinator::Timing {
-            worker_expiry: std::time::Duration::from_secs_f64(args.worker_expiry),
-            evaluation_timeout: std::time::Duration::from_secs_f64(args.evaluation_timeout),
-            ..Default::default()
-        };
         // A Diagnose request runs this binary as `fmucal diagnose --coordinator <here>`.
         let diagnose_program = std::env::current_exe().ok();
         let mut registry = prometheus_client::registry::Registry::default();
@@ -146,20 +151,45 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
             max_store_bytes: args.max_store_bytes,
             connections: fmucal_coordinator::connections::ConnectionLimits {
                 max_connections: args.max_connections,
-                idle_timeout: seconds("--idle-timeout", args.idle_timeout.max(1.0))?,
-                auth_timeout: seconds("--auth-timeout", args.auth_timeout.max(1.0))?,
+                idle_timeout,
+                auth_timeout,
             },
             keep_finished_jobs: args.keep_finished_jobs.map(|n| usize::try_from(n).unwrap_or(usize::MAX)),
             tls,
             diagnose_program,
             metrics,
         };
-        fmucal_coordinator::run(config, listener, terminate_signal()).await?;
+        // Said once the store is open: a data dir another coordinator holds fails first.
+        let ready = |addr| super::status(&format!("coordinator listening on {addr}"));
+        fmucal_coordinator::run_with_ready(config, listener, terminate_signal(), ready).await?;
         Ok(())
     })
 }
 
 pub fn worker(args: WorkerArgs) -> Result<()> {
+    let ca = args.tls.ca_path();
+    let url = args.coordinator.clone();
+    worker_with(args).map_err(|e| {
+        if matches!(
+            e.downcast_ref::<fmucal_worker::WorkerError>(),
+            Some(fmucal_worker::WorkerError::Connect { .. } | fmucal_worker::WorkerError::Registration(_))
+        ) && fmucal_proto::tls::http_url_serves_tls(&url)
+        {
+            return e.context(format!("{url} serves TLS: use an https:// URL with --tls-ca"));
+        }
+        // A refused certificate: name the file that should have vouched for it.
+        let text = format!("{e:#}");
+        match ca {
+            Some(ca) if text.contains("certificate") || text.contains("UnknownIssuer") => e.context(format!(
+                "the coordinator's certificate was refused: is {} the CA that signed it?",
+                ca.display()
+            )),
+            _ => e,
+        }
+    })
+}
+
+fn worker_with(args: WorkerArgs) -> Result<()> {
     let token = super::token::load_for_worker(args.token_file.as_deref())?;
     let cache_dir = args.cache_dir.unwrap_or_else(fmucal_shared::fmu::archive::default_cache_dir);
     let name = format!("{}-{}", std::env::var("HOSTNAME").unwrap_or_else(|_| "worker".into()), std::process::id());
@@ -168,7 +198,7 @@ pub fn worker(args: WorkerArgs) -> Result<()> {
     let config = fmucal_worker::Config {
         coordinator: args.coordinator,
         token,
-        slots: args.slots,
+        slots: args.slots as usize,
         name,
         cache_dir,
         health_listen: args.health_listen,
@@ -211,6 +241,18 @@ fn salvage(data_dir: &std::path::Path) -> Result<()> {
         println!("lost {} jobs: {}", report.lost.len(), report.lost.join(", "));
     }
     Ok(())
+}
+
+/// A day, in seconds.
+const DAY: f64 = 86_400.0;
+
+/// A duration given in seconds on the command line, between `min` and `max` seconds.
+fn seconds_within(flag: &str, s: f64, min: f64, max: f64) -> Result<std::time::Duration> {
+    anyhow::ensure!(
+        s.is_finite() && (min..=max).contains(&s),
+        "{flag} must be a number of seconds from {min} to {max}, not {s}"
+    );
+    seconds(flag, s)
 }
 
 /// A duration given in seconds on the command line.

@@ -13,6 +13,88 @@ fn read(path: &Path, what: &str) -> Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("cannot read the {what} {}", path.display()))
 }
 
+/// The base64 payloads of the PEM blocks labelled `label` in `text`, decoded (`None`: not
+/// valid base64).
+fn pem_blocks(text: &str, label: &str) -> Vec<Option<Vec<u8>>> {
+    let (begin, end) = (format!("-----BEGIN {label}-----"), format!("-----END {label}-----"));
+    let mut out = vec![];
+    let mut rest = text;
+    while let Some(at) = rest.find(&begin) {
+        let body = &rest[at + begin.len()..];
+        let Some(stop) = body.find(&end) else {
+            out.push(None);
+            break;
+        };
+        out.push(base64_decode(&body[..stop]));
+        rest = &body[stop + end.len()..];
+    }
+    out
+}
+
+/// Standard base64 (whitespace ignored, `=` padding); `None` if it is not.
+fn base64_decode(text: &str) -> Option<Vec<u8>> {
+    let mut out = vec![];
+    let (mut acc, mut bits) = (0u32, 0u32);
+    for c in text.bytes().filter(|c| !c.is_ascii_whitespace()) {
+        let v = match c {
+            b'A'..=b'Z' => c - b'A',
+            b'a'..=b'z' => c - b'a' + 26,
+            b'0'..=b'9' => c - b'0' + 52,
+            b'+' => 62,
+            b'/' => 63,
+            b'=' => continue,
+            _ => return None,
+        };
+        acc = (acc << 6) | u32::from(v);
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+            acc &= (1 << bits) - 1;
+        }
+    }
+    Some(out)
+}
+
+/// The certificates (DER) of the PEM file at `path`, refusing one that holds none or a
+/// damaged one, with the file's name.
+fn certificates(pem: &[u8], path: &Path, what: &str) -> Result<Vec<Vec<u8>>> {
+    let text = std::str::from_utf8(pem).ok();
+    let blocks = text.map(|t| pem_blocks(t, "CERTIFICATE")).unwrap_or_default();
+    anyhow::ensure!(
+        !blocks.is_empty(),
+        "the {what} {} holds no PEM certificate (-----BEGIN CERTIFICATE-----)",
+        path.display()
+    );
+    blocks
+        .into_iter()
+        .enumerate()
+        .map(|(k, der)| {
+            // A certificate is a DER SEQUENCE.
+            der.filter(|d| d.len() > 64 && d[0] == 0x30).with_context(|| {
+                format!("the {what} {}: certificate {} is damaged (not base64 DER)", path.display(), k + 1)
+            })
+        })
+        .collect()
+}
+
+/// Checks that the PEM file at `key_path` holds a private key, and that it is the key of the
+/// certificate `cert` (read from `cert_path`) where the key's type can be read here.
+fn check_key(key: &[u8], key_path: &Path, cert: &[u8], cert_path: &Path) -> Result<()> {
+    let text = std::str::from_utf8(key).ok().filter(|t| t.contains("PRIVATE KEY-----"));
+    let text = text.with_context(|| format!("the key {} holds no PEM private key", key_path.display()))?;
+    if let Ok(pair) = rcgen::KeyPair::from_pem(text) {
+        let public = pair.public_key_raw();
+        anyhow::ensure!(
+            !public.is_empty() && cert.windows(public.len()).any(|w| w == public),
+            "the key {} does not belong to the certificate {}",
+            key_path.display(),
+            cert_path.display()
+        );
+    }
+    Ok(())
+}
+
 /// The flag if given, else the environment variable.
 fn flag_or_env(flag: &Option<PathBuf>, var: &str) -> Option<PathBuf> {
     flag.clone().or_else(|| std::env::var_os(var).filter(|v| !v.is_empty()).map(PathBuf::from))
@@ -41,11 +123,23 @@ impl ClientArgs {
         let Some(ca) = flag_or_env(&self.tls_ca, "FMUCAL_TLS_CA") else { return Ok(None) };
         let identity =
             match (flag_or_env(&self.tls_cert, "FMUCAL_TLS_CERT"), flag_or_env(&self.tls_key, "FMUCAL_TLS_KEY")) {
-                (Some(cert), Some(key)) => Some((read(&cert, "certificate")?, read(&key, "key")?)),
+                (Some(cert), Some(key)) => {
+                    let (cert_pem, key_pem) = (read(&cert, "certificate")?, read(&key, "key")?);
+                    let ders = certificates(&cert_pem, &cert, "certificate")?;
+                    check_key(&key_pem, &key, &ders[0], &cert)?;
+                    Some((cert_pem, key_pem))
+                }
                 (None, None) => None,
                 _ => anyhow::bail!("give both a client certificate and its key (--tls-cert and --tls-key)"),
             };
-        Ok(Some(ClientTls { ca_pem: read(&ca, "CA certificate")?, identity }))
+        let ca_pem = read(&ca, "CA certificate")?;
+        certificates(&ca_pem, &ca, "CA certificate")?;
+        Ok(Some(ClientTls { ca_pem, identity }))
+    }
+
+    /// The CA certificate's file, if one is given.
+    pub fn ca_path(&self) -> Option<PathBuf> {
+        flag_or_env(&self.tls_ca, "FMUCAL_TLS_CA")
     }
 }
 
@@ -84,10 +178,21 @@ impl ServerArgs {
             );
             return Ok(None);
         };
-        let optional = |p: &Option<PathBuf>, what: &str| p.as_deref().map(|p| read(p, what)).transpose();
+        let optional = |p: &Option<PathBuf>, what: &str| {
+            p.as_deref()
+                .map(|p| {
+                    let pem = read(p, what)?;
+                    certificates(&pem, p, what)?;
+                    Ok::<_, anyhow::Error>(pem)
+                })
+                .transpose()
+        };
+        let (cert_pem, key_pem) = (read(cert, "certificate")?, read(key, "key")?);
+        let ders = certificates(&cert_pem, cert, "certificate")?;
+        check_key(&key_pem, key, &ders[0], cert)?;
         Ok(Some(ServerTls {
-            cert_pem: read(cert, "certificate")?,
-            key_pem: read(key, "key")?,
+            cert_pem,
+            key_pem,
             client_ca_pem: optional(&self.tls_client_ca, "client CA certificate")?,
             ca_pem: optional(&self.tls_ca, "CA certificate")?,
         }))

@@ -190,11 +190,37 @@ impl Servers {
         Servers { url, children: vec![worker, coord] }
     }
 
+    /// The processes' ids: the worker's, then the coordinator's.
+    pub fn pids(&self) -> Vec<u32> {
+        self.children.iter().map(std::process::Child::id).collect()
+    }
+
+    /// Sends every child SIGTERM and waits for each (killing one that has not exited 30 s
+    /// later), whatever the others did; whether all exited cleanly.
     pub fn stop(mut self) -> bool {
-        std::mem::take(&mut self.children).iter_mut().all(|child| {
-            let _ = std::process::Command::new("kill").args(["-TERM", &child.id().to_string()]).status();
-            child.wait().unwrap().success()
-        })
+        let mut clean = true;
+        for mut child in std::mem::take(&mut self.children) {
+            clean &= stop_child(&mut child, std::time::Duration::from_secs(30));
+        }
+        clean
+    }
+}
+
+/// Sends `child` SIGTERM and waits up to `grace` for it to exit, then kills it; whether it
+/// exited cleanly by itself. The child is reaped on every path.
+pub fn stop_child(child: &mut std::process::Child, grace: std::time::Duration) -> bool {
+    let _ = std::process::Command::new("kill").args(["-TERM", &child.id().to_string()]).status();
+    let end = std::time::Instant::now() + grace;
+    loop {
+        match child.try_wait() {
+            Ok(Some(status)) => return status.success(),
+            Ok(None) if std::time::Instant::now() < end => std::thread::sleep(std::time::Duration::from_millis(20)),
+            _ => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return false;
+            }
+        }
     }
 }
 

@@ -123,7 +123,7 @@ told_furuta="$(metric fmucal_evaluations_total)"
 extra=$((told_furuta - $(evaluations_of "$work/remote-furuta/result.json")))
 
 # 2.-4. The long job, while the pool grows, loses a worker and has one cut off.
-ignored_before="$(metric fmucal_ignored_results_total)"
+ignored_before="$(metric fmucal_late_results_total)"
 submit_long remote-long 100 || fail "the long job did not start"
 first_two="$(worker_ids)"
 start="$(now)"
@@ -165,7 +165,7 @@ if wait "$client"; then
   fi
   told=$(($(metric fmucal_evaluations_total) - told_before))
   expected=$(($(evaluations_of "$work/remote-long/result.json") + extra))
-  ignored=$(($(metric fmucal_ignored_results_total) - ignored_before))
+  ignored=$(($(metric fmucal_late_results_total) - ignored_before))
   cut_after_heal=$(($(metric fmucal_worker_evaluations_total "$cut_metrics") - cut_done_at_heal))
   if [ "$told" -eq "$expected" ]; then
     pass "nothing told twice: $told results taken for $expected evaluations; $ignored late results of the cut-off worker ignored; it evaluated $cut_after_heal new points after it came back"

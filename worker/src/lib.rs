@@ -44,7 +44,7 @@ pub struct Config {
     /// Coordinator URL, e.g. `http://127.0.0.1:7070`.
     pub coordinator: String,
     pub token: Option<String>,
-    /// Concurrent evaluations (FMU instances). Default: 1.
+    /// Concurrent evaluations (FMU instances), 1 to [`fmucal_proto::MAX_SLOTS`]. Default: 1.
     pub slots: usize,
     /// Name shown by the coordinator.
     pub name: String,
@@ -84,6 +84,10 @@ pub enum WorkerError {
 /// # Errors
 /// [`WorkerError`] if the coordinator cannot be reached or refuses the registration.
 pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'static) -> Result<(), WorkerError> {
+    let max = fmucal_proto::MAX_SLOTS as usize;
+    if !(1..=max).contains(&config.slots) {
+        return Err(WorkerError::Config(format!("slots: a worker has 1 to {max} slots, not {}", config.slots)));
+    }
     let attach = AttachToken::new(config.token.as_deref()).map_err(WorkerError::Config)?;
     let channel = connect(&config.coordinator, config.tls.as_ref()).await?;
     let mut client: Client = WorkerPoolClient::with_interceptor(channel, attach)
@@ -197,7 +201,7 @@ async fn connect(url: &str, tls: Option<&fmucal_proto::tls::ClientTls>) -> Resul
     for _ in 0..50 {
         match endpoint.connect().await {
             Ok(ch) => return Ok(ch),
-            Err(e) => last = e.to_string(),
+            Err(e) => last = fmucal_proto::tls::error_chain(&e),
         }
         tokio::time::sleep(Duration::from_millis(200)).await;
     }
@@ -210,5 +214,19 @@ async fn register(client: &mut Client, config: &Config) -> Result<pb::RegisterRe
         slots: config.slots.max(1) as u32,
         name: config.name.clone(),
     };
-    client.register(req).await.map(|r| r.into_inner()).map_err(|s| WorkerError::Registration(s.message().to_owned()))
+    client.register(req).await.map(|r| r.into_inner()).map_err(|s| {
+        // A connection that failed (a certificate refused, say) says why only in its source.
+        let why = match std::error::Error::source(&s) {
+            Some(source)
+                if s.message().is_empty()
+                    || s.code() == tonic::Code::Unknown
+                    || s.code() == tonic::Code::Unavailable =>
+            {
+                let chain = fmucal_proto::tls::error_chain(source);
+                if chain.starts_with(s.message()) { chain } else { format!("{}: {chain}", s.message()) }
+            }
+            _ => s.message().to_owned(),
+        };
+        WorkerError::Registration(why)
+    })
 }

@@ -19,6 +19,12 @@ use crate::jobs::JobCache;
 /// Points a slot asks for per poll; the coordinator grants at most a fair share.
 const PREFETCH: u32 = 4;
 
+/// How long a point may run before the slot hands back the points it fetched with it and has
+/// not started (at most a tenth of the deadline): a slow or hung model of one job must not
+/// hold back the points of other jobs, which the worker's other slots or other workers can
+/// evaluate meanwhile.
+const PATIENCE: Duration = Duration::from_secs(1);
+
 pub struct SlotContext {
     /// The worker's evaluation threads; this slot's is `pool` thread `index`.
     pub pool: Arc<EvaluatorPool>,
@@ -82,7 +88,8 @@ pub async fn run(mut s: SlotContext) {
             continue;
         }
         let received = tokio::time::Instant::now();
-        for a in resp.assignments {
+        let mut waiting: std::collections::VecDeque<pb::Assignment> = resp.assignments.into();
+        while let Some(a) = waiting.pop_front() {
             // Once the worker gives up on its evaluations (it needs a fresh process, or the
             // grace period of a stop has passed), the points not done go back; so do the
             // points after one that took a tenth of the deadline, which could otherwise reach
@@ -91,7 +98,29 @@ pub async fn run(mut s: SlotContext) {
             let evaluation = if late || s.hung.restart_reason().is_some() || *s.give_up.borrow() {
                 None
             } else {
-                evaluate(&mut s, &a).await
+                let (mut client, worker_id) = (s.client.clone(), s.worker_id.clone());
+                let patience = s.deadline.map_or(PATIENCE, |d| PATIENCE.min(d / 10));
+                let evaluating = evaluate(&mut s, &a);
+                tokio::pin!(evaluating);
+                tokio::select! {
+                    e = &mut evaluating => e,
+                    () = tokio::time::sleep(patience), if !waiting.is_empty() => {
+                        // Hand the points not started back now, while this one goes on.
+                        let back: Vec<pb::PointResult> =
+                            waiting.drain(..).map(|w| not_evaluated(&w, "the slot is busy with a slow point")).collect();
+                        tracing::debug!(points = back.len(), "handing back points held behind a slow one");
+                        let req = pb::PollWorkRequest {
+                            worker_id: worker_id.read().await.clone(),
+                            results: back.clone(),
+                            max_points: 0,
+                            wait_ms: 0,
+                        };
+                        if client.poll_work(req).await.is_err() {
+                            pending.extend(back);
+                        }
+                        evaluating.await
+                    }
+                }
             };
             let point = match evaluation {
                 Some(e) => {
@@ -104,7 +133,7 @@ pub async fn run(mut s: SlotContext) {
                 }
                 None => {
                     tracing::debug!(job = %a.job_id, point = a.point_id, "point handed back unevaluated");
-                    not_evaluated(&a)
+                    not_evaluated(&a, "the worker is stopping")
                 }
             };
             pending.push(point);
@@ -163,14 +192,15 @@ async fn evaluate(s: &mut SlotContext, a: &pb::Assignment) -> Option<Evaluation>
     }
 }
 
-/// Hands a point back unevaluated: the coordinator re-sends it, to this worker or another.
-fn not_evaluated(a: &pb::Assignment) -> pb::PointResult {
+/// Hands a point back unevaluated (saying `why`): the coordinator re-sends it, to this worker
+/// or another.
+fn not_evaluated(a: &pb::Assignment, why: &str) -> pb::PointResult {
     pb::PointResult {
         job_id: a.job_id.clone(),
         point_id: a.point_id,
         status: pb::PointStatus::NotEvaluated as i32,
         value: f64::NAN,
-        message: "handed back unevaluated: the worker is stopping".into(),
+        message: format!("handed back unevaluated: {why}"),
         ..Default::default()
     }
 }

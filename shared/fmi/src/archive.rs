@@ -28,28 +28,51 @@ impl Default for ArchiveLimits {
     }
 }
 
+/// An environment variable holding a value that is not a setting.
+#[derive(Debug, thiserror::Error)]
+#[error("{var}: {message}")]
+pub struct EnvError {
+    /// The variable's name.
+    pub var: &'static str,
+    pub message: String,
+}
+
 impl ArchiveLimits {
-    /// The defaults, overridden by `FMUCAL_MAX_UNPACK_BYTES` and `FMUCAL_MAX_UNPACK_ENTRIES`
-    /// when those hold whole numbers (other values are ignored with a warning).
+    /// The defaults, overridden by `FMUCAL_MAX_UNPACK_BYTES` and `FMUCAL_MAX_UNPACK_ENTRIES`;
+    /// a value that is not a positive whole number is ignored with a warning (the `fmucal`
+    /// binary refuses it at start, with [`Self::try_from_env`]).
     pub fn from_env() -> Self {
+        Self::try_from_env().unwrap_or_else(|e| {
+            tracing::warn!("{e}; the default limits apply");
+            Self::default()
+        })
+    }
+
+    /// The defaults, overridden by `FMUCAL_MAX_UNPACK_BYTES` and `FMUCAL_MAX_UNPACK_ENTRIES`.
+    ///
+    /// # Errors
+    /// [`EnvError`] naming the variable, when it is set to anything but a positive whole
+    /// number.
+    pub fn try_from_env() -> Result<Self, EnvError> {
         let mut limits = Self::default();
-        let read = |key: &str| -> Option<u64> {
-            let v = std::env::var(key).ok()?;
-            match v.trim().parse() {
-                Ok(n) => Some(n),
-                Err(_) => {
-                    tracing::warn!("ignoring {key}={v:?}: not a whole number");
-                    None
+        let read = |var: &'static str| -> Result<Option<u64>, EnvError> {
+            let Some(v) = std::env::var_os(var) else { return Ok(None) };
+            let text = v.to_string_lossy();
+            match text.trim().parse::<u64>() {
+                Ok(n) if n > 0 => Ok(Some(n)),
+                _ => {
+                    let shown: String = text.chars().take(64).flat_map(char::escape_debug).collect();
+                    Err(EnvError { var, message: format!("\"{shown}\" is not a positive whole number") })
                 }
             }
         };
-        if let Some(n) = read("FMUCAL_MAX_UNPACK_BYTES") {
+        if let Some(n) = read("FMUCAL_MAX_UNPACK_BYTES")? {
             limits.max_total_bytes = n;
         }
-        if let Some(n) = read("FMUCAL_MAX_UNPACK_ENTRIES") {
-            limits.max_entries = n as usize;
+        if let Some(n) = read("FMUCAL_MAX_UNPACK_ENTRIES")? {
+            limits.max_entries = usize::try_from(n).unwrap_or(usize::MAX);
         }
-        limits
+        Ok(limits)
     }
 }
 

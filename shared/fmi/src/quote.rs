@@ -19,7 +19,7 @@ pub const MAX_ERROR_LINE_CHARS: usize = 4_000;
 /// `"abc…" (10485760 bytes)`.
 ///
 /// ```
-/// use fmucal_shared::quote::quote_user_text;
+/// use fmucal_fmi::quote::quote_user_text;
 /// assert_eq!(quote_user_text("arm\u{202e}Joint\0"), r#""arm\u{202e}Joint\0""#);
 /// assert!(quote_user_text(&"x".repeat(10_000_000)).ends_with("…\" (10000000 bytes)"));
 /// ```

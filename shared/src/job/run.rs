@@ -72,6 +72,10 @@ pub struct JobRun {
     /// Evaluations whose objective was not finite (the squared errors overflowed).
     #[serde(default)]
     overflowed: u64,
+    /// How many residuals an evaluation of each experiment gives, by experiment index (empty
+    /// for a run stored before they were kept: then not known).
+    #[serde(default)]
+    residual_counts: Vec<usize>,
 }
 
 fn one_experiment() -> Vec<usize> {
@@ -100,7 +104,13 @@ impl JobRun {
             first_error: None,
             start_error: None,
             overflowed: 0,
+            residual_counts: job.experiments.iter().map(|e| e.objective.residual_count()).collect(),
         })
+    }
+
+    /// How many residuals an evaluation of `experiment` gives (`None`: not known).
+    pub fn residual_count(&self, experiment: usize) -> Option<usize> {
+        self.residual_counts.get(experiment).copied()
     }
 
     /// Whether the items' residual vectors are wanted back, not only their values.

@@ -202,11 +202,44 @@ fn parse_cell(cell: &str, missing: Missing) -> Option<f64> {
     if cell.is_empty() && missing == Missing::Allowed { Some(f64::NAN) } else { cell.parse().ok() }
 }
 
+/// Where a MATLAB v5 file's top-level data elements run past its end (or its 128-byte header
+/// is incomplete), if they do.
+fn mat_truncated_at(bytes: &[u8]) -> Option<usize> {
+    if bytes.len() < 128 {
+        return Some(bytes.len());
+    }
+    // The endian indicator "MI", written as a 16-bit number: "IM" in a little-endian file.
+    let little = &bytes[126..128] == b"IM";
+    let word = |at: usize| {
+        let b = [bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]];
+        if little { u32::from_le_bytes(b) } else { u32::from_be_bytes(b) }
+    };
+    let mut at = 128;
+    while at < bytes.len() {
+        if at + 8 > bytes.len() {
+            return Some(at);
+        }
+        let (kind, size) = (word(at), word(at + 4) as usize);
+        if kind >> 16 != 0 {
+            // A small data element: its size is in the upper half of the first word.
+            at += 8;
+            continue;
+        }
+        let end = at + 8 + size;
+        if end > bytes.len() {
+            return Some(at);
+        }
+        // Elements are padded to 8 bytes, except compressed ones (type 15).
+        at = if kind == 15 { end } else { end.next_multiple_of(8) };
+    }
+    None
+}
+
 /// Reads a MATLAB v5 file: the variable `time_column` as time and every other real numeric
 /// array as a column (others, such as complex or character arrays, are left out).
 ///
 /// # Errors
-/// [`SeriesError`] for an unreadable or non-v5 file, a time variable missing, not real and
+/// [`SeriesError`] for an unreadable, truncated or non-v5 file, a time variable missing, not real and
 /// numeric, or empty.
 pub fn read_mat(path: &Path, time_column: &str) -> Result<TimeSeries, SeriesError> {
     let file = std::fs::File::open(path).map_err(|e| SeriesError::new(path, None, e.to_string()))?;
@@ -214,10 +247,17 @@ pub fn read_mat(path: &Path, time_column: &str) -> Result<TimeSeries, SeriesErro
 }
 
 /// [`read_mat`] from an open reader of `path`.
-fn mat_from(path: &Path, source: impl std::io::Read, time_column: &str) -> Result<TimeSeries, SeriesError> {
+fn mat_from(path: &Path, mut source: impl std::io::Read, time_column: &str) -> Result<TimeSeries, SeriesError> {
     let err = |message: String| SeriesError::new(path, None, message);
-    let mat = matfile::MatFile::parse(std::io::BufReader::new(source))
-        .map_err(|e| err(format!("not a MATLAB v5 file: {e:?}")))?;
+    // Read once (the reader carries the size cap), then checked and parsed from memory.
+    let mut bytes = vec![];
+    source.read_to_end(&mut bytes).map_err(|e| err(e.to_string()))?;
+    let mat = matfile::MatFile::parse(bytes.as_slice()).map_err(|e| err(format!("not a MATLAB v5 file: {e:?}")))?;
+    // A file cut short reads as one with fewer variables (or none): say so rather than name
+    // a missing one, or silently lose some.
+    if let Some(at) = mat_truncated_at(&bytes) {
+        return Err(err(format!("truncated or invalid MATLAB v5 file: a data element runs past its end at byte {at}")));
+    }
     let time_array = mat
         .find_by_name(time_column)
         .ok_or_else(|| err(format!("no variable named {}", quote_user_text(time_column))))?;
@@ -397,5 +437,27 @@ mod tests {
         assert_eq!(fault(read(&p, &as_time)), (None, "\"z\" is not a real numeric array".into()));
         let p = file(&dir, "text.mat", "time,y\n0,1\n");
         assert!(fault(read(&p, &MEASUREMENTS)).1.starts_with("not a MATLAB v5 file"));
+    }
+
+    #[test]
+    fn a_truncated_mat_file_is_called_truncated() {
+        let dir = tempfile::tempdir().unwrap();
+        let whole =
+            std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/furuta/FurutaData.mat")).unwrap();
+        assert_eq!(mat_truncated_at(&whole), None);
+        let synthetic =
+            mat_v5(&[matrix("time", 6, 3, &[doubles(&[0.0, 0.5, 1.0])]), matrix("y", 6, 3, &[doubles(&[1.0; 3])])]);
+        assert_eq!(mat_truncated_at(&synthetic), None);
+        for bytes in
+            [&whole[..whole.len() / 2], &whole[..whole.len() - 1], &whole[..100], &synthetic[..synthetic.len() - 9]]
+        {
+            let p = file(&dir, "cut.mat", bytes);
+            let message = fault(read(&p, &MEASUREMENTS)).1;
+            assert!(
+                message.contains("truncated or invalid") || message.starts_with("not a MATLAB v5 file"),
+                "{message}"
+            );
+            assert!(!message.contains("no variable named"), "{message}");
+        }
     }
 }
