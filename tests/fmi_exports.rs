@@ -15,7 +15,9 @@
 //! - an FMI 3.0 array output sized by a structural parameter, recorded by its own name as its
 //!   elements `y[1]`, `y[2]`, `y[3]` (FMPy keeps the array in one field);
 //! - a Co-Simulation counter that asks to terminate at t = 9 and refuses to go on: the run ends
-//!   there, without an error, as FMPy's does.
+//!   there, without an error, as FMPy's does;
+//! - a calibration whose output, input, parameter and effect port and signal are named by
+//!   aliases gives the very result of the same job named by the base variables.
 //!
 //! "Relative" is the largest difference over the grid divided by the largest magnitude of the
 //! reference series.
@@ -725,5 +727,72 @@ fn model_exchange_ends_at_the_event_where_the_fmu_asks_to_terminate() {
         let between = |t: &f64| *t < 9.0 - 1e-9 && (t - t.round()).abs() > 1e-9;
         let shared: Vec<f64> = theirs.time.iter().copied().filter(between).collect();
         assert_eq!(ours.at("counter", &shared), theirs.at("counter", &shared), "{what}: counters differ");
+    }
+}
+
+/// The Furuta example's data calibrated on `fmu` with the names `n` gives for the arm angle,
+/// the motor torque input, the arm friction and the pendulum velocity (the signal of an
+/// injected damping on the torque port); returns `result.json`.
+fn calibrate_furuta_named(fmu: &Path, n: [&str; 4], dir: &Path, label: &str) -> serde_json::Value {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta/furuta_data.csv");
+    let [phi, torque, friction, speed] = n;
+    let job = format!(
+        r#"[model]
+path = "{fmu}"
+[data]
+path = "{data}"
+[[outputs]]
+variable = "{phi}"
+column = "phi"
+[[outputs]]
+variable = "pendulumJoint.phi"
+column = "theta"
+[[inputs]]
+column = "u"
+variable = "{torque}"
+[[parameters]]
+name = "{friction}"
+start = 0.02
+lower = 0.0
+upper = 0.05
+[[effects]]
+kind = "viscous_damping"
+port = "{torque}"
+signal = "{speed}"
+parameters = {{ c = {{ start = 0.001, lower = 0.0, upper = 0.01 }} }}
+[simulation]
+stop_time = 4.0
+tolerance = 1e-8
+[optimizer]
+max_iters = 15
+"#,
+        fmu = fmu.display(),
+        data = data.display()
+    );
+    let path = dir.join(format!("{label}.toml"));
+    std::fs::write(&path, job).unwrap();
+    let out_dir = dir.join(label);
+    let out = fmucal(&["calibrate", path.to_str().unwrap(), "--workers", "1", "--out", out_dir.to_str().unwrap()], dir);
+    assert!(out.status.success(), "{label}: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_str(&std::fs::read_to_string(out_dir.join("result.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn a_calibration_through_aliases_is_the_calibration_through_their_bases() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for fixture in [Fixture::FurutaAliasesFmi3, Fixture::FurutaAliases] {
+        let fmu = fixture.path();
+        // An output, an input, a calibrated parameter and an effect's port and signal, all
+        // named by their aliases, against the same job with the base names.
+        let aliased = ["armAngleSensor.phi", "motor.tau", "armBearing.d", "pendulumSpeedSensor.w"];
+        let bases = ["armJoint.phi", "u", "armFriction", "pendulumJoint.w"];
+        let a = calibrate_furuta_named(&fmu, aliased, d, "aliased");
+        let b = calibrate_furuta_named(&fmu, bases, d, "bases");
+        let what = fmu.file_stem().unwrap().to_string_lossy().into_owned();
+        assert!(a["x_opt"]["armBearing.d"].is_f64() && a["x_opt"]["effects[0].c"].is_f64(), "{what}: {a}");
+        assert_eq!(a["x_opt"]["armBearing.d"], b["x_opt"]["armFriction"], "{what}: {a} vs {b}");
+        assert_eq!(a["x_opt"]["effects[0].c"], b["x_opt"]["effects[0].c"], "{what}");
+        assert_eq!(a["f_opt"], b["f_opt"], "{what}");
     }
 }
