@@ -246,25 +246,9 @@ async fn coordinator_killed_and_restarted_resumes_the_job() {
     let dir = tempfile::tempdir().unwrap();
     let (spec, data) = furuta_job(dir.path(), 30);
     let want = reference(&spec, &data, dir.path());
-    let port = {
-        let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-        l.local_addr().unwrap().port()
-    };
+    let port = free_port();
     let data_dir = dir.path().join("coord");
-    let start = || {
-        Command::new(env!("CARGO_BIN_EXE_fmucal"))
-            .args(["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir"])
-            .arg(&data_dir)
-            // Long enough that a loaded machine never expires a worker, which would re-send its
-            // points and blur the count of re-evaluations below.
-            .args(["--worker-expiry", "30"])
-            .env("FMUCAL_TOKEN", TOKEN)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap()
-    };
+    let start = || coordinator_process(port, &data_dir);
     let url = format!("http://127.0.0.1:{port}");
     let mut coord = start();
     tokio::time::sleep(Duration::from_millis(500)).await;
@@ -520,10 +504,13 @@ async fn a_once_per_process_fmu_runs_on_a_multi_slot_worker() {
 /// the coordinator being built), with `expected.json` naming them.
 const STORE_FIXTURE: &str = "tests/data/store_v1";
 
+/// A coordinator process on `port`.
 fn coordinator_process(port: u16, data_dir: &Path) -> Child {
     Command::new(env!("CARGO_BIN_EXE_fmucal"))
         .args(["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--data-dir"])
         .arg(data_dir)
+        // Long enough that a loaded machine never expires a worker, which would re-send its
+        // points and blur the count of re-evaluations.
         .args(["--worker-expiry", "30"])
         .env("FMUCAL_TOKEN", TOKEN)
         .stdin(Stdio::null())
