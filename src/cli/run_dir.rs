@@ -8,8 +8,9 @@
 //! A folder without a readable `owner` file (another program's, or one being made this very
 //! moment) and a running run's folder are never touched.
 //!
-//! Worker processes die with the run: each is started with the parent-death signal set to
-//! SIGKILL ([`die_with_parent`], Linux), so a SIGKILL of the run takes its workers with it.
+//! Worker processes die with the run: each sets its parent-death signal to SIGKILL when the
+//! run asks it to ([`die_with_parent`], Linux), so a SIGKILL of the run takes its workers with
+//! it.
 
 use std::path::{Path, PathBuf};
 
@@ -121,33 +122,39 @@ fn my_uid() -> Option<u32> {
     std::fs::metadata("/proc/self").ok().map(|m| uid(&m))
 }
 
-/// Makes `cmd`'s process receive SIGKILL when the thread that starts it ends (Linux's
-/// parent-death signal). The local cluster starts its workers from the thread that runs the
-/// whole run, so they die with the run, also when it is killed with SIGKILL. Elsewhere this
-/// does nothing (the workers then go when the run ends normally, through `kill_on_drop`).
+/// The environment variable that asks a worker to die with the process named in it.
+const DIE_WITH_PARENT: &str = "FMUCAL_DIE_WITH_PARENT";
+
+/// Asks `cmd`'s process, a worker, to receive SIGKILL when the thread that starts it ends
+/// (Linux's parent-death signal, set by the worker itself: [`die_with_parent_if_asked`]). The
+/// local cluster starts its workers from the thread that runs the whole run, so they die with
+/// the run, also when it is killed with SIGKILL. Elsewhere the workers go when the run ends
+/// normally, through `kill_on_drop`.
 pub fn die_with_parent(cmd: &mut tokio::process::Command) {
+    cmd.env(DIE_WITH_PARENT, std::process::id().to_string());
+}
+
+/// In a worker started by [`die_with_parent`]: sets the parent-death signal to SIGKILL, and
+/// exits at once if the parent named is already gone (it may have died before the signal was
+/// set). Does nothing when not asked, or off Linux.
+///
+/// # Errors
+/// If the parent-death signal cannot be set.
+pub fn die_with_parent_if_asked() -> Result<()> {
+    let Some(parent) = std::env::var(DIE_WITH_PARENT).ok().and_then(|p| p.parse::<i32>().ok()) else {
+        return Ok(());
+    };
     #[cfg(target_os = "linux")]
     {
-        let parent = std::process::id();
-        // SAFETY: the closure runs in the child between fork and exec, where only
-        // async-signal-safe functions may be called: `prctl` and `getppid` are system calls,
-        // and the closure allocates nothing and takes no lock. `parent` is a plain integer
-        // copied into the closure.
-        unsafe {
-            cmd.pre_exec(move || {
-                if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL) != 0 {
-                    return Err(std::io::Error::last_os_error());
-                }
-                // The parent may have died before the signal was set: then go now.
-                if libc::getppid() as u32 != parent {
-                    libc::_exit(1);
-                }
-                Ok(())
-            });
+        nix::sys::prctl::set_pdeathsig(nix::sys::signal::Signal::SIGKILL)
+            .context("cannot set the parent-death signal")?;
+        if nix::unistd::getppid().as_raw() != parent {
+            std::process::exit(1);
         }
     }
     #[cfg(not(target_os = "linux"))]
-    let _ = cmd;
+    let _ = parent;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -190,6 +190,7 @@ pub fn worker(args: WorkerArgs) -> Result<()> {
 }
 
 fn worker_with(args: WorkerArgs) -> Result<()> {
+    super::run_dir::die_with_parent_if_asked()?;
     let token = super::token::load_for_worker(args.token_file.as_deref())?;
     let cache_dir = args.cache_dir.unwrap_or_else(fmucal_shared::fmu::archive::default_cache_dir);
     let name = format!("{}-{}", std::env::var("HOSTNAME").unwrap_or_else(|_| "worker".into()), std::process::id());
