@@ -108,7 +108,7 @@ def mutated(edit: str) -> dict[str, Any]:
 @pytest.mark.parametrize(
     ("edit", "field", "says"),
     [
-        ("bad bound", "parameters[0].lower", "armFriction: lower 0.5 is above upper 0.022"),
+        ("bad bound", "parameters[0].lower", '"armFriction": lower 0.5 is above upper 0.022'),
         ("misspelled parameter", "parameters[1].name", 'unknown variable "pendulumFricton"'),
         ("unknown output", "outputs[1].variable", 'unknown variable "pendulumJoint.ph"'),
         ("unknown column", "data.columns[psi]", "no such column"),
