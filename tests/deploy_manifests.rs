@@ -8,27 +8,17 @@
 //! The checker is also run on broken copies, each of which it must reject with an error naming
 //! what is wrong, so a checker that passes everything fails this test.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 use std::process::{Command, Output};
-use std::sync::OnceLock;
 
 fn repo() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn python() -> &'static Path {
-    static PY: OnceLock<PathBuf> = OnceLock::new();
-    PY.get_or_init(|| {
-        let script = repo().join("tests/fmpy/ensure_venv.sh");
-        let out = Command::new("bash").arg(&script).output().expect("run ensure_venv.sh");
-        // ensure_venv.sh says in one line why it failed (for example: PyPI unreachable).
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr).trim());
-        PathBuf::from(String::from_utf8(out.stdout).unwrap().trim())
-    })
-}
-
 fn check(args: &[&Path]) -> Output {
-    let mut cmd = Command::new(python());
+    let mut cmd = Command::new(common::fmpy_python());
     cmd.arg(repo().join("deploy/k8s/check.py"));
     for pair in args.chunks(2) {
         cmd.arg(pair[0]).arg(pair[1]);
@@ -38,19 +28,6 @@ fn check(args: &[&Path]) -> Output {
 
 fn text(out: &Output) -> String {
     format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
-
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for entry in std::fs::read_dir(from).unwrap() {
-        let entry = entry.unwrap();
-        let target = to.join(entry.file_name());
-        if entry.file_type().unwrap().is_dir() {
-            copy_dir(&entry.path(), &target);
-        } else {
-            std::fs::copy(entry.path(), &target).unwrap();
-        }
-    }
 }
 
 /// Replaces the one occurrence of `old` in `path` by `new`. Panics if `old` does not occur
@@ -163,7 +140,7 @@ fn the_checker_rejects_broken_manifests() {
     for (i, (file, old, new, expected)) in BROKEN.iter().enumerate() {
         let dir = tempfile::tempdir().unwrap();
         let k8s = dir.path().join("k8s");
-        copy_dir(&repo().join("deploy/k8s"), &k8s);
+        common::copy_dir(&repo().join("deploy/k8s"), &k8s);
         let compose = dir.path().join("compose.yaml");
         std::fs::copy(repo().join("deploy/compose.yaml"), &compose).unwrap();
         let target = if *file == "compose.yaml" { compose.clone() } else { k8s.join(file) };

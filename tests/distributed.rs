@@ -524,19 +524,6 @@ fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for entry in std::fs::read_dir(from).unwrap() {
-        let entry = entry.unwrap();
-        let target = to.join(entry.file_name());
-        if entry.file_type().unwrap().is_dir() {
-            copy_dir(&entry.path(), &target);
-        } else {
-            std::fs::copy(entry.path(), target).unwrap();
-        }
-    }
-}
-
 /// Writes [`STORE_FIXTURE`]: runs a coordinator process on a fresh folder, finishes two short
 /// jobs, SIGKILLs it while a third runs.
 async fn bless_store(fixture: &Path) {
@@ -571,7 +558,7 @@ async fn bless_store(fixture: &Path) {
     coord.kill().unwrap();
     coord.wait().unwrap();
     kill_all(&mut workers);
-    copy_dir(&data_dir, fixture);
+    common::copy_dir(&data_dir, fixture);
     // The unpacked archives are a cache the coordinator makes again from models/.
     std::fs::remove_dir_all(fixture.join("unpacked")).unwrap();
     let expected = serde_json::json!({ "finished": finished, "running": running, "running_max_iters": 30 });
@@ -588,7 +575,7 @@ async fn a_store_left_by_the_earlier_coordinator_resumes_and_keeps_its_results()
         serde_json::from_str(&std::fs::read_to_string(fixture.join("expected.json")).unwrap()).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let data_dir = dir.path().join("coord");
-    copy_dir(&fixture, &data_dir);
+    common::copy_dir(&fixture, &data_dir);
     let port = free_port();
     let url = format!("http://127.0.0.1:{port}");
     let mut coord = coordinator_process(port, &data_dir);

@@ -22,9 +22,10 @@
 //! "Relative" is the largest difference over the grid divided by the largest magnitude of the
 //! reference series.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::OnceLock;
 
 use fmucal_models::Fixture;
 
@@ -32,17 +33,6 @@ use fmucal_models::Fixture;
 const ME_BOUND: f64 = 1e-4;
 /// Co-Simulation: the FMU's own integrator, the same communication points.
 const CS_BOUND: f64 = 1e-9;
-
-fn python() -> &'static Path {
-    static PY: OnceLock<PathBuf> = OnceLock::new();
-    PY.get_or_init(|| {
-        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmpy/ensure_venv.sh");
-        let out = Command::new("bash").arg(&script).output().expect("run ensure_venv.sh");
-        // ensure_venv.sh says in one line why it failed (for example: PyPI unreachable).
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr).trim());
-        PathBuf::from(String::from_utf8(out.stdout).unwrap().trim())
-    })
-}
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Iface {
@@ -207,7 +197,7 @@ fn simulate_fmucal(run: &Run, dir: &Path, label: &str) -> Table {
 /// FMPy 0.3.32 on `run`; `text` are String or Binary (hex) start values, passed unconverted.
 fn simulate_fmpy(run: &Run, text: &[(&str, &str)], dir: &Path, label: &str) -> Table {
     let out_csv = dir.join(format!("fmpy-{}-{label}.csv", run.tag().replace(' ', "-")));
-    let mut cmd = Command::new(python());
+    let mut cmd = Command::new(common::fmpy_python());
     cmd.arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmpy/simulate.py"))
         .args(["--fmu", run.fmu.to_str().unwrap(), "--interface", run.iface.arg()])
         .args(["--rtol", "1e-8", "--interval", &run.interval.to_string(), "--stop", &run.stop.to_string()])

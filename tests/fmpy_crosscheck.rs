@@ -18,22 +18,10 @@ mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::OnceLock;
 
 use fmucal_shared::fmu::Interface;
 use fmucal_shared::fmu::schema::{ModelDescription, VarType};
 use fmucal_shared::sim::{InputTable, OutputTimes, SimSpec, csv_io, simulate};
-
-fn python() -> &'static Path {
-    static PY: OnceLock<PathBuf> = OnceLock::new();
-    PY.get_or_init(|| {
-        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmpy/ensure_venv.sh");
-        let out = Command::new("bash").arg(&script).output().expect("run ensure_venv.sh");
-        // ensure_venv.sh says in one line why it failed (for example: PyPI unreachable).
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr).trim());
-        PathBuf::from(String::from_utf8(out.stdout).unwrap().trim())
-    })
-}
 
 struct Case<'a> {
     fmu: PathBuf,
@@ -61,7 +49,7 @@ impl Case<'_> {
 
 fn fmpy(case: &Case, variables: &[String], dir: &Path) -> InputTable {
     let out = dir.join(format!("fmpy-{}.csv", case.label().replace(' ', "-")));
-    let mut cmd = Command::new(python());
+    let mut cmd = Command::new(common::fmpy_python());
     cmd.arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmpy/simulate.py"))
         .args(["--fmu", case.fmu.to_str().unwrap()])
         .args(["--interface", if case.interface == Interface::ModelExchange { "me" } else { "cs" }])
@@ -225,7 +213,8 @@ fn fmi1_builds_match_fmpy() {
 fn fmpy_simulates_the_fmi1_and_fmi3_builds_as_the_fmi2_builds() {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmpy/compare_versions.py");
     let fmus = fmucal_models::fmu_dir();
-    let out = Command::new(python()).arg(&script).args(["--fmu-dir", fmus.to_str().unwrap()]).output().unwrap();
+    let out =
+        Command::new(common::fmpy_python()).arg(&script).args(["--fmu-dir", fmus.to_str().unwrap()]).output().unwrap();
     println!("{}", String::from_utf8_lossy(&out.stdout));
     assert!(out.status.success(), "{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
 }
@@ -325,7 +314,7 @@ fn matlab_v5_files_written_by_scipy_are_read() {
         "import numpy as np, scipy.io\nt = np.linspace(0, 1, 11)\nscipy.io.savemat(r'{}', {{'time': t.reshape(-1, 1), 'phi': np.sin(t).reshape(-1, 1), 'theta': np.cos(t).reshape(-1, 1)}})\n",
         mat.display()
     );
-    let run = Command::new(python()).args(["-c", &script]).output().unwrap();
+    let run = Command::new(common::fmpy_python()).args(["-c", &script]).output().unwrap();
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let table = fmucal_shared::job::MeasurementTable::read(&mat, "time").unwrap();
     assert_eq!(table.time.len(), 11);

@@ -233,3 +233,29 @@ impl Drop for Servers {
         }
     }
 }
+
+/// Copies the folder `from` (its files and subfolders) to `to`.
+pub fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let target = to.join(entry.file_name());
+        if entry.file_type().unwrap().is_dir() {
+            copy_dir(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), target).unwrap();
+        }
+    }
+}
+
+/// The Python of the cross-checks' venv (FMPy, SciPy), made once by `tests/fmpy/ensure_venv.sh`.
+pub fn fmpy_python() -> &'static Path {
+    static PY: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    PY.get_or_init(|| {
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fmpy/ensure_venv.sh");
+        let out = std::process::Command::new("bash").arg(&script).output().expect("run ensure_venv.sh");
+        // ensure_venv.sh says in one line why it failed (for example: PyPI unreachable).
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr).trim());
+        PathBuf::from(String::from_utf8(out.stdout).unwrap().trim())
+    })
+}
