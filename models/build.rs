@@ -21,6 +21,30 @@
 //! least the grid's largest noise floor (2 % of each output's range); each is the smallest
 //! 1-2-5 value that does.
 //!
+//! Fixtures described as modelling tools export them (Dymola's FMI 2.0 shape: `declaredType`s
+//! from `Modelica.Units.SI`, `der(x)` an alias of the velocity state, `dependencies` in
+//! `ModelStructure`), without injection ports (the binary keeps its port, undeclared, at 0), and
+//! hidden-effect variants of them (table `EXPORTED` below). "Change" is the largest over the
+//! outputs of max |Δy| / range(y) on the DefaultExperiment, inputs at their starts, in FMPy:
+//!
+//! | fixture | base | description / define | effect | change |
+//! |---|---|---|---|---|
+//! | SpringMassExported.fmu | SpringMass | `xml/exported/SpringMassExported.xml`, `SPRING_MASS_X0=0.5` | none; `mass.Fext` undeclared, x(0) = 0.5 m | |
+//! | FurutaExported.fmu | Furuta | `xml/exported/FurutaExported.xml` | none; `*.tauExt` undeclared | |
+//! | ExhaustPipeExported.fmu | ExhaustPipe | `xml/exported/ExhaustPipeExported.xml` | none; `rightVolume.wallQext` undeclared | |
+//! | SpringMassExportedHiddenCoulomb.fmu | SpringMassExported | `HIDDEN_COULOMB=0.05` | −0.05·tanh(v/1e-3) N | 10.6 % |
+//! | SpringMassExportedHiddenStribeck.fmu | SpringMassExported | `HIDDEN_STRIBECK_COULOMB=0.05`, `_STATIC=0.1`, `_VELOCITY=0.1` | −(0.05 + 0.05·e^{−(v/0.1)²})·tanh(v/1e-3) N | 13.4 % |
+//! | SpringMassExportedHiddenViscous.fmu | SpringMassExported | `HIDDEN_VISCOUS=0.2` | −0.2·v N | 11.6 % |
+//! | SpringMassExportedHiddenQuadraticDrag.fmu | SpringMassExported | `HIDDEN_QUADRATIC_DRAG=0.5` | −0.5·v·\|v\| N | 13.5 % |
+//! | SpringMassExportedHiddenCubic.fmu | SpringMassExported | `HIDDEN_CUBIC_SPRING=2` | −2·x³ N | 7.9 % |
+//! | SpringMassExportedHiddenSensorOffset.fmu | SpringMassExported | `HIDDEN_POSITION_SENSOR_OFFSET=0.05` | reported `mass.x` + 0.05 m | 5.6 % |
+//! | FurutaExportedHiddenCoulomb.fmu | FurutaExported | `HIDDEN_PENDULUM_COULOMB=0.004` | pendulum joint −0.004·tanh(w/1e-3) N·m | 14.9 % |
+//! | ExhaustPipeExportedHiddenRadiation.fmu | ExhaustPipeExported | `HIDDEN_RADIATION_AREA=0.2` | right wall 0.2·σ·(293.15⁴ − T_wall⁴) W | 15.9 % |
+//! | SpringMassExportedDriftingStiffness.fmu | SpringMassExported | `HIDDEN_DRIFTING_STIFFNESS=0.5` | stiffness k·(1 + 0.5·t/20 s) (no effect kind) | 16.4 % |
+//! | SpringMassExportedPeriodicForce.fmu | SpringMassExported | `HIDDEN_PERIODIC_FORCE=0.15` | +0.15·sin(2.7·t) N (no effect kind) | 12.4 % |
+//! | SpringMassExportedOneSidedFriction.fmu | SpringMassExported | `HIDDEN_ONE_SIDED_FRICTION=0.1` | −0.1·tanh(v/1e-3)·(1 + tanh(x/0.01))/2 N, friction only for x > 0 (no effect kind) | 11.8 % |
+//! | SpringMassExportedGrowingMass.fmu | SpringMassExported | `HIDDEN_GROWING_MASS=0.5` | mass m·(1 + 0.5·t/20 s) (no effect kind) | 15.9 % |
+//!
 //! FMI 3.0 fixtures (`<Identifier>Fmi3.fmu`): the same model source compiled with `-DFMUCAL_FMI3`,
 //! which makes models/c/fmu_framework.c export the FMI 3.0 API (fmu_framework3.c) instead of
 //! 2.0's, packaged with `xml/fmi3/<Identifier>.xml`, the binary in `binaries/x86_64-linux/` (the
@@ -123,6 +147,49 @@ const HIDDEN: &[(&str, &str, &str)] = &[
     // 600 K wall. On the exhaust example's inputs (30 min) it lowers the output outlet.T by up
     // to 3.8 K, 2.9 % of its 132 K range.
     ("ExhaustPipeHiddenRadiation", "ExhaustPipe", "-DHIDDEN_RADIATION_AREA=0.2"),
+];
+
+/// SpringMassExported's description and start position (shared by its variants).
+const SM_XML: &str = "exported/SpringMassExported.xml";
+const SM_X0: &str = "-DSPRING_MASS_X0=0.5";
+
+/// Fixtures described as modelling tools export them (Dymola's FMI 2.0 shape): (file name,
+/// identifier of the base model, description under `xml/`, defines). Each is the base model's
+/// source compiled with the defines and packaged with an exported-shape description that
+/// declares no injection port (the binary keeps it, undeclared, at 0). The hidden-effect
+/// variants add a define each, their description is their exported base's; the changes quoted
+/// are the largest difference over the outputs of the DefaultExperiment run with the inputs at
+/// their start values, relative to each output's range in the base run, measured with FMPy
+/// (Model Exchange, rtol 1e-8) and checked by tests/exported_fixtures.rs.
+const EXPORTED: &[(&str, &str, &str, &[&str])] = &[
+    // The bases: the mass starts 0.5 m away from rest, so it moves with F = 0.
+    ("SpringMassExported", "SpringMass", SM_XML, &[SM_X0]),
+    ("FurutaExported", "Furuta", "exported/FurutaExported.xml", &[]),
+    ("ExhaustPipeExported", "ExhaustPipe", "exported/ExhaustPipeExported.xml", &[]),
+    // fmucal's effect kinds, each with fmucal's formula.
+    ("SpringMassExportedHiddenCoulomb", "SpringMass", SM_XML, &[SM_X0, "-DHIDDEN_COULOMB=0.05"]),
+    (
+        "SpringMassExportedHiddenStribeck",
+        "SpringMass",
+        SM_XML,
+        &[SM_X0, "-DHIDDEN_STRIBECK_COULOMB=0.05", "-DHIDDEN_STRIBECK_STATIC=0.1", "-DHIDDEN_STRIBECK_VELOCITY=0.1"],
+    ),
+    ("SpringMassExportedHiddenViscous", "SpringMass", SM_XML, &[SM_X0, "-DHIDDEN_VISCOUS=0.2"]),
+    ("SpringMassExportedHiddenQuadraticDrag", "SpringMass", SM_XML, &[SM_X0, "-DHIDDEN_QUADRATIC_DRAG=0.5"]),
+    ("SpringMassExportedHiddenCubic", "SpringMass", SM_XML, &[SM_X0, "-DHIDDEN_CUBIC_SPRING=2"]),
+    ("SpringMassExportedHiddenSensorOffset", "SpringMass", SM_XML, &[SM_X0, "-DHIDDEN_POSITION_SENSOR_OFFSET=0.05"]),
+    ("FurutaExportedHiddenCoulomb", "Furuta", "exported/FurutaExported.xml", &["-DHIDDEN_PENDULUM_COULOMB=0.004"]),
+    (
+        "ExhaustPipeExportedHiddenRadiation",
+        "ExhaustPipe",
+        "exported/ExhaustPipeExported.xml",
+        &["-DHIDDEN_RADIATION_AREA=0.2"],
+    ),
+    // Effects none of fmucal's effect kinds expresses.
+    ("SpringMassExportedDriftingStiffness", "SpringMass", SM_XML, &[SM_X0, "-DHIDDEN_DRIFTING_STIFFNESS=0.5"]),
+    ("SpringMassExportedPeriodicForce", "SpringMass", SM_XML, &[SM_X0, "-DHIDDEN_PERIODIC_FORCE=0.15"]),
+    ("SpringMassExportedOneSidedFriction", "SpringMass", SM_XML, &[SM_X0, "-DHIDDEN_ONE_SIDED_FRICTION=0.1"]),
+    ("SpringMassExportedGrowingMass", "SpringMass", SM_XML, &[SM_X0, "-DHIDDEN_GROWING_MASS=0.5"]),
 ];
 
 /// The FMI version an archive is built for.
@@ -232,6 +299,15 @@ fn main() {
         let so = out.join(format!("{name}.so"));
         compile(&root.join("c").join(model.source), &so, &[define]);
         let xml = fs::read(root.join("xml").join(format!("{base}.xml"))).unwrap();
+        package(&root, model, Fmi::V2, &xml, &so, &out.join(format!("{name}.fmu")));
+    }
+
+    // Fixtures described as modelling tools export them, and their hidden-effect variants.
+    for (name, base, xml, defines) in EXPORTED {
+        let model = MODELS.iter().chain(FIXTURES).find(|m| m.identifier == *base).unwrap();
+        let so = out.join(format!("{name}.so"));
+        compile(&root.join("c").join(model.source), &so, defines);
+        let xml = fs::read(root.join("xml").join(xml)).unwrap();
         package(&root, model, Fmi::V2, &xml, &so, &out.join(format!("{name}.fmu")));
     }
 

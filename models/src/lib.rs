@@ -90,7 +90,9 @@ pub fn example(name: &str) -> Option<PathBuf> {
 /// `*Fmi1Cs`: built with `-DFMUCAL_FMI1=1` or `2`, described in `models/xml/fmi1/`), and fixtures
 /// of what exporting tools write (aliases in FMI 1.0, 2.0 and 3.0; String and Binary
 /// variables; an array output sized by a structural parameter; a Co-Simulation model that
-/// terminates itself), each shaped after the Reference FMUs' or the standard's examples. Each
+/// terminates itself), each shaped after the Reference FMUs' or the standard's examples, and
+/// exported-shape bases (`*Exported`: a model described as Dymola exports it, without
+/// injection ports) with hidden-effect variants, some outside fmucal's effect kinds. Each
 /// FMI 3.0 and FMI 1.0 build simulates exactly as its FMI 2.0 build in FMPy
 /// (`tests/fmpy/compare_versions.py`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -221,6 +223,78 @@ pub enum Fixture {
     /// identifier prefix (`fmiGetReal` instead of `Furuta_fmiGetReal`), which FMI 1.0 requires;
     /// `binaries/linux64/Furuta.so` has no `Furuta_fmi*` symbol.
     UnprefixedFmi1,
+    /// Exported shape (Dymola's FMI 2.0 description) of [`Fixture::SpringMass`], without the
+    /// injection port `mass.Fext`: states `mass.x` \[m\] (start 0.5, away from rest) and
+    /// `mass.v` \[m/s\] (start 0); derivatives `der(mass.x)` (an alias of `mass.v`, same value
+    /// reference) and `der(mass.v)`; outputs `mass.x`, `mass.v` and `mass.a` \[m/s2\] (an alias
+    /// of `der(mass.v)`); input `F` \[N\] (the driving force, start 0); parameters `m` = 1 kg,
+    /// `k` = 4 N/m, `d` = 0.3 N·s/m; declared types `Modelica.Units.SI.*` and `dependencies` in
+    /// `ModelStructure`. Its hidden-effect variants share its description; each change quoted
+    /// is the largest over the outputs of max |Δy| / range(y) on the DefaultExperiment (20 s,
+    /// F = 0) in FMPy.
+    SpringMassExported,
+    /// Discrepancy: [`Fixture::SpringMassExported`] with Coulomb friction −0.05·tanh(v/1e-3) N
+    /// (fmucal's `coulomb_friction`, force 0.05): changes the outputs by 10.6 %.
+    SpringMassExportedHiddenCoulomb,
+    /// Discrepancy: [`Fixture::SpringMassExported`] with Stribeck friction
+    /// −(F_c + (F_s − F_c)·e^{−(v/v_s)²})·tanh(v/1e-3) (fmucal's `stribeck_friction`), F_c = 0.05 N,
+    /// F_s = 0.1 N, v_s = 0.1 m/s: changes the outputs by 13.4 %.
+    SpringMassExportedHiddenStribeck,
+    /// Discrepancy: [`Fixture::SpringMassExported`] with extra viscous damping −0.2·v N
+    /// (fmucal's `viscous_damping`, c = 0.2 N·s/m): changes the outputs by 11.6 %.
+    SpringMassExportedHiddenViscous,
+    /// Discrepancy: [`Fixture::SpringMassExported`] with quadratic drag −0.5·v·|v| N (fmucal's
+    /// `quadratic_drag`, c = 0.5 N·s²/m²): changes the outputs by 13.5 %.
+    SpringMassExportedHiddenQuadraticDrag,
+    /// Discrepancy: [`Fixture::SpringMassExported`] with a hardening spring −2·x³ N (fmucal's
+    /// `cubic_spring`, k₃ = 2 N/m³): changes the outputs by 7.9 %.
+    SpringMassExportedHiddenCubic,
+    /// Discrepancy: [`Fixture::SpringMassExported`] whose position sensor reads 0.05 m too much
+    /// (fmucal's `sensor_offset`): `fmi2GetReal` reports `mass.x` + 0.05, the equations and the
+    /// continuous states use the true position; `mass.x` changes by 5.6 % of its range, the
+    /// other outputs not at all.
+    SpringMassExportedHiddenSensorOffset,
+    /// Discrepancy outside fmucal's effect kinds: [`Fixture::SpringMassExported`] whose spring
+    /// stiffens with time, k·(1 + 0.5·t/20 s) (k = 4 N/m at t = 0, 6 N/m at the stop time):
+    /// changes the outputs by 16.4 %.
+    SpringMassExportedDriftingStiffness,
+    /// Discrepancy outside fmucal's effect kinds: [`Fixture::SpringMassExported`] with a
+    /// periodic disturbance force 0.15·sin(2.7·t) N: changes the outputs by 12.4 %.
+    SpringMassExportedPeriodicForce,
+    /// Discrepancy outside fmucal's effect kinds: [`Fixture::SpringMassExported`] with Coulomb
+    /// friction acting only while x > 0 (a pad rubbing on one side),
+    /// −0.1·tanh(v/1e-3)·(1 + tanh(x/0.01))/2 N: changes the outputs by 11.8 %.
+    SpringMassExportedOneSidedFriction,
+    /// Discrepancy outside fmucal's effect kinds: [`Fixture::SpringMassExported`] whose mass
+    /// grows with time, m·(1 + 0.5·t/20 s) (1 kg at t = 0, 1.5 kg at the stop time): changes the
+    /// outputs by 15.9 %.
+    SpringMassExportedGrowingMass,
+    /// Exported shape (Dymola's FMI 2.0 description) of the Furuta example, without the
+    /// injection ports `armJoint.tauExt` and `pendulumJoint.tauExt`: states `armJoint.phi`
+    /// \[rad\] (start 0), `armJoint.w` \[rad/s\] (0), `pendulumJoint.phi` \[rad\] (1, away from
+    /// rest) and `pendulumJoint.w` \[rad/s\] (0); derivatives `der(armJoint.phi)` and
+    /// `der(pendulumJoint.phi)` (aliases of the velocity states), `der(armJoint.w)`,
+    /// `der(pendulumJoint.w)`; outputs `armJoint.phi`, `pendulumJoint.phi`; input `u` \[N.m\]
+    /// (the motor torque); parameters `armFriction`, `pendulumFriction`, `armInertia`,
+    /// `armLength`, `pendulumMass`, `pendulumLength`, `g` as in the example.
+    FurutaExported,
+    /// Discrepancy: [`Fixture::FurutaExported`] with Coulomb friction −0.004·tanh(w/1e-3) N·m in
+    /// the pendulum joint (fmucal's `coulomb_friction`, `w` = `pendulumJoint.w`): on the
+    /// DefaultExperiment (40 s, u = 0) it changes the outputs by 14.9 % (`armJoint.phi`;
+    /// `pendulumJoint.phi` 12.9 %).
+    FurutaExportedHiddenCoulomb,
+    /// Exported shape (Dymola's FMI 2.0 description) of the exhaust pipe example, without the
+    /// injection port `rightVolume.wallQext`: states `leftVolume.T`, `leftVolume.wallT`,
+    /// `rightVolume.T`, `rightVolume.wallT` \[K\] with their `der(...)`; output `outlet.T` \[K\]
+    /// (an alias of the state `rightVolume.T`); inputs `inlet.T`, `inlet.p`, `turbine1.w`,
+    /// `turbine2.w`, `outlet.p`; the example's parameters; local `mdot`.
+    ExhaustPipeExported,
+    /// Discrepancy: [`Fixture::ExhaustPipeExported`] whose right wall radiates,
+    /// 0.2·σ·(293.15⁴ − T⁴) W with T = `rightVolume.wallT` (fmucal's `radiation`,
+    /// emissivity_area 0.2 m², as [`Fixture::ExhaustPipeHiddenRadiation`]): on the
+    /// DefaultExperiment (1800 s, inputs at their starts) it lowers `outlet.T` by 15.9 % of its
+    /// range.
+    ExhaustPipeExportedHiddenRadiation,
 }
 
 impl Fixture {
@@ -261,6 +335,21 @@ impl Fixture {
             Fixture::Stair => "Stair.fmu",
             Fixture::StairFmi3 => "StairFmi3.fmu",
             Fixture::UnprefixedFmi1 => "UnprefixedFmi1.fmu",
+            Fixture::SpringMassExported => "SpringMassExported.fmu",
+            Fixture::SpringMassExportedHiddenCoulomb => "SpringMassExportedHiddenCoulomb.fmu",
+            Fixture::SpringMassExportedHiddenStribeck => "SpringMassExportedHiddenStribeck.fmu",
+            Fixture::SpringMassExportedHiddenViscous => "SpringMassExportedHiddenViscous.fmu",
+            Fixture::SpringMassExportedHiddenQuadraticDrag => "SpringMassExportedHiddenQuadraticDrag.fmu",
+            Fixture::SpringMassExportedHiddenCubic => "SpringMassExportedHiddenCubic.fmu",
+            Fixture::SpringMassExportedHiddenSensorOffset => "SpringMassExportedHiddenSensorOffset.fmu",
+            Fixture::SpringMassExportedDriftingStiffness => "SpringMassExportedDriftingStiffness.fmu",
+            Fixture::SpringMassExportedPeriodicForce => "SpringMassExportedPeriodicForce.fmu",
+            Fixture::SpringMassExportedOneSidedFriction => "SpringMassExportedOneSidedFriction.fmu",
+            Fixture::SpringMassExportedGrowingMass => "SpringMassExportedGrowingMass.fmu",
+            Fixture::FurutaExported => "FurutaExported.fmu",
+            Fixture::FurutaExportedHiddenCoulomb => "FurutaExportedHiddenCoulomb.fmu",
+            Fixture::ExhaustPipeExported => "ExhaustPipeExported.fmu",
+            Fixture::ExhaustPipeExportedHiddenRadiation => "ExhaustPipeExportedHiddenRadiation.fmu",
         };
         fmu_dir().join(file)
     }
