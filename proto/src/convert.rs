@@ -212,6 +212,7 @@ impl From<pb::EffectSpec> for EffectSpec {
     fn from(e: pb::EffectSpec) -> Self {
         EffectSpec {
             kind: e.kind,
+            state: e.state,
             port: e.port,
             signal: e.signal,
             output: e.output,
@@ -229,6 +230,7 @@ impl From<pb::EffectSpec> for EffectSpec {
 pub fn effect_to_proto(e: &EffectSpec) -> pb::EffectSpec {
     pb::EffectSpec {
         kind: e.kind.clone(),
+        state: e.state.clone(),
         port: e.port.clone(),
         signal: e.signal.clone(),
         output: e.output.clone(),

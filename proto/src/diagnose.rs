@@ -59,6 +59,8 @@ impl TryFrom<pb::DiagnoseSettings> for DiagnoseSpec {
             windows: p.windows.map_or(defaults.windows, |v| v as usize),
             rounds: p.rounds.map_or(defaults.rounds, |v| v as usize),
             series: p.series.unwrap_or(defaults.series),
+            states: (p.states_given.unwrap_or(false) || !p.states.is_empty()).then_some(p.states),
+            exclude: p.exclude,
         };
         spec.validate().map_err(|e| match e {
             JobError::Invalid { field, message } => ConvertError::InvalidAt { field, message },
@@ -93,6 +95,9 @@ pub fn diagnose_to_proto(s: &DiagnoseSpec) -> pb::DiagnoseSettings {
         windows: Some(u32::try_from(s.windows).unwrap_or(u32::MAX)),
         rounds: Some(u32::try_from(s.rounds).unwrap_or(u32::MAX)),
         series: Some(s.series),
+        states: s.states.clone().unwrap_or_default(),
+        states_given: Some(s.states.is_some()),
+        exclude: s.exclude.clone(),
     }
 }
 

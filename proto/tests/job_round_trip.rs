@@ -150,6 +150,7 @@ fn effect() -> impl Strategy<Value = EffectSpec> {
         };
         EffectSpec {
             kind: kind.into(),
+            state: None,
             port: Some(port),
             signal: Some(signal),
             output: None,

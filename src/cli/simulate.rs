@@ -97,6 +97,7 @@ pub fn run(args: Args) -> Result<()> {
         max_steps: None,
         timeout,
         port_terms: vec![],
+        state_terms: vec![],
     };
     let fmu = Fmu::load(&path).with_context(|| format!("cannot load {}", path.display()))?;
     let result = sim::simulate(&fmu, &spec)?;

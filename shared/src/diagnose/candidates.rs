@@ -23,7 +23,9 @@ use serde::{Deserialize, Serialize};
 use super::effects::{self, Domain, Found};
 use super::guess::{Guess, Guesses, Scales, SignalRole, SignalStats};
 use super::residuals::chi_squared_survival;
+use super::places::Places;
 use super::spec::{DiagnoseSpec, PortDomain};
+use super::structure::Role;
 use crate::job::identifiability::relative_step;
 use crate::job::spec::{Bounds, EffectSpec, JobSpec};
 
@@ -43,9 +45,28 @@ impl Candidate {
     pub fn describe(&self) -> String {
         let e = &self.effect;
         match (&e.port, &e.signal, &e.output, &e.input) {
+            _ if e.state.is_some() => {
+                let state = e.state.as_deref().unwrap_or_default();
+                match e.signal.as_deref() {
+                    Some(s) if s != state => format!("{} of {s} on der({state})", e.kind),
+                    _ => format!("{} on der({state})", e.kind),
+                }
+            }
             (Some(p), Some(s), _, _) => format!("{} on {s} through {p}", e.kind),
             (_, _, Some(o), _) => format!("{} on output {o}", e.kind),
             (_, _, _, Some(i)) => format!("{} on input {i}", e.kind),
+            _ => e.kind.clone(),
+        }
+    }
+
+    /// Where it acts, in words: `der(mass.v)`, `port mass.Fext`, `output mass.x`, `input u`.
+    pub fn place(&self) -> String {
+        let e = &self.effect;
+        match (&e.state, &e.port, &e.output, &e.input) {
+            (Some(s), _, _, _) => format!("der({s})"),
+            (_, Some(p), _, _) => format!("port {p}"),
+            (_, _, Some(o), _) => format!("output {o}"),
+            (_, _, _, Some(i)) => format!("input {i}"),
             _ => e.kind.clone(),
         }
     }
@@ -88,6 +109,9 @@ impl Candidate {
 pub struct Sizes {
     /// Load scale of each port.
     pub port_scales: BTreeMap<String, f64>,
+    /// Derivative scale of each state: the constant rate added to its derivative that moves
+    /// the outputs about as much as the residual is large.
+    pub state_scales: BTreeMap<String, f64>,
     /// Simulated signals of the ports on the calibration window.
     pub signals: BTreeMap<String, SignalStats>,
     /// Measured outputs and inputs (by FMU variable) on the calibration window.
@@ -105,6 +129,7 @@ fn effect(
 ) -> EffectSpec {
     EffectSpec {
         kind: kind.to_owned(),
+        state: None,
         port: port.map(str::to_owned),
         signal: signal.map(str::to_owned),
         output: output.map(str::to_owned),
@@ -122,12 +147,13 @@ fn candidate(mut e: EffectSpec, kind: &dyn Guesses, scales: &Scales, source: Str
     Candidate { effect: e, guesses, source }
 }
 
-/// Every candidate the job allows, ports first (in the section's order), then sensor effects
-/// on each output, then actuator effects on each input. A signal or series without statistics
-/// in `sizes` is left out.
-pub fn generate(job: &JobSpec, diagnose: &DiagnoseSpec, sizes: &Sizes) -> Vec<Candidate> {
+/// Every candidate the job allows: port effects on each port of `places` (in its order), state
+/// effects on each state (Model Exchange), then sensor effects on each output and actuator
+/// effects on each input. A signal or series without statistics in `sizes` is left out.
+pub fn generate(job: &JobSpec, diagnose: &DiagnoseSpec, places: &Places, sizes: &Sizes) -> Vec<Candidate> {
     let mut out = vec![];
-    for (k, port) in diagnose.ports.iter().enumerate() {
+    for place in &places.ports {
+        let port = &place.spec;
         let domain = match port.domain {
             PortDomain::Mechanical => Domain::Mechanical,
             PortDomain::Thermal => Domain::Thermal,
@@ -149,14 +175,39 @@ pub fn generate(job: &JobSpec, diagnose: &DiagnoseSpec, sizes: &Sizes) -> Vec<Ca
                     .map(|(i, s)| (format!("temperatures[{i}]"), s.as_str()))
                     .collect(),
                 SignalRole::Any => port.signals().take(1).collect(),
-                SignalRole::Series => vec![],
+                SignalRole::Series | SignalRole::State => vec![],
             };
             for (field, signal) in signals {
                 let Some(stats) = sizes.signals.get(signal) else { continue };
                 let scales = Scales { load, signal: *stats, duration: sizes.duration, sample: sizes.sample, ambient };
                 let e = effect(kind.name(), Some(&port.port), Some(signal), None, None);
-                out.push(candidate(e, *kind, &scales, format!("diagnose.ports[{k}].{field}")));
+                let source =
+                    if place.by_hand { format!("{}.{field}", place.source) } else { place.source.clone() };
+                out.push(candidate(e, *kind, &scales, source));
             }
+        }
+    }
+    for place in &places.states {
+        let Some(&load) = sizes.state_scales.get(&place.state) else { continue };
+        let domain = match place.role {
+            Role::Velocity => Domain::Mechanical,
+            Role::Temperature => Domain::Thermal,
+            Role::Other => Domain::Generic,
+            Role::Position => continue,
+        };
+        for kind in effects::port_kinds().iter().filter(|e| e.domain() == domain) {
+            let signal = match kind.signal_role() {
+                SignalRole::Position => match &place.position {
+                    Some(p) => p.as_str(),
+                    None => continue,
+                },
+                _ => place.state.as_str(),
+            };
+            let Some(stats) = sizes.signals.get(signal) else { continue };
+            let scales = Scales { load, signal: *stats, duration: sizes.duration, sample: sizes.sample, ambient: 293.15 };
+            let mut e = effect(kind.name(), None, Some(signal), None, None);
+            e.state = Some(place.state.clone());
+            out.push(candidate(e, *kind, &scales, format!("model state {}", place.state)));
         }
     }
     if diagnose.series {
@@ -501,7 +552,7 @@ mod tests {
         let sizes =
             Sizes { series: [("y".to_owned(), stats)].into(), duration: 1.0, sample: 0.1, ..Default::default() };
         let diagnose = DiagnoseSpec::default();
-        let all = generate(&base, &diagnose, &sizes);
+        let all = generate(&base, &diagnose, &Places::default(), &sizes);
         let offset = all.iter().find(|c| c.effect.kind == "sensor_offset").unwrap().clone();
         let candidates = vec![offset.clone(), offset];
         let s = Screening::new(&base, &[1.0], &candidates, false);
@@ -530,6 +581,62 @@ mod tests {
         assert!(failed[1].predicted_delta_ic.is_nan());
         assert_eq!(ranking(&failed), [0, 1]);
         assert!(failed[0].predicted_delta_ic < 0.0);
+    }
+
+    #[test]
+    fn each_state_gets_the_kinds_of_its_quantity_and_springs_read_its_position() {
+        use crate::diagnose::places::StatePlace;
+        let text = "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n";
+        let base = JobSpec::from_toml(text, std::path::Path::new("/")).unwrap();
+        let stats = SignalStats::of(&[-1.0, 1.0]);
+        let names = ["x", "v", "w", "T", "c"];
+        let sizes = Sizes {
+            signals: names.iter().map(|n| (n.to_string(), stats)).collect(),
+            state_scales: names.iter().map(|n| (n.to_string(), 0.5)).collect(),
+            duration: 1.0,
+            sample: 0.1,
+            ..Default::default()
+        };
+        let place = |state: &str, role: Role, position: Option<&str>| StatePlace {
+            state: state.into(),
+            role,
+            position: position.map(str::to_owned),
+        };
+        let places = Places {
+            states: vec![
+                place("v", Role::Velocity, Some("x")),
+                place("w", Role::Velocity, None),
+                place("T", Role::Temperature, None),
+                place("c", Role::Other, None),
+            ],
+            ..Default::default()
+        };
+        let diagnose = DiagnoseSpec { series: false, ..Default::default() };
+        let all = generate(&base, &diagnose, &places, &sizes);
+        let at = |state: &str| -> Vec<String> {
+            all.iter().filter(|c| c.effect.state.as_deref() == Some(state)).map(|c| c.describe()).collect()
+        };
+        assert_eq!(
+            at("v"),
+            [
+                "viscous_damping on der(v)",
+                "coulomb_friction on der(v)",
+                "stribeck_friction on der(v)",
+                "quadratic_drag on der(v)",
+                "linear_spring of x on der(v)",
+                "cubic_spring of x on der(v)",
+                "constant_load on der(v)",
+                "dead_zone_spring of x on der(v)",
+            ]
+        );
+        // Without a position, no spring.
+        assert_eq!(at("w").len(), 5);
+        assert_eq!(at("T"), ["convection on der(T)", "radiation on der(T)", "heat_loss on der(T)"]);
+        assert_eq!(at("c"), ["linear_relaxation on der(c)", "constant_rate on der(c)"]);
+        assert!(all.iter().all(|c| c.place().starts_with("der(") && c.source.starts_with("model state ")));
+        // Strength steps come from the state's derivative scale: a constant rate's is a tenth.
+        let rate = all.iter().find(|c| c.effect.kind == "constant_rate").unwrap();
+        assert_eq!(rate.guesses[0].step, Some(0.05));
     }
 
     #[test]

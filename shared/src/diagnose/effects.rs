@@ -2,7 +2,9 @@
 //! lack. Each kind is a value implementing one of two traits:
 //!
 //! - [`PortEffect`]: a force, torque or heat flow computed from one signal the FMU lets us read
-//!   (a velocity, a position, a temperature) and added to an injection port (a real input).
+//!   (a velocity, a position, a temperature) and added to an injection port (a real input), or
+//!   the same term in the units of a state's derivative, added to that derivative in Model
+//!   Exchange (a state effect: on a velocity it is an acceleration, force per mass).
 //! - [`SeriesEffect`]: a change to a whole measured output (sensor effects) or measured input
 //!   (actuator effects), applied to its time series.
 //!
@@ -22,6 +24,8 @@
 //! | `convection` | thermal | h·(T_amb − T) | h, t_ambient |
 //! | `radiation` | thermal | εA·σ·(T_amb⁴ − T⁴) | emissivity_area, t_ambient |
 //! | `heat_loss` | thermal | −q | q |
+//! | `linear_relaxation` | generic (states only) | −k·(x − x₀) | k, x0 |
+//! | `constant_rate` | generic (states only) | b | rate |
 //! | `sensor_offset` / `actuator_offset` | sensor / actuator | y + b | offset |
 //! | `sensor_gain` / `actuator_gain` | sensor / actuator | k·y | gain |
 //! | `sensor_lag` | sensor | τ·ẏ_s = y − y_s, y_s(t₀) = y(t₀) | time_constant |
@@ -33,12 +37,15 @@ use std::fmt;
 use super::guess::Guesses;
 
 /// Where an effect acts.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Domain {
     /// A force or torque port, driven by a velocity or position.
     Mechanical,
     /// A heat-flow port, driven by a temperature.
     Thermal,
+    /// A state of any quantity: a term added to its derivative, driven by the state itself.
+    Generic,
     /// A measured output.
     Sensor,
     /// A measured input.
@@ -50,6 +57,7 @@ impl fmt::Display for Domain {
         f.write_str(match self {
             Domain::Mechanical => "mechanical",
             Domain::Thermal => "thermal",
+            Domain::Generic => "generic",
             Domain::Sensor => "sensor",
             Domain::Actuator => "actuator",
         })
@@ -122,6 +130,8 @@ kind!(DeadZoneSpring, "dead_zone_spring", Mechanical, ["k", "width"]);
 kind!(Convection, "convection", Thermal, ["h", "t_ambient"]);
 kind!(Radiation, "radiation", Thermal, ["emissivity_area", "t_ambient"]);
 kind!(HeatLoss, "heat_loss", Thermal, ["q"]);
+kind!(LinearRelaxation, "linear_relaxation", Generic, ["k", "x0"]);
+kind!(ConstantRate, "constant_rate", Generic, ["rate"]);
 kind!(SensorLag, "sensor_lag", Sensor, ["time_constant"]);
 kind!(ActuatorSaturation, "actuator_saturation", Actuator, ["lower", "upper"]);
 
@@ -251,6 +261,18 @@ impl PortEffect for HeatLoss {
     }
 }
 
+impl PortEffect for LinearRelaxation {
+    fn term(&self, p: &[f64], x: f64) -> f64 {
+        -p[0] * (x - p[1])
+    }
+}
+
+impl PortEffect for ConstantRate {
+    fn term(&self, p: &[f64], _: f64) -> f64 {
+        p[0]
+    }
+}
+
 /// y(t − τ), linear between samples, the first value before t₀ + τ.
 fn delay(p: &[f64], time: &[f64], values: &[f64]) -> Vec<f64> {
     let tau = p[0].max(0.0);
@@ -313,7 +335,8 @@ impl SeriesEffect for ActuatorSaturation {
     }
 }
 
-/// Every effect on an injection port.
+/// Every additive term: on an injection port (mechanical and thermal kinds) or on a state's
+/// derivative (those and the generic kinds).
 pub fn port_kinds() -> &'static [&'static dyn PortEffect] {
     &[
         &ViscousDamping,
@@ -327,6 +350,8 @@ pub fn port_kinds() -> &'static [&'static dyn PortEffect] {
         &Convection,
         &Radiation,
         &HeatLoss,
+        &LinearRelaxation,
+        &ConstantRate,
     ]
 }
 
@@ -429,11 +454,13 @@ mod tests {
     fn names_are_unique_and_each_kind_has_parameters() {
         let mut names: Vec<&str> =
             port_kinds().iter().map(|k| k.name()).chain(series_kinds().iter().map(|k| k.name())).collect();
-        assert_eq!(names.len(), 19);
+        assert_eq!(names.len(), 21);
         names.sort_unstable();
         names.dedup();
-        assert_eq!(names.len(), 19);
-        assert!(port_kinds().iter().all(|k| matches!(k.domain(), Domain::Mechanical | Domain::Thermal)));
+        assert_eq!(names.len(), 21);
+        assert!(
+            port_kinds().iter().all(|k| matches!(k.domain(), Domain::Mechanical | Domain::Thermal | Domain::Generic))
+        );
         assert!(series_kinds().iter().all(|k| matches!(k.domain(), Domain::Sensor | Domain::Actuator)));
         assert!(port_kinds().iter().all(|k| !k.parameters().is_empty()));
     }
@@ -471,6 +498,8 @@ mod tests {
         let r = port("radiation").term(&[0.5, 300.0], 400.0);
         assert!((r - 0.5 * SIGMA * (300.0f64.powi(4) - 400.0f64.powi(4))).abs() < 1e-9);
         assert_eq!(port("heat_loss").term(&[7.0], 1.0), -7.0);
+        assert_eq!(port("linear_relaxation").term(&[0.5, 2.0], 3.0), -0.5);
+        assert_eq!(port("constant_rate").term(&[-0.25], 8.0), -0.25);
     }
 
     #[test]

@@ -13,8 +13,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::effects::{
-    ActuatorSaturation, ConstantLoad, Convection, CoulombFriction, CubicSpring, DeadZoneSpring, HeatLoss, Kind,
-    LinearSpring, QuadraticDrag, Radiation, SIGMA, SensorLag, Shared, StribeckFriction, ViscousDamping,
+    ActuatorSaturation, ConstantLoad, ConstantRate, Convection, CoulombFriction, CubicSpring, DeadZoneSpring, HeatLoss, Kind,
+    LinearRelaxation, LinearSpring, QuadraticDrag, Radiation, SIGMA, SensorLag, Shared, StribeckFriction, ViscousDamping,
 };
 
 /// What an effect's signal must be.
@@ -24,6 +24,9 @@ pub enum SignalRole {
     Velocity,
     Position,
     Temperature,
+    /// The state whose derivative the term is added to, whatever its quantity (the generic
+    /// kinds).
+    State,
     /// The term does not depend on its signal (a constant load or heat loss); any signal of
     /// the port will do.
     Any,
@@ -183,6 +186,25 @@ impl Guesses for CubicSpring {
 }
 
 impl Guesses for ConstantLoad {
+    fn signal_role(&self) -> SignalRole {
+        SignalRole::Any
+    }
+    fn guesses(&self, s: &Scales) -> Vec<Guess> {
+        vec![Guess::strength(0.0, 0.1 * s.load, -20.0 * s.load, 20.0 * s.load)]
+    }
+}
+
+impl Guesses for LinearRelaxation {
+    fn signal_role(&self) -> SignalRole {
+        SignalRole::State
+    }
+    fn guesses(&self, s: &Scales) -> Vec<Guess> {
+        let (lo, hi) = (s.signal.min, s.signal.max);
+        vec![Guess::coefficient(s.load, s.signal.std), Guess::shape(s.signal.mean, lo.min(hi), hi.max(lo))]
+    }
+}
+
+impl Guesses for ConstantRate {
     fn signal_role(&self) -> SignalRole {
         SignalRole::Any
     }

@@ -50,14 +50,7 @@ pub fn decision_optimizer(own: &OptimizerSpec, ssr: f64, n_eff: f64) -> (Optimiz
 /// one output's residual ends and the next begins, and events). No fit can end much below it,
 /// so a tolerance derived from it is tight enough for any candidate.
 pub fn noise_ssr(r: &[f64]) -> f64 {
-    let mut d2: Vec<f64> = r.windows(2).map(|w| (w[1] - w[0]).powi(2)).filter(|v| v.is_finite()).collect();
-    if d2.is_empty() {
-        return 0.0;
-    }
-    d2.sort_by(f64::total_cmp);
-    let median = if d2.len() % 2 == 1 { d2[d2.len() / 2] } else { 0.5 * (d2[d2.len() / 2 - 1] + d2[d2.len() / 2]) };
-    // The median of χ²₁ is 0.4549…: median(d²) = 2σ²·0.4549.
-    r.len() as f64 * median / (2.0 * 0.454_936_423_119_572_8)
+    r.len() as f64 * super::residuals::noise_sigma(r).powi(2)
 }
 
 /// A candidate fit whose Gauss–Newton step would still gain `decrease` stopped early (its
@@ -193,6 +186,7 @@ top = 3
     fn coulomb() -> Candidate {
         let mut effect = EffectSpec {
             kind: "coulomb_friction".into(),
+            state: None,
             port: Some("p".into()),
             signal: Some("v".into()),
             output: None,

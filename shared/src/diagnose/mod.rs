@@ -4,6 +4,9 @@
 //! - [`effects`]: the library of effect kinds with their formulas;
 //!   [`guess`]: how a diagnosis sizes a kind it was not told about.
 //! - [`spec`]: the job file's `[diagnose]` section.
+//! - [`structure`]: the model's states, their quantities and position/velocity pairs, and its
+//!   injection inputs, read from the model description; [`places`]: where a diagnosis may add
+//!   effects (ports by hand and from the structure, states in Model Exchange).
 //! - [`residuals`] and [`localise`]: the residual analysis (RMS per window, whiteness,
 //!   correlation with candidate signals).
 //! - [`candidates`]: candidate generation and screening by the score statistic.
@@ -20,6 +23,8 @@ pub mod effects;
 pub mod guess;
 pub mod jobs;
 pub mod localise;
+pub mod places;
 pub mod report;
 pub mod residuals;
 pub mod spec;
+pub mod structure;

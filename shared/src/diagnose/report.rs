@@ -8,11 +8,43 @@ use serde::{Deserialize, Serialize};
 use super::candidates::{Candidate, Screened};
 use super::decision::{Baseline, Evidence, Verdict, elsewhere};
 use super::localise::Localisation;
+use super::residuals::Misfit;
 use crate::job::spec::EffectSpec;
+
+/// What a diagnosis concludes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Conclusion {
+    /// An effect of the library was named.
+    Named,
+    /// None was, and the base model's residual is far from its noise
+    /// ([`super::residuals::Misfit::far`]): the model misses something none of the tried
+    /// effects explains.
+    MissesSomething,
+    /// None was, and the residual is consistent with noise: the model fits.
+    Fits,
+}
+
+impl Conclusion {
+    /// The conclusion from whether an effect was named and the base model's misfit.
+    pub fn of(named: bool, base: &Misfit) -> Conclusion {
+        if named {
+            Conclusion::Named
+        } else if base.far() {
+            Conclusion::MissesSomething
+        } else {
+            Conclusion::Fits
+        }
+    }
+}
 
 /// The whole diagnosis.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Diagnosis {
+    pub conclusion: Conclusion,
+    /// How far the base model's fit, and the fit with the named effects, are from the noise.
+    pub misfit_before: Misfit,
+    pub misfit_after: Misfit,
     /// The windows every fit and comparison used.
     pub windows: Windows,
     pub rounds: Vec<Round>,
@@ -27,6 +59,9 @@ pub struct Diagnosis {
     /// Where the time went, summed over the rounds: each phase's wall time and simulations.
     #[serde(default)]
     pub phases: BTreeMap<String, PhaseTime>,
+    /// What could not be tried, and why ("Co-Simulation only: no state effects").
+    #[serde(default)]
+    pub notes: Vec<String>,
 }
 
 /// One phase of a diagnosis: wall time [s] and the simulations it ran (on the workers, or in
@@ -66,6 +101,10 @@ pub struct Round {
     /// Load scale of each port: given, or probed (the constant load that moves the outputs as
     /// much as the residual does).
     pub port_scales: BTreeMap<String, f64>,
+    /// Derivative scale of each state: the constant rate on its derivative that moves the
+    /// outputs as much as the residual does (in the derivative's units).
+    #[serde(default)]
+    pub state_scales: BTreeMap<String, f64>,
     /// Every candidate in ranking order.
     pub candidates: Vec<RankedCandidate>,
     /// Index into `candidates` of the one named, if any.
@@ -137,6 +176,17 @@ impl Diagnosis {
             if w.holdout { " (held out of the job's window)" } else { "" }
         );
         for (k, round) in self.rounds.iter().enumerate() {
+            // What was tried where: "der(mass.v) 8, output mass.x 4".
+            let mut places: Vec<(String, usize)> = vec![];
+            for c in &round.candidates {
+                let place = c.candidate.place();
+                match places.iter_mut().find(|(p, _)| *p == place) {
+                    Some((_, n)) => *n += 1,
+                    None => places.push((place, 1)),
+                }
+            }
+            let tried: Vec<String> = places.iter().map(|(p, n)| format!("{p} {n}")).collect();
+            let _ = writeln!(s, "round {}: tried {}", k + 1, tried.join(", "));
             let fitted = round.candidates.iter().filter(|c| c.fit.is_some()).count();
             let _ = writeln!(
                 s,
@@ -168,6 +218,9 @@ impl Diagnosis {
                 let _ = writeln!(s, "the data supports these as well (ΔIC within 2): {}", names.join("; "));
             }
         }
+        for note in &self.notes {
+            let _ = writeln!(s, "not tried: {note}");
+        }
         if self.named.is_empty() {
             let first = self.rounds.first();
             let fitted = first.is_some_and(|r| r.candidates.iter().any(|c| c.fit.is_some()));
@@ -187,10 +240,33 @@ impl Diagnosis {
             } else {
                 "the screening predicts no candidate to improve the fit enough to pay for its parameters".to_owned()
             };
-            let _ = writeln!(s, "no effect found: {why}");
+            let tried = first.map_or(0, |r| r.candidates.len());
+            match self.conclusion {
+                Conclusion::MissesSomething => {
+                    let _ = writeln!(
+                        s,
+                        "the model misses something that none of the {tried} tried effects explains ({why}); the evidence: {}",
+                        self.misfit_before.evidence()
+                    );
+                }
+                _ => {
+                    let _ = writeln!(
+                        s,
+                        "no effect found: the residual is consistent with noise ({}); {why}",
+                        self.misfit_before.evidence()
+                    );
+                }
+            }
         }
         for e in &self.named {
             let _ = writeln!(s, "found: {}", e.words);
+        }
+        if !self.named.is_empty() && self.misfit_after.far() {
+            let _ = writeln!(
+                s,
+                "the named effects explain part of the misfit; the model still misses something: {}",
+                self.misfit_after.evidence()
+            );
         }
         let _ = writeln!(
             s,

@@ -8,6 +8,10 @@
 //!   p-value says the residual is not white: some dynamics are missing.
 //! - [`correlation`]: Pearson correlation of the residual with a candidate signal (a velocity,
 //!   a temperature, an input, or its sign).
+//! - [`noise_sigma`]: the noise level of a residual from its first differences.
+//! - [`Misfit`]: whether a fit is far from its noise, the one definition of "far" (thresholds
+//!   [`FAR_RMS_OVER_NOISE`], [`FAR_LJUNG_BOX_P`], [`FAR_VALIDATION_OVER_CALIBRATION`]) that
+//!   tells "the model fits" from "the model misses something".
 //!
 //! Residuals are given on the objective's time grid; NaN marks a missing measurement and is
 //! left out (a window or a lag with no pair of valid samples contributes nothing).
@@ -93,6 +97,108 @@ pub fn ljung_box(residual: &[f64], lags: usize) -> Option<LjungBox> {
     let nf = n as f64;
     let statistic = nf * (nf + 2.0) * rho.iter().enumerate().map(|(i, r)| r * r / (nf - (i + 1) as f64)).sum::<f64>();
     Some(LjungBox { lags, statistic, p_value: chi_squared_survival(statistic, lags as f64) })
+}
+
+/// The standard deviation of the white noise in a residual that varies slowly from sample to
+/// sample: (r_{i+1} − r_i)² ≈ 2σ² for white noise, and its median ignores the few jumps (where
+/// one output's residual ends and the next begins, events). The median of χ²₁ is 0.4549…, so
+/// σ² = median(d²)/(2·0.4549). 0 without two consecutive valid samples.
+pub fn noise_sigma(r: &[f64]) -> f64 {
+    let mut d2: Vec<f64> = r.windows(2).map(|w| (w[1] - w[0]).powi(2)).filter(|v| v.is_finite()).collect();
+    if d2.is_empty() {
+        return 0.0;
+    }
+    d2.sort_by(f64::total_cmp);
+    let median = if d2.len() % 2 == 1 { d2[d2.len() / 2] } else { 0.5 * (d2[d2.len() / 2 - 1] + d2[d2.len() / 2]) };
+    (median / (2.0 * 0.454_936_423_119_572_8)).sqrt()
+}
+
+/// A fit whose calibration RMS is more than this multiple of the noise estimate leaves more
+/// than noise: at 2 the misfit itself is √3 times the noise.
+pub const FAR_RMS_OVER_NOISE: f64 = 2.0;
+/// A Ljung–Box p-value below this says the residual is strongly non-white.
+pub const FAR_LJUNG_BOX_P: f64 = 1e-4;
+/// A held-out RMS above this multiple of the calibration RMS says the fit does not carry over.
+pub const FAR_VALIDATION_OVER_CALIBRATION: f64 = 1.5;
+
+/// How far one output's fit is from its noise.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OutputMisfit {
+    pub variable: String,
+    /// RMS of the residual on the calibration window, and on the validation window if any.
+    #[serde(with = "crate::optim::serde_float")]
+    pub rms: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub validation_rms: Option<f64>,
+    /// The noise estimate ([`noise_sigma`]) of the calibration residual.
+    #[serde(with = "crate::optim::serde_float")]
+    pub noise: f64,
+    pub ljung_box_p: Option<f64>,
+}
+
+impl OutputMisfit {
+    /// The fit of `variable` from its residuals on the calibration and validation windows
+    /// (NaN where missing).
+    pub fn new(variable: &str, calibration: &[f64], validation: &[f64]) -> OutputMisfit {
+        let rms = |r: &[f64]| {
+            let valid: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
+            (!valid.is_empty()).then(|| (valid.iter().map(|v| v * v).sum::<f64>() / valid.len() as f64).sqrt())
+        };
+        OutputMisfit {
+            variable: variable.to_owned(),
+            rms: rms(calibration).unwrap_or(0.0),
+            validation_rms: rms(validation),
+            noise: noise_sigma(calibration),
+            ljung_box_p: ljung_box(calibration, super::localise::LJUNG_BOX_LAGS).map(|l| l.p_value),
+        }
+    }
+
+    /// The calibration RMS over the noise estimate (infinite on a noise-free residual that is
+    /// not zero).
+    pub fn rms_over_noise(&self) -> f64 {
+        if self.noise > 0.0 { self.rms / self.noise } else if self.rms > 0.0 { f64::INFINITY } else { 1.0 }
+    }
+
+    /// Far from the noise: an RMS above [`FAR_RMS_OVER_NOISE`] × the noise, and a residual
+    /// that is strongly non-white or a held-out error well above the calibration error.
+    pub fn far(&self) -> bool {
+        let non_white = self.ljung_box_p.is_some_and(|p| p < FAR_LJUNG_BOX_P);
+        let not_carried = self.validation_rms.is_some_and(|v| v > FAR_VALIDATION_OVER_CALIBRATION * self.rms);
+        self.rms_over_noise() > FAR_RMS_OVER_NOISE && (non_white || not_carried)
+    }
+
+    /// The evidence in words: "mass.x: RMS 8.1 × the noise estimate, Ljung–Box p = 3e-205,
+    /// held-out RMS 2.3 × the calibration RMS".
+    pub fn evidence(&self) -> String {
+        let mut parts = vec![format!("RMS {:.3} × the noise estimate {:.3e}", self.rms_over_noise(), self.noise)];
+        if let Some(p) = self.ljung_box_p {
+            parts.push(format!("Ljung–Box p = {p:.1e}"));
+        }
+        if let Some(v) = self.validation_rms.filter(|_| self.rms > 0.0) {
+            parts.push(format!("held-out RMS {:.2} × the calibration RMS", v / self.rms));
+        }
+        format!("{}: {}", self.variable, parts.join(", "))
+    }
+}
+
+/// How far a fit is from its noise, output by output.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Misfit {
+    pub outputs: Vec<OutputMisfit>,
+}
+
+impl Misfit {
+    /// Whether any output is far from its noise ([`OutputMisfit::far`]).
+    pub fn far(&self) -> bool {
+        self.outputs.iter().any(OutputMisfit::far)
+    }
+
+    /// The evidence of every output, the far ones first.
+    pub fn evidence(&self) -> String {
+        let mut o: Vec<&OutputMisfit> = self.outputs.iter().collect();
+        o.sort_by_key(|m| !m.far());
+        o.iter().map(|m| m.evidence()).collect::<Vec<_>>().join("; ")
+    }
 }
 
 /// Pearson correlation of `a` and `b` over the samples where both are valid; 0 when either is
@@ -191,6 +297,34 @@ fn ln_gamma(x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A deterministic standard normal sequence (Box–Muller on a linear congruential generator).
+    fn gaussian(n: usize, seed: u64) -> Vec<f64> {
+        let mut state = seed;
+        let mut uniform = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        (0..n).map(|_| (-2.0 * uniform().ln()).sqrt() * (std::f64::consts::TAU * uniform()).cos()).collect()
+    }
+
+    #[test]
+    fn white_noise_is_near_its_noise_and_a_slow_misfit_is_far() {
+        let n = 2000;
+        let noise: Vec<f64> = gaussian(n, 7).iter().map(|e| 0.01 * e).collect();
+        // The noise estimate recovers σ within a few percent.
+        assert!((noise_sigma(&noise) / 0.01 - 1.0).abs() < 0.06, "{}", noise_sigma(&noise));
+        let fits = OutputMisfit::new("y", &noise[..1500], &noise[1500..]);
+        assert!(!fits.far() && fits.rms_over_noise() < 1.2, "{fits:?}");
+        // A slow misfit of 5 σ on top: the noise estimate barely moves, the RMS does.
+        let misfit: Vec<f64> =
+            noise.iter().enumerate().map(|(i, e)| e + 0.05 * (i as f64 * 0.01).sin()).collect();
+        let m = OutputMisfit::new("y", &misfit[..1500], &misfit[1500..]);
+        assert!(m.far(), "{m:?}");
+        assert!(m.evidence().starts_with("y: RMS "), "{}", m.evidence());
+        let all = Misfit { outputs: vec![fits, m] };
+        assert!(all.far() && all.evidence().starts_with("y: RMS 3"), "{}", all.evidence());
+    }
 
     #[test]
     fn chi_squared_survival_matches_closed_forms() {

@@ -17,6 +17,9 @@
 //! series = true                # also try sensor effects on every output and actuator
 //!                              # effects on every input
 //! signals = ["armJoint.w"]     # more signals to correlate the residual with
+//! states = ["mass.v"]          # Model Exchange: only these states get state effects
+//!                              # (default: every continuous state of the model)
+//! exclude = ["mass.x", "F"]    # states, ports, outputs and inputs that get no candidate
 //!
 //! [[diagnose.ports]]
 //! port = "pendulumJoint.tauExt"
@@ -56,6 +59,12 @@ pub struct DiagnoseSpec {
     pub rounds: usize,
     #[serde(default = "default_true")]
     pub series: bool,
+    /// Only these continuous states get state effects; `None`: every state.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub states: Option<Vec<String>>,
+    /// States, ports, outputs and inputs that get no candidate.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub exclude: Vec<String>,
 }
 
 impl Default for DiagnoseSpec {
@@ -151,8 +160,13 @@ impl DiagnoseSpec {
         if !(1..=2).contains(&self.rounds) {
             return bad("rounds", format!("{} is not 1 or 2", self.rounds));
         }
-        if self.ports.is_empty() && !self.series {
-            return bad("ports", "no port is listed and series = false: there is no candidate to try".into());
+        for (field, list) in [("states", self.states.as_deref().unwrap_or_default()), ("exclude", &self.exclude)] {
+            if list.len() > 10_000 {
+                return bad(field, format!("lists {} names; at most 10000", list.len()));
+            }
+            if let Some(k) = list.iter().position(|n| n.trim().is_empty()) {
+                return bad(&format!("{field}[{k}]"), "is empty".into());
+            }
         }
         for (k, p) in self.ports.iter().enumerate() {
             let field = |f: &str| format!("ports[{k}].{f}");
@@ -227,7 +241,7 @@ mod tests {
             ("holdout = 0.9", "diagnose.holdout: 0.9 is not a fraction"),
             ("rounds = 3", "diagnose.rounds: 3 is not 1 or 2"),
             ("confidence = 1.0", "diagnose.confidence"),
-            ("series = false", "diagnose.ports: no port is listed"),
+            ("exclude = [\"a\", \" \"]", "diagnose.exclude[1]: is empty"),
             (
                 &format!("{port}velocities = [\"v\"]\ntemperatures = [\"T\"]"),
                 "diagnose.ports[0].temperatures: a mechanical port takes no temperatures",

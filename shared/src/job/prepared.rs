@@ -17,7 +17,10 @@ use crate::fmu::schema::{Causality, VarType};
 use crate::fmu::{Interface, ModelDescription};
 use crate::quote::quote_user_text;
 use crate::sim::plan::Plan;
-use crate::sim::{InputTable, OutputTimes, PortTerm, SimResult, SimSpec};
+use crate::diagnose::effects::Domain;
+use crate::diagnose::guess::SignalRole;
+use crate::diagnose::structure::{Quantity, Role, Structure};
+use crate::sim::{InputTable, OutputTimes, PortTerm, SimResult, SimSpec, StateTerm};
 
 /// A job checked against its model and data.
 #[derive(Debug, Clone)]
@@ -78,10 +81,20 @@ impl PreparedJob {
         };
         let calibrated = spec.calibrated();
         let mut effects = vec![];
+        let structure = spec.effects.iter().any(|e| e.state.is_some()).then(|| Structure::read(md, &[]));
         for (k, e) in spec.effects.iter().enumerate() {
             let offset = calibrated.iter().position(|c| matches!(c.slot, Slot::Effect { effect, .. } if effect == k));
             let count = e.ordered_parameters(k)?.len();
-            effects.push(PreparedEffect { spec: e.clone(), offset: offset.unwrap_or(calibrated.len()), count });
+            let state_signal = match (&e.state, &structure) {
+                (Some(state), Some(structure)) => Some(state_signal(k, e, state, structure, interface, interfaces)?),
+                _ => None,
+            };
+            effects.push(PreparedEffect {
+                spec: e.clone(),
+                offset: offset.unwrap_or(calibrated.len()),
+                count,
+                state_signal,
+            });
         }
         let names: Vec<String> = calibrated.iter().map(|c| c.name.clone()).collect();
         let x0: Vec<f64> = calibrated.iter().map(|c| c.bounds.start).collect();
@@ -124,6 +137,102 @@ impl PreparedJob {
     /// for the analyses that take a single experiment.
     pub fn single(&self) -> &PreparedExperiment {
         &self.experiments[0]
+    }
+}
+
+/// The state a state effect reads, checked against the model's structure: its `signal` if it
+/// names one, else the state itself, or for a spring the position whose derivative the state
+/// is. The kind must fit the state's quantity: mechanical kinds a velocity, thermal kinds a
+/// temperature (generic kinds any state).
+fn state_signal(
+    k: usize,
+    e: &EffectSpec,
+    state: &str,
+    structure: &Structure,
+    interface: Interface,
+    interfaces: &[Interface],
+) -> Result<String, JobError> {
+    let field = |f: &str| format!("effects[{k}].{f}");
+    if interface != Interface::ModelExchange {
+        let why = if interfaces.contains(&Interface::ModelExchange) {
+            "the job uses Co-Simulation, where the FMU integrates its own states: set [model] interface = \"me\""
+        } else {
+            "the FMU offers Co-Simulation only, where it integrates its own states: no state effects (use a port effect)"
+        };
+        return Err(JobError::invalid(field("state"), why));
+    }
+    let Some(s) = structure.state(state) else {
+        let names: Vec<&str> = structure.states.iter().map(|s| s.name.as_str()).collect();
+        return Err(JobError::invalid(
+            field("state"),
+            format!(
+                "{} is not a continuous state of the model (its states: {})",
+                quote_user_text(state),
+                if names.is_empty() { "none".to_owned() } else { quote_user_text(&names.join(", ")) }
+            ),
+        ));
+    };
+    let Ok(effects::Found::Port(kind)) = effects::find(&e.kind) else {
+        return Err(JobError::invalid(field("kind"), format!("{} is not added to a state", e.kind)));
+    };
+    let fits = match kind.domain() {
+        Domain::Mechanical => s.role == Role::Velocity,
+        Domain::Thermal => s.role == Role::Temperature,
+        _ => true,
+    };
+    if !fits {
+        let wants = if kind.domain() == Domain::Thermal { "a temperature" } else { "a velocity" };
+        return Err(JobError::invalid(
+            field("kind"),
+            format!(
+                "{} acts on {wants}; state {} is {}",
+                e.kind,
+                quote_user_text(state),
+                describe_state(s)
+            ),
+        ));
+    }
+    if let Some(signal) = &e.signal {
+        if structure.state(signal).is_none() {
+            return Err(JobError::invalid(
+                field("signal"),
+                format!("{} is not a continuous state of the model: a state effect reads a state", quote_user_text(signal)),
+            ));
+        }
+        return Ok(signal.clone());
+    }
+    if kind.signal_role() == SignalRole::Position {
+        return s.position.clone().ok_or_else(|| {
+            JobError::invalid(
+                field("signal"),
+                format!(
+                    "{} reads a position, and no state of the model has {} as its derivative: name the position as signal",
+                    e.kind,
+                    quote_user_text(state)
+                ),
+            )
+        });
+    }
+    Ok(s.name.clone())
+}
+
+/// A state's quantity and role in words: "a rotational position (rad)".
+pub fn describe_state(s: &crate::diagnose::structure::State) -> String {
+    let quantity = match s.quantity {
+        Quantity::Translational => "translational ",
+        Quantity::Rotational => "rotational ",
+        Quantity::Thermal => "thermal ",
+        Quantity::Other => "",
+    };
+    let role = match s.role {
+        Role::Position => "position",
+        Role::Velocity => "velocity",
+        Role::Temperature => "temperature",
+        Role::Other => "state",
+    };
+    match &s.unit {
+        Some(u) => format!("a {quantity}{role} ({u})"),
+        None => format!("a {quantity}{role}"),
     }
 }
 
@@ -245,8 +354,12 @@ impl PreparedExperiment {
         // first each port effect on its own (to name it), then the whole experiment.
         let check = experiment.sim_spec(x0);
         for (k, effect) in experiment.effects.iter().enumerate() {
-            if let Some(term) = effect.port_term(x0) {
-                let one = SimSpec { port_terms: vec![term], ..check.clone() };
+            let one = match (effect.port_term(x0), effect.state_term(x0)) {
+                (Some(term), _) => Some(SimSpec { port_terms: vec![term], state_terms: vec![], ..check.clone() }),
+                (_, Some(term)) => Some(SimSpec { port_terms: vec![], state_terms: vec![term], ..check.clone() }),
+                _ => None,
+            };
+            if let Some(one) = one {
                 Plan::new(md, cx.interfaces, &one).map_err(|e| {
                     let why = match e {
                         crate::sim::SimError::Invalid(why) => why,
@@ -293,6 +406,8 @@ impl PreparedExperiment {
             let p = e.values(x);
             if let Some(term) = e.port_term(x) {
                 s.port_terms.push(term);
+            } else if let Some(term) = e.state_term(x) {
+                s.state_terms.push(term);
             } else if let (Some(input), Some(table), Ok(effects::Found::Series(kind))) =
                 (&e.spec.input, s.inputs.as_mut(), effects::find(&e.spec.kind))
                 && p.len() == e.count
@@ -405,6 +520,8 @@ pub struct PreparedEffect {
     pub spec: EffectSpec,
     pub offset: usize,
     pub count: usize,
+    /// A state effect's signal, resolved against the model's structure.
+    pub state_signal: Option<String>,
 }
 
 impl PreparedEffect {
@@ -421,6 +538,16 @@ impl PreparedEffect {
             kind: self.spec.kind.clone(),
             port: port.clone(),
             signal: signal.clone(),
+            parameters: self.values(x).to_vec(),
+        })
+    }
+
+    /// The state term at `x`, for an effect on a state.
+    fn state_term(&self, x: &[f64]) -> Option<StateTerm> {
+        Some(StateTerm {
+            kind: self.spec.kind.clone(),
+            state: self.spec.state.clone()?,
+            signal: self.state_signal.clone()?,
             parameters: self.values(x).to_vec(),
         })
     }

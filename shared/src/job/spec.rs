@@ -193,12 +193,17 @@ impl ParameterSpec {
 /// parameters = { offset = { start = 0.0, lower = -0.1, upper = 0.1 } }
 /// ```
 ///
-/// Actuator effects name a mapped `input`. Each parameter is calibrated as
-/// `effects[K].NAME`, after the `[[parameters]]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// Actuator effects name a mapped `input`. A state effect (Model Exchange) names a continuous
+/// `state` instead of a port: its term is added to der(state), in the derivative's units (an
+/// acceleration on a velocity), and reads the state itself (friction, damping, drag, thermal
+/// and generic kinds) or the position whose derivative it is (springs); `signal` may name
+/// another state. Each parameter is calibrated as `effects[K].NAME`, after the `[[parameters]]`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EffectSpec {
     pub kind: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub port: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -620,13 +625,23 @@ impl JobSpec {
             }
         }
         let field = |f: &str| format!("effects[{k}].{f}");
-        let (needed, unused): (&[(&str, &Option<String>)], [(&str, &Option<String>); 4]) = (
-            match e.domain() {
+        let domain = e.domain();
+        if e.state.is_some() && e.port.is_some() {
+            return Err(JobError::invalid(
+                field("state"),
+                "give a port or a state, not both: a state effect is added to der(state), a port effect to the port"
+                    .to_owned(),
+            ));
+        }
+        let on_state = e.state.is_some() || domain == Some(Domain::Generic);
+        let (needed, unused): (&[(&str, &Option<String>)], [(&str, &Option<String>); 5]) = (
+            match domain {
+                Some(Domain::Mechanical | Domain::Thermal | Domain::Generic) if on_state => &[("state", &e.state)],
                 Some(Domain::Mechanical | Domain::Thermal) => &[("port", &e.port), ("signal", &e.signal)],
                 Some(Domain::Sensor) => &[("output", &e.output)],
                 _ => &[("input", &e.input)],
             },
-            [("port", &e.port), ("signal", &e.signal), ("output", &e.output), ("input", &e.input)],
+            [("state", &e.state), ("port", &e.port), ("signal", &e.signal), ("output", &e.output), ("input", &e.input)],
         );
         for (name, value) in needed {
             if value.as_deref().is_none_or(str::is_empty) {
@@ -634,7 +649,9 @@ impl JobSpec {
             }
         }
         for (name, value) in unused {
-            if value.is_some() && !needed.iter().any(|(n, _)| *n == name) {
+            // A state effect may name its signal; without one it reads the state (or its position).
+            let optional = on_state && name == "signal";
+            if value.is_some() && !optional && !needed.iter().any(|(n, _)| *n == name) {
                 return Err(JobError::invalid(field(name), format!("{} takes no {name}", e.kind)));
             }
         }

@@ -23,7 +23,10 @@
 //! stand-in state with derivative 0 (never shown to the FMU), so the roots are still found.
 //!
 //! The port terms of effects with kinks (a dead zone's edges) add event indicators of their
-//! own after the FMU's: the integrator stops at a kink as at any state event.
+//! own after the FMU's: the integrator stops at a kink as at any state event. State terms
+//! ([`super::spec::StateTerm`]) are added to the derivatives `fmi2GetDerivatives` returns, so
+//! the FMU never sees them: an event indicator the FMU computes from its own derivative (a
+//! stick–slip check on the acceleration, say) does not see the term.
 //!
 //! At each event the FMU enters Event Mode before the inputs are set to their values after the
 //! event (discrete inputs may change only in Event Mode, FMI 2.0.4 section 3.2.3), then goes
@@ -104,6 +107,9 @@ impl Model<'_> {
         let r = self
             .set_point(&mut inst, t, x)
             .and_then(|_| inst.call("fmi2GetDerivatives", |c| c.get_derivatives(dx)).map(|_| ()));
+        if r.is_ok() {
+            self.plan.add_state_terms(x, dx);
+        }
         self.keep(r, dx);
     }
 

@@ -11,7 +11,7 @@ pub mod plan;
 pub mod spec;
 
 pub use inputs::InputTable;
-pub use spec::{OutputTimes, PortTerm, SimError, SimResult, SimSpec, SimStats, Solver};
+pub use spec::{OutputTimes, PortTerm, SimError, SimResult, SimSpec, SimStats, Solver, StateTerm};
 
 use crate::fmu::{Fmu, FmuError, Instance, Interface};
 use plan::Plan;

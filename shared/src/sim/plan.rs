@@ -5,7 +5,7 @@
 use std::time::Instant;
 
 use super::inputs::Side;
-use super::spec::{OutputTimes, PortTerm, SimError, SimSpec, Solver};
+use super::spec::{OutputTimes, PortTerm, SimError, SimSpec, Solver, StateTerm};
 use crate::diagnose::effects::{self, PortEffect};
 use crate::fmu::schema::{Causality, ScalarVariable, VarType, Variability};
 use crate::fmu::{FmuError, Instance, Interface, ModelDescription};
@@ -78,6 +78,32 @@ impl std::fmt::Debug for PlannedTerm {
     }
 }
 
+/// A state term resolved against the model: the effect, the state whose derivative it changes
+/// and the state it reads, by position in the state vector, and the value references of the
+/// signal (to read it from the FMU) and of the derivative (outputs that share it get the term
+/// too).
+#[derive(Clone)]
+pub struct PlannedStateTerm {
+    pub effect: &'static dyn PortEffect,
+    pub parameters: Vec<f64>,
+    pub state: usize,
+    pub signal: usize,
+    pub signal_vr: u32,
+    pub derivative_vr: u32,
+}
+
+impl PlannedStateTerm {
+    fn kinks(&self) -> Vec<f64> {
+        if self.effect.vanishes(&self.parameters) { vec![] } else { self.effect.kinks(&self.parameters) }
+    }
+}
+
+impl std::fmt::Debug for PlannedStateTerm {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}({:?}) of state {} into der(state {})", self.effect.name(), self.parameters, self.signal, self.state)
+    }
+}
+
 /// What an injection port holds before effects are added.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PortBase {
@@ -105,6 +131,9 @@ pub struct Plan {
     pub real_output_vrs: Vec<u32>,
     pub real_output_slots: Vec<usize>,
     pub port_terms: Vec<PlannedTerm>,
+    pub state_terms: Vec<PlannedStateTerm>,
+    /// Per Real output slot, the state terms whose derivative it is.
+    pub output_state_terms: Vec<(usize, Vec<usize>)>,
 }
 
 fn invalid(msg: impl Into<String>) -> SimError {
@@ -157,6 +186,9 @@ fn plan_term(
             effect.parameters().join(", "),
             t.parameters.len()
         )));
+    }
+    if effect.domain() == effects::Domain::Generic {
+        return Err(invalid(format!("{} acts on a state's derivative, not on a port: name a state instead", t.kind)));
     }
     let port = term_variable(md, &t.port, "port")?;
     if port.causality != Causality::Input
@@ -217,6 +249,58 @@ fn plan_term(
         signal_vr: signal.value_reference,
         port_vr: port.value_reference,
         base,
+    })
+}
+
+/// The position in the state vector of the continuous state `name` (or of the state an alias
+/// of that name stands for).
+fn state_index(md: &ModelDescription, name: &str, what: &str) -> Result<usize, SimError> {
+    let v = term_variable(md, name, what)?;
+    md.states().iter().position(|(s, _)| s.value_reference == v.value_reference && s.var_type == v.var_type).ok_or_else(|| {
+        let states: Vec<&str> = md.states().iter().map(|(s, _)| s.name.as_str()).collect();
+        invalid(format!(
+            "{what} {} is not a continuous state of the model (its states: {})",
+            quote_user_text(name),
+            if states.is_empty() { "none".to_owned() } else { quote_user_text(&states.join(", ")) }
+        ))
+    })
+}
+
+/// Resolves a state term: a known additive kind, a continuous state and a signal that is one.
+fn plan_state_term(md: &ModelDescription, t: &StateTerm) -> Result<PlannedStateTerm, SimError> {
+    let effect = match effects::find(&t.kind).map_err(|e| invalid(e.to_string()))? {
+        effects::Found::Port(e) => e,
+        effects::Found::Series(_) => {
+            return Err(invalid(format!("{} changes a measured series, it is not added to a state", t.kind)));
+        }
+    };
+    if t.parameters.len() != effect.parameters().len() {
+        return Err(invalid(format!(
+            "{} takes {} parameters ({}), got {}",
+            t.kind,
+            effect.parameters().len(),
+            effect.parameters().join(", "),
+            t.parameters.len()
+        )));
+    }
+    let state = state_index(md, &t.state, "state")?;
+    let signal = state_index(md, &t.signal, "signal")?;
+    let states = md.states();
+    if let Some((v, _)) = states.iter().find(|(v, _)| v.value_reference == states[state].1.value_reference) {
+        return Err(invalid(format!(
+            "the derivative of state {} is the state {:?}: add the term to der({:?}) instead",
+            quote_user_text(&t.state),
+            v.name,
+            v.name
+        )));
+    }
+    Ok(PlannedStateTerm {
+        effect,
+        parameters: t.parameters.clone(),
+        state,
+        signal,
+        signal_vr: states[signal].0.value_reference,
+        derivative_vr: states[state].1.value_reference,
     })
 }
 
@@ -332,8 +416,28 @@ impl Plan {
             .iter()
             .map(|t| plan_term(md, t, &spec.parameters, spec.inputs.as_ref(), &input_bindings))
             .collect::<Result<Vec<_>, _>>()?;
+        if !spec.state_terms.is_empty() && interface != Interface::ModelExchange {
+            let only = if interfaces.contains(&Interface::ModelExchange) { "" } else { " (the FMU offers Co-Simulation only)" };
+            return Err(invalid(format!(
+                "state effects need Model Exchange, where fmucal integrates the states{only}; use a port effect instead"
+            )));
+        }
+        let state_terms = spec.state_terms.iter().map(|t| plan_state_term(md, t)).collect::<Result<Vec<_>, _>>()?;
         let real: Vec<(usize, u32)> =
             outputs.iter().enumerate().filter(|(_, o)| o.var_type == VarType::Real).map(|(i, o)| (i, o.vr)).collect();
+        let output_state_terms = real
+            .iter()
+            .enumerate()
+            .filter_map(|(k, (slot, vr))| {
+                let terms: Vec<usize> = state_terms
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, t)| t.derivative_vr == *vr && !outputs[*slot].negated)
+                    .map(|(i, _)| i)
+                    .collect();
+                (!terms.is_empty()).then_some((k, terms))
+            })
+            .collect();
         Ok(Plan {
             real_output_vrs: real.iter().map(|r| r.1).collect(),
             real_output_slots: real.iter().map(|r| r.0).collect(),
@@ -353,7 +457,18 @@ impl Plan {
             input_bindings,
             outputs,
             port_terms,
+            state_terms,
+            output_state_terms,
         })
+    }
+
+    /// Adds the state terms to the derivatives `dx` of the states `x`.
+    pub fn add_state_terms(&self, x: &[f64], dx: &mut [f64]) {
+        for t in &self.state_terms {
+            if !t.effect.vanishes(&t.parameters) {
+                dx[t.state] += t.effect.term(&t.parameters, x[t.signal]);
+            }
+        }
     }
 
     /// Adds the port terms to their ports at time `t`: reads each signal (the states must be
@@ -393,7 +508,8 @@ impl Plan {
     /// Event indicators of the port terms: one per kink of each term ([`PortEffect::kinks`])
     /// that does not vanish ([`PortEffect::vanishes`]).
     pub fn term_indicator_count(&self) -> usize {
-        self.port_terms.iter().map(|t| t.kinks().len()).sum()
+        self.port_terms.iter().map(|t| t.kinks().len()).sum::<usize>()
+            + self.state_terms.iter().map(|t| t.kinks().len()).sum::<usize>()
     }
 
     /// The port terms' event indicators, signal − kink, into `z` (of
@@ -404,6 +520,18 @@ impl Plan {
     pub fn term_indicators(&self, inst: &mut Instance, z: &mut [f64]) -> Result<(), FmuError> {
         let mut k = 0;
         for term in &self.port_terms {
+            let kinks = term.kinks();
+            if kinks.is_empty() {
+                continue;
+            }
+            let mut s = [0.0];
+            inst.call("fmi2GetReal", |c| c.get_real(&[term.signal_vr], &mut s))?;
+            for kink in kinks {
+                z[k] = s[0] - kink;
+                k += 1;
+            }
+        }
+        for term in &self.state_terms {
             let kinks = term.kinks();
             if kinks.is_empty() {
                 continue;
@@ -485,6 +613,18 @@ impl Plan {
         if !self.real_output_vrs.is_empty() {
             let mut values = vec![0.0; self.real_output_vrs.len()];
             inst.call("fmi2GetReal", |c| c.get_real(&self.real_output_vrs, &mut values))?;
+            // An output that is a state's derivative carries that state's terms too.
+            for (k, terms) in &self.output_state_terms {
+                for &i in terms {
+                    let t = &self.state_terms[i];
+                    if t.effect.vanishes(&t.parameters) {
+                        continue;
+                    }
+                    let mut s = [0.0];
+                    inst.call("fmi2GetReal", |c| c.get_real(&[t.signal_vr], &mut s))?;
+                    values[*k] += t.effect.term(&t.parameters, s[0]);
+                }
+            }
             for (slot, v) in self.real_output_slots.iter().zip(values) {
                 row[*slot] = self.outputs[*slot].sign(v);
             }

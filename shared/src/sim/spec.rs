@@ -88,6 +88,8 @@ pub struct SimSpec {
     pub timeout: Option<Duration>,
     /// Effects added to injection ports (see [`crate::diagnose::effects`]).
     pub port_terms: Vec<PortTerm>,
+    /// Effects added to state derivatives (Model Exchange only).
+    pub state_terms: Vec<StateTerm>,
 }
 
 /// An effect added to an injection port: `kind`'s term of the value of `signal`, with
@@ -98,6 +100,19 @@ pub struct SimSpec {
 pub struct PortTerm {
     pub kind: String,
     pub port: String,
+    pub signal: String,
+    pub parameters: Vec<f64>,
+}
+
+/// An effect added to a continuous state's derivative: `kind`'s term of the value of the state
+/// `signal` (the state itself, or the position whose derivative `state` is), with
+/// `parameters` in the kind's order, added to der(`state`) inside every derivative evaluation
+/// and to every output that is that derivative. Its strength is in the derivative's units (an
+/// acceleration on a velocity). Model Exchange only: in Co-Simulation the FMU integrates itself.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StateTerm {
+    pub kind: String,
+    pub state: String,
     pub signal: String,
     pub parameters: Vec<f64>,
 }

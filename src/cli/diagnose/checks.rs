@@ -8,10 +8,13 @@ use std::collections::BTreeMap;
 
 use anyhow::{Result, bail};
 use fmucal_shared::diagnose::candidates::{Sizes, generate};
+use fmucal_shared::diagnose::places::Places;
+use fmucal_shared::diagnose::structure::Structure;
 use fmucal_shared::diagnose::guess::SignalStats;
 use fmucal_shared::diagnose::report::Windows;
 use fmucal_shared::diagnose::spec::{DEFAULT_HOLDOUT, DiagnoseSpec};
-use fmucal_shared::fmu::Fmu;
+use fmucal_shared::fmu::{Fmu, Interface};
+use fmucal_shared::quote::quote_user_text;
 use fmucal_shared::job::{JobError, JobSpec, MeasurementTable, PreparedJob};
 
 /// The windows of the diagnosis. With a validation window in the job, fits use the job's
@@ -42,11 +45,15 @@ pub fn windows(spec: &mut JobSpec, data: &MeasurementTable, settings: &DiagnoseS
     Ok(Windows { start_time: start, calibration_stop: cut, validation_stop: stop, holdout: true })
 }
 
-/// Stand-in sizes under which every signal the section names yields its candidates.
-fn any_sizes(spec: &JobSpec, settings: &DiagnoseSpec) -> Sizes {
+/// Stand-in sizes under which every place yields its candidates.
+fn any_sizes(spec: &JobSpec, places: &Places) -> Sizes {
     let unit = SignalStats::of(&[0.0, 1.0]);
-    let signals: BTreeMap<String, SignalStats> =
-        settings.ports.iter().flat_map(|p| p.signals().map(|(_, s)| (s.to_owned(), unit))).collect();
+    let signals: BTreeMap<String, SignalStats> = places
+        .ports
+        .iter()
+        .flat_map(|p| p.spec.signals().map(|(_, s)| (s.to_owned(), unit)))
+        .chain(places.states.iter().flat_map(|s| std::iter::once(&s.state).chain(&s.position).map(|n| (n.clone(), unit))))
+        .collect();
     let series = spec
         .outputs
         .iter()
@@ -54,44 +61,89 @@ fn any_sizes(spec: &JobSpec, settings: &DiagnoseSpec) -> Sizes {
         .chain(spec.inputs.iter().map(|i| i.variable.clone()))
         .map(|v| (v, unit))
         .collect();
-    Sizes { port_scales: BTreeMap::new(), signals, series, duration: 1.0, sample: 0.1 }
+    let state_scales = places.states.iter().map(|s| (s.state.clone(), 1.0)).collect();
+    Sizes { port_scales: BTreeMap::new(), state_scales, signals, series, duration: 1.0, sample: 0.1 }
 }
 
-/// Checks the job and every candidate against the model description and the data.
+/// The places of the diagnosis (ports by hand and from the model's structure, states in
+/// Model Exchange), each candidate checked against the model description and the data. A
+/// place found in the model whose candidates the model refuses (an input that feeds a signal
+/// directly, say) is dropped with a note.
 ///
 /// # Errors
-/// The job's own error, or one naming the `[diagnose]` field a bad candidate comes from.
-pub fn job_and_candidates(spec: &JobSpec, settings: &DiagnoseSpec, fmu: &Fmu, data: &MeasurementTable) -> Result<()> {
+/// The job's own error, or one naming the `[diagnose]` field a bad candidate or name comes from.
+pub fn job_and_candidates(spec: &JobSpec, settings: &DiagnoseSpec, fmu: &Fmu, data: &MeasurementTable) -> Result<Places> {
     let md = &fmu.description;
-    PreparedJob::new(spec, md, &fmu.interfaces(), std::slice::from_ref(data))?;
+    let interfaces = fmu.interfaces();
+    PreparedJob::new(spec, md, &interfaces, std::slice::from_ref(data))?;
     fmucal_shared::job::optimizer::build(spec)?;
     for (k, s) in settings.signals.iter().enumerate() {
         if md.variable(s).is_none() {
-            bail!("diagnose.signals[{k}]: {s:?} is not a variable of the model");
+            bail!("diagnose.signals[{k}]: {} is not a variable of the model", quote_user_text(s));
         }
     }
+    let mapped: Vec<String> = spec.inputs.iter().map(|i| i.variable.clone()).collect();
+    let structure = Structure::read(md, &mapped);
+    for (k, s) in settings.states.iter().flatten().enumerate() {
+        if structure.state(s).is_none() {
+            let names: Vec<&str> = structure.states.iter().map(|s| s.name.as_str()).collect();
+            bail!(
+                "diagnose.states[{k}]: {} is not a continuous state of the model (its states: {})",
+                quote_user_text(s),
+                if names.is_empty() { "none".to_owned() } else { quote_user_text(&names.join(", ")) }
+            );
+        }
+    }
+    for (k, s) in settings.exclude.iter().enumerate() {
+        if md.variable(s).is_none() {
+            bail!("diagnose.exclude[{k}]: {} is not a variable of the model", quote_user_text(s));
+        }
+    }
+    let interface = spec.model.interface.or_else(|| interfaces.first().copied());
+    let model_exchange = match interface {
+        Some(Interface::ModelExchange) => Ok(()),
+        _ if interfaces.contains(&Interface::ModelExchange) => {
+            Err("the job simulates in Co-Simulation, where the FMU integrates its own states".to_owned())
+        }
+        _ => Err("Co-Simulation only".to_owned()),
+    };
+    let mut places = Places::new(spec, settings, &structure, model_exchange);
     // Each candidate alone, so an error names the one at fault.
-    let candidates = generate(spec, settings, &any_sizes(spec, settings));
-    let mut checked: Vec<(String, Option<String>, Option<String>)> = vec![];
+    let candidates = generate(spec, settings, &places, &any_sizes(spec, &places));
+    let mut checked: Vec<(String, Option<String>, Option<String>, Option<String>)> = vec![];
+    let mut dropped: Vec<String> = vec![];
     for c in &candidates {
-        let key = (c.effect.kind.clone(), c.effect.port.clone(), c.effect.signal.clone());
-        if c.effect.port.is_none() || checked.contains(&key) {
+        let e = &c.effect;
+        let key = (e.kind.clone(), e.state.clone(), e.port.clone(), e.signal.clone());
+        let place = c.place();
+        if (e.port.is_none() && e.state.is_none()) || checked.contains(&key) || dropped.contains(&place) {
             continue;
         }
         checked.push(key);
         let mut one = spec.clone();
-        one.effects.push(c.effect.clone());
-        if let Err(e) = PreparedJob::new(&one, md, &fmu.interfaces(), std::slice::from_ref(data)) {
-            let message = match e {
+        one.effects.push(e.clone());
+        if let Err(err) = PreparedJob::new(&one, md, &interfaces, std::slice::from_ref(data)) {
+            let message = match err {
                 JobError::Invalid { message, .. } => message,
                 other => other.to_string(),
             };
+            let by_hand = c.source.starts_with("diagnose.");
+            if !by_hand {
+                places.notes.push(format!("{place}: {message}: no effects there"));
+                dropped.push(place);
+                continue;
+            }
             // A fault of the port itself is the port's, not that of the signal it was tried with.
-            let port_field = c.effect.port.as_ref().filter(|_| message.starts_with("port ")).and_then(|port| {
+            let port_field = e.port.as_ref().filter(|_| message.starts_with("port ")).and_then(|port| {
                 settings.ports.iter().position(|p| &p.port == port).map(|k| format!("diagnose.ports[{k}].port"))
             });
             bail!("{}: {message} (candidate {})", port_field.as_deref().unwrap_or(&c.source), c.describe());
         }
     }
-    Ok(())
+    places.ports.retain(|p| !dropped.contains(&format!("port {}", p.spec.port)));
+    places.states.retain(|s| !dropped.contains(&format!("der({})", s.state)));
+    if candidates.is_empty() {
+        bail!("diagnose: there is no candidate to try ({})", places.notes.join("; "));
+    }
+    Ok(places)
 }

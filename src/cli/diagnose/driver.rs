@@ -20,7 +20,7 @@ use fmucal_shared::diagnose::jobs::{
 };
 use fmucal_shared::diagnose::localise::localise;
 use fmucal_shared::diagnose::report::{
-    CandidateFit, Diagnosis, NamedEffect, PhaseTime, RankedCandidate, Round, value_with_interval,
+    CandidateFit, Conclusion, Diagnosis, NamedEffect, PhaseTime, RankedCandidate, Round, value_with_interval,
 };
 use fmucal_shared::job::choices::Algorithm;
 use fmucal_shared::job::identifiability::{self, Identifiability};
@@ -28,7 +28,7 @@ use fmucal_shared::job::{CalibrationResult, JobSpec, MeasurementTable, PreparedJ
 
 use super::Context;
 use super::look::{Look, look, signals};
-use super::probe::port_scales;
+use super::probe::{Probed, scales};
 use crate::cli::client::Client;
 
 /// What the plots need besides the report: the residuals before and after.
@@ -74,6 +74,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
     let mut last_look: Option<Look> = None;
     let mut first_signals = vec![];
     let mut phases = Phases::default();
+    let mut notes = ctx.places.notes.clone();
     for round in 0..ctx.settings.rounds {
         eprintln!("round {}: calibrating the base model", round + 1);
         let t = Instant::now();
@@ -98,7 +99,10 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
 
         // Localise: the residual against every signal the diagnosis may read.
         let mut names: Vec<String> =
-            ctx.settings.ports.iter().flat_map(|p| p.signals().map(|(_, s)| s.to_owned())).collect();
+            ctx.places.ports.iter().flat_map(|p| p.spec.signals().map(|(_, s)| s.to_owned())).collect();
+        names.extend(
+            ctx.places.states.iter().flat_map(|s| std::iter::once(s.state.clone()).chain(s.position.clone())),
+        );
         names.extend(ctx.settings.signals.iter().cloned());
         names.extend(base.inputs.iter().map(|i| i.variable.clone()));
         names.extend(base.outputs.iter().map(|o| o.variable.clone()));
@@ -111,11 +115,16 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         // Size and screen every candidate.
         eprintln!("round {}: screening the candidates", round + 1);
         let t = Instant::now();
-        let (scales, probed) = port_scales(&mut client, ctx, &base, &x_base).await?;
-        phases.add("probe", t, probed);
+        let probed = scales(&mut client, ctx, &ctx.places, &base, &x_base).await?;
+        phases.add("probe", t, probed.simulations);
+        for note in &probed.notes {
+            if !notes.contains(note) {
+                notes.push(note.clone());
+            }
+        }
         let t = Instant::now();
-        let sizes = sizes(ctx, &base, &before, &signal_values, &scales);
-        let candidates: Vec<Candidate> = generate(&base, &ctx.settings, &sizes)
+        let sizes = sizes(ctx, &base, &before, &signal_values, &probed);
+        let candidates: Vec<Candidate> = generate(&base, &ctx.settings, &ctx.places, &sizes)
             .into_iter()
             .filter(|c| !base.effects.iter().any(|e| same_place(e, &c.effect)))
             .collect();
@@ -271,7 +280,8 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             base_x_opt: result.x_opt.clone(),
             baseline,
             localisation,
-            port_scales: scales,
+            port_scales: probed.port_scales,
+            state_scales: probed.state_scales,
             candidates: ranked,
             chosen,
             equally_supported: equally,
@@ -295,7 +305,13 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
     }
     let before = first_look.context("no round ran")?;
     let after = last_look.unwrap_or_else(|| before.clone());
+    let stop = ctx.windows.calibration_stop;
+    let (misfit_before, misfit_after) = (before.misfit(stop), after.misfit(stop));
+    let conclusion = Conclusion::of(!named.is_empty(), &misfit_before);
     let diagnosis = Diagnosis {
+        conclusion,
+        misfit_before,
+        misfit_after,
         windows: ctx.windows,
         rounds,
         named,
@@ -304,6 +320,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         base_calibration_s,
         elapsed_s: started.elapsed().as_secs_f64(),
         phases: phases.0,
+        notes,
     };
     Ok(Outcome { diagnosis, before, after, signals: first_signals })
 }
@@ -473,7 +490,7 @@ fn sizes(
     base: &JobSpec,
     before: &Look,
     signal_values: &[(String, Vec<f64>)],
-    scales: &BTreeMap<String, f64>,
+    probed: &Probed,
 ) -> Sizes {
     let signals = signal_values.iter().map(|(n, v)| (n.clone(), SignalStats::of(v))).collect();
     let rows = before.time.len();
@@ -489,7 +506,14 @@ fn sizes(
     }
     let duration = t1 - t0;
     let sample = if rows > 1 { duration / (rows - 1) as f64 } else { duration };
-    Sizes { port_scales: scales.clone(), signals, series, duration, sample }
+    Sizes {
+        port_scales: probed.port_scales.clone(),
+        state_scales: probed.state_scales.clone(),
+        signals,
+        series,
+        duration,
+        sample,
+    }
 }
 
 /// The evidence about one fitted candidate and its verdict.
@@ -574,18 +598,21 @@ fn judge_fit(
 fn name(ctx: &Context, candidate: &Candidate, fit: &CandidateFit, job: &JobSpec) -> NamedEffect {
     let k = job.effects.len() - 1;
     let md = &ctx.fmu.description;
-    let unit = candidate
-        .effect
-        .port
-        .as_ref()
-        .and_then(|p| md.variable(p))
-        .and_then(|v| md.unit_of(v))
-        .map(|u| format!(" {u}"))
-        .unwrap_or_default();
+    // A port's strength is in the port's unit; a state's in its derivative's (an acceleration
+    // on a velocity), which is the state's unit per second when the derivative has none.
+    let unit = match (&candidate.effect.state, &candidate.effect.port) {
+        (Some(state), _) => md.states().into_iter().find(|(s, _)| &s.name == state).and_then(|(s, d)| {
+            md.unit_of(d).map(str::to_owned).or_else(|| md.unit_of(s).map(|u| format!("{u}/s")))
+        }),
+        (_, Some(port)) => md.variable(port).and_then(|v| md.unit_of(v)).map(str::to_owned),
+        _ => None,
+    }
+    .map(|u| format!(" {u}"))
+    .unwrap_or_default();
     let names = candidate.parameter_names();
     let fitted: Vec<f64> =
         names.iter().map(|n| fit.x_opt.get(&format!("effects[{k}].{n}")).copied().unwrap_or(f64::NAN)).collect();
-    let load_like = ["force", "coulomb", "static", "load", "q"];
+    let load_like = ["force", "coulomb", "static", "load", "q", "rate"];
     let values: Vec<String> = names
         .iter()
         .zip(&fitted)

@@ -1,5 +1,6 @@
 //! `fmucal diagnose JOB.toml`: calibrates the job, finds where the model and the measurements
-//! disagree, screens the candidate effects the job's `[diagnose]` section allows, fits the most
+//! disagree, screens the candidate effects at every place the model's structure offers (its
+//! states in Model Exchange, its injection inputs) and the job's `[diagnose]` section allows, fits the most
 //! promising ones concurrently on the workers, names the one that passes all three tests of
 //! [`fmucal_shared::diagnose::decision`] (or none), and writes to `--out` (default
 //! `diagnosis/`): `report.json`, `job.toml` (the job with the named effects added, ready for
@@ -9,7 +10,7 @@
 //! - [`checks`]: everything checked before any model code runs;
 //! - [`driver`]: the rounds of calibrate → localise → screen → fit → decide, over the protocol;
 //! - [`look`]: the local simulations of the driver (residuals, signals, evidence);
-//! - [`probe`]: the load scale of a port that does not give one;
+//! - [`probe`]: the scale of each place (a port's load, a state's rate) not given;
 //! - [`plots`]: residual plots before and after, and against the most correlated signal.
 
 mod checks;
@@ -62,6 +63,8 @@ pub(crate) struct Context {
     pub model: PathBuf,
     pub settings: fmucal_shared::diagnose::spec::DiagnoseSpec,
     pub windows: fmucal_shared::diagnose::report::Windows,
+    /// Where candidates go: ports by hand and from the model, states in Model Exchange.
+    pub places: fmucal_shared::diagnose::places::Places,
 }
 
 /// Resolves on SIGTERM or Ctrl-C, or, with `stdin_eof`, when standard input closes; says which.
@@ -105,7 +108,7 @@ pub fn run(args: Args) -> Result<()> {
     let data = fmucal_shared::job::data::read_all(&spec)?.pop().context("data: the job has no data")?;
     let windows = checks::windows(&mut spec, &data, &settings)?;
     let fmu = Arc::new(Fmu::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
-    checks::job_and_candidates(&spec, &settings, &fmu, &data)?;
+    let places = checks::job_and_candidates(&spec, &settings, &fmu, &data)?;
     // Removed again if the run fails before writing anything into it.
     let _out = super::outputs::OutDir::create(&args.out)?;
     // `job.toml` in the output folder must not be the job being read (`diagnose diagnosis/job.toml`).
@@ -116,7 +119,7 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--out {}: its job.toml would overwrite the job file; choose another folder", args.out.display());
     }
 
-    let ctx = Context { fmu, data: Arc::new(data), model, settings, windows };
+    let ctx = Context { fmu, data: Arc::new(data), model, settings, windows, places };
     let rt = tokio::runtime::Runtime::new()?;
     let outcome = rt.block_on(async {
         match &args.coordinator {
