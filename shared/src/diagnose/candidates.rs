@@ -61,14 +61,7 @@ impl Candidate {
 
     /// Where it acts, in words: `der(mass.v)`, `port mass.Fext`, `output mass.x`, `input u`.
     pub fn place(&self) -> String {
-        let e = &self.effect;
-        match (&e.state, &e.port, &e.output, &e.input) {
-            (Some(s), _, _, _) => format!("der({s})"),
-            (_, Some(p), _, _) => format!("port {p}"),
-            (_, _, Some(o), _) => format!("output {o}"),
-            (_, _, _, Some(i)) => format!("input {i}"),
-            _ => e.kind.clone(),
-        }
+        super::decision::place(&self.effect)
     }
 
     /// The kind's parameter names, in order.

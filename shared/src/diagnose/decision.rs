@@ -47,14 +47,16 @@ pub struct Evidence {
     pub place: String,
 }
 
-/// Where an effect acts on the model: its port (whatever signal it reads), or the output or
-/// input it changes.
+/// Where an effect acts on the model: the derivative of its state or its port (whatever
+/// signal it reads), or the output or input it changes: `der(mass.v)`, `port mass.Fext`,
+/// `output mass.x`, `input u`.
 pub fn place(effect: &crate::job::spec::EffectSpec) -> String {
-    match (&effect.port, &effect.output, &effect.input) {
-        (Some(p), _, _) => format!("port {p}"),
-        (None, Some(o), _) => format!("output {o}"),
-        (None, None, Some(i)) => format!("input {i}"),
-        (None, None, None) => String::new(),
+    match (&effect.state, &effect.port, &effect.output, &effect.input) {
+        (Some(s), _, _, _) => format!("der({s})"),
+        (_, Some(p), _, _) => format!("port {p}"),
+        (_, _, Some(o), _) => format!("output {o}"),
+        (_, _, _, Some(i)) => format!("input {i}"),
+        _ => String::new(),
     }
 }
 

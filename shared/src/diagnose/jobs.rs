@@ -149,7 +149,12 @@ pub fn candidate_job(
 
 /// Two effects of the same kind acting at the same place.
 pub fn same_place(a: &EffectSpec, b: &EffectSpec) -> bool {
-    a.kind == b.kind && a.port == b.port && a.signal == b.signal && a.output == b.output && a.input == b.input
+    a.kind == b.kind
+        && a.state == b.state
+        && a.port == b.port
+        && a.signal == b.signal
+        && a.output == b.output
+        && a.input == b.input
 }
 
 #[cfg(test)]

@@ -45,6 +45,12 @@ pub struct Diagnosis {
     /// How far the base model's fit, and the fit with the named effects, are from the noise.
     pub misfit_before: Misfit,
     pub misfit_after: Misfit,
+    /// Every calibrated value of the model the diagnosis ends with (the base, or the base with
+    /// the named effects, `effects[K].NAME`), and their standard errors where known.
+    #[serde(default)]
+    pub fitted: BTreeMap<String, f64>,
+    #[serde(default)]
+    pub standard_errors: BTreeMap<String, f64>,
     /// The windows every fit and comparison used.
     pub windows: Windows,
     pub rounds: Vec<Round>,
@@ -127,6 +133,9 @@ pub struct RankedCandidate {
 pub struct CandidateFit {
     /// The fitted values of every calibrated parameter, effect parameters last.
     pub x_opt: BTreeMap<String, f64>,
+    /// Their standard errors (absent where the identifiability analysis failed).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub standard_errors: BTreeMap<String, f64>,
     #[serde(with = "crate::optim::serde_float")]
     pub calibration_rms: f64,
     pub evidence: Option<Evidence>,
@@ -267,6 +276,14 @@ impl Diagnosis {
                 "the named effects explain part of the misfit; the model still misses something: {}",
                 self.misfit_after.evidence()
             );
+        }
+        if !self.fitted.is_empty() {
+            let _ = writeln!(s, "fitted values (± standard error):");
+            let width = self.fitted.keys().map(|k| k.chars().count()).max().unwrap_or(0);
+            for (name, v) in &self.fitted {
+                let se = self.standard_errors.get(name).copied().unwrap_or(f64::NAN);
+                let _ = writeln!(s, "  {name:<width$}  {}", value_with_interval(*v, se));
+            }
         }
         let _ = writeln!(
             s,

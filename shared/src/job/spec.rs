@@ -441,6 +441,23 @@ impl JobSpec {
         Ok(spec)
     }
 
+    /// The same job with its model and data paths absolute (against the current directory),
+    /// so that the job written elsewhere (`fmucal diagnose`'s `job.toml`) runs from any
+    /// working directory. `example:NAME` stays as it is.
+    pub fn with_absolute_paths(mut self) -> JobSpec {
+        let experiment_data = self.experiments.iter_mut().filter_map(|e| e.data.as_mut());
+        let data_paths = std::iter::once(&mut self.data).chain(experiment_data).map(|d| &mut d.path);
+        for p in std::iter::once(&mut self.model.path).chain(data_paths).flatten() {
+            if p.is_relative()
+                && !p.to_string_lossy().starts_with("example:")
+                && let Ok(a) = std::path::absolute(&*p)
+            {
+                *p = a;
+            }
+        }
+        self
+    }
+
     /// Reads a TOML job file.
     ///
     /// # Errors

@@ -75,6 +75,9 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
     let mut first_signals = vec![];
     let mut phases = Phases::default();
     let mut notes = ctx.places.notes.clone();
+    // The values of the model the diagnosis ends with (the base, or the base with the named
+    // effects), with their standard errors.
+    let (mut fitted, mut standard_errors) = (BTreeMap::new(), BTreeMap::new());
     for round in 0..ctx.settings.rounds {
         eprintln!("round {}: calibrating the base model", round + 1);
         let t = Instant::now();
@@ -84,6 +87,12 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
             .context("the base calibration")?;
         if round == 0 {
             base_calibration_s = t.elapsed().as_secs_f64();
+            fitted = result.x_opt.clone();
+            standard_errors = result
+                .identifiability
+                .as_ref()
+                .map(|id| id.names.iter().cloned().zip(id.standard_errors.iter().copied()).collect())
+                .unwrap_or_default();
         }
         phases.add("base", t, result.evaluations);
         let t = Instant::now();
@@ -296,6 +305,8 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         let c = order[rank];
         let (fit, job, after) = fits.remove(&c).expect("the chosen candidate was fitted");
         let effect = name(ctx, &candidates[c], &fit, &job);
+        fitted = fit.x_opt.clone();
+        standard_errors = fit.standard_errors.clone();
         last_look = after;
         // The next round's base: this round's job (its own optimizer settings and parameters)
         // with the named effect, every start at the fitted value.
@@ -309,6 +320,8 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
     let (misfit_before, misfit_after) = (before.misfit(stop), after.misfit(stop));
     let conclusion = Conclusion::of(!named.is_empty(), &misfit_before);
     let diagnosis = Diagnosis {
+        fitted,
+        standard_errors,
         conclusion,
         misfit_before,
         misfit_after,
@@ -528,6 +541,7 @@ fn judge_fit(
     let failed = |x_opt: BTreeMap<String, f64>, e: String| CandidateFit {
         evaluations: 0,
         x_opt,
+        standard_errors: BTreeMap::new(),
         calibration_rms: f64::NAN,
         evidence: None,
         verdict: None,
@@ -576,8 +590,13 @@ fn judge_fit(
     match evidence {
         Ok((e, seen)) => {
             let verdict = judge(baseline, &e, rule);
+            let standard_errors = identified
+                .as_ref()
+                .map(|id| id.names.iter().cloned().zip(id.standard_errors.iter().copied()).collect())
+                .unwrap_or_default();
             let error = identified.err().map(|e| format!("no standard errors: {e:#}"));
             let fit = CandidateFit {
+                standard_errors,
                 evaluations: result.evaluations,
                 x_opt: result.x_opt,
                 calibration_rms: seen.rms.calibration,

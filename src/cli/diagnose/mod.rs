@@ -67,6 +67,22 @@ pub(crate) struct Context {
     pub places: fmucal_shared::diagnose::places::Places,
 }
 
+/// Three standard errors of the widest parameter as a fraction of its range (the optimizers'
+/// scaled step), within [1e-6, 0.05]; `None` unless every calibrated value has one.
+fn local_step(job: &JobSpec, standard_errors: &std::collections::BTreeMap<String, f64>) -> Option<f64> {
+    let calibrated = job.calibrated();
+    let steps: Option<Vec<f64>> = calibrated
+        .iter()
+        .map(|c| {
+            let se = standard_errors.get(&c.name).copied().filter(|s| s.is_finite() && *s > 0.0)?;
+            let range = c.bounds.upper - c.bounds.lower;
+            (range > 0.0 && range.is_finite()).then(|| 3.0 * se / range)
+        })
+        .collect();
+    let widest = steps?.into_iter().fold(0.0, f64::max);
+    (widest > 0.0).then(|| widest.clamp(1e-6, 0.05))
+}
+
 /// Resolves on SIGTERM or Ctrl-C, or, with `stdin_eof`, when standard input closes; says which.
 async fn stop_requested(stdin_eof: bool) -> &'static str {
     let closed = async {
@@ -146,8 +162,15 @@ pub fn run(args: Args) -> Result<()> {
     let report = &outcome.diagnosis;
     let json = serde_json::to_string_pretty(report)?;
     std::fs::write(args.out.join("report.json"), json + "\n")?;
-    let mut kept = original;
+    // The job that reproduces the diagnosis: the named effects added, every start at the
+    // final fit, paths that hold from any folder, and (with standard errors for all) an
+    // initial step of three standard errors so that the search stays near the optimum.
+    let mut kept = original.with_absolute_paths();
     kept.effects.extend(report.named.iter().map(|n| n.effect.clone()));
+    let mut kept = fmucal_shared::diagnose::jobs::with_starts(kept, &report.fitted);
+    if kept.optimizer.initial_step.is_none() {
+        kept.optimizer.initial_step = local_step(&kept, &report.standard_errors);
+    }
     let toml = toml::to_string(&kept).context("cannot write the job with the effect")?;
     let header = "# Written by `fmucal diagnose`: the job with the effects it named added.\n";
     std::fs::write(args.out.join("job.toml"), format!("{header}{toml}"))?;
