@@ -10,6 +10,8 @@
 //! - [`jobs`]: the candidate calibrations and next-round bases built from the base job.
 //! - [`decision`]: the three tests an effect must pass to be named.
 //! - [`report`]: what a diagnosis found (`diagnosis/report.json`) and its summary.
+//! - [`structure`]: the model's physical structure from its description: states as positions,
+//!   velocities and temperatures, their pairs, and the injection ports with the states they pair with.
 //!
 //! The steps that need simulations (calibrations, screening points) are driven by
 //! `fmucal diagnose` over the coordinator's protocol, so they run on the workers.
@@ -23,3 +25,4 @@ pub mod localise;
 pub mod report;
 pub mod residuals;
 pub mod spec;
+pub mod structure;
