@@ -469,6 +469,49 @@ fn inspect_json_names_the_base_of_every_alias() {
     }
 }
 
+#[test]
+fn inspect_shows_the_structure_with_derivative_aliases_and_ports() {
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = Fixture::FurutaAliases.path();
+    let out = fmucal(&["inspect", fmu.to_str().unwrap()], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("\nStructure (4 states, 3 injection ports)\n"), "{text}");
+    let line = |start: &str| {
+        let section = text.split("\nStructure (").nth(1).unwrap_or_default();
+        section
+            .lines()
+            .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
+            .find(|l| l.starts_with(start))
+            .unwrap_or_else(|| panic!("no line for {start}:\n{text}"))
+    };
+    assert_eq!(
+        line("armJoint.phi rotational"),
+        "armJoint.phi rotational position velocity armJoint.w (prefix and unit) der(armAngleSensor.phi)"
+    );
+    assert_eq!(
+        line("pendulumJoint.w rotational"),
+        "pendulumJoint.w rotational velocity position pendulumJoint.phi (prefix and unit) -"
+    );
+    assert_eq!(
+        line("pendulumJoint.tauExt"),
+        "pendulumJoint.tauExt N.m mechanical pendulumJoint.w (velocity), pendulumJoint.phi (position)"
+    );
+    assert!(line("u ").contains("[no state shares its prefix: all]"), "{text}");
+
+    let out = fmucal(&["inspect", "--json", fmu.to_str().unwrap()], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let structure = &json["structure"];
+    assert_eq!(structure["states"][0]["name"], "armJoint.phi", "{structure}");
+    assert_eq!(structure["states"][0]["velocity"], "armJoint.w");
+    assert_eq!(structure["states"][0]["quantity"], "rotational");
+    assert_eq!(structure["states"][0]["derivative_aliases"][0], "der(armAngleSensor.phi)");
+    let port = structure["ports"].as_array().unwrap().iter().find(|p| p["name"] == "armJoint.tauExt").unwrap();
+    assert_eq!((port["domain"].as_str(), port["velocities"][0].as_str()), (Some("mechanical"), Some("armJoint.w")));
+    assert!(json["variables"].is_array(), "the description stays at the top level");
+}
+
 // ---- String and Binary variables -------------------------------------------------------------
 
 /// The String fixtures, their interfaces, and whether they have the Binary variables (FMI 3.0).

@@ -1,9 +1,14 @@
 //! `fmucal inspect`: version, interfaces, generation tool, default experiment, the platforms
 //! the archive has binaries for, a table of parameters, inputs, outputs and states with
-//! start values and units, and the aliases with the variable each shares its value with. It reads the description only and never loads the binary, so it
-//! works on FMUs built for other platforms and runs no model code.
+//! start values and units, the aliases with the variable each shares its value with, and the
+//! model's physical structure ([`Structure`]: each state's quantity, role, position/velocity
+//! pair and derivative aliases, each injection port with the states it pairs with). It reads
+//! the description only and never loads the binary, so it works on FMUs built for other
+//! platforms and runs no model code. `--json` prints the description with the structure under
+//! a top-level `structure` key.
 
 use anyhow::{Context, Result};
+use fmucal_shared::diagnose::structure::Structure;
 use fmucal_shared::fmu::schema::{Causality, ModelDescription, ScalarVariable};
 use fmucal_shared::fmu::{Described, LoadOptions, describe, platform_folder};
 
@@ -11,7 +16,7 @@ use fmucal_shared::fmu::{Described, LoadOptions, describe, platform_folder};
 pub struct Args {
     /// The FMU: a path, or the name of a built-in example.
     model: String,
-    /// Print the full model description as JSON.
+    /// Print the full model description as JSON, with its structure under `structure`.
     #[arg(long)]
     json: bool,
 }
@@ -20,7 +25,11 @@ pub fn run(args: Args) -> Result<()> {
     let path = super::model_arg::resolve(&args.model)?;
     let fmu = describe(&path, &LoadOptions::default()).with_context(|| format!("cannot read {}", path.display()))?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(fmu.description.as_ref())?);
+        let mut json = serde_json::to_value(fmu.description.as_ref())?;
+        if let Some(object) = json.as_object_mut() {
+            object.insert("structure".into(), serde_json::to_value(Structure::read(&fmu.description, &[]))?);
+        }
+        println!("{}", serde_json::to_string_pretty(&json)?);
         return Ok(());
     }
     print!("{}", render(&fmu));
@@ -109,6 +118,7 @@ fn render(fmu: &Described) -> String {
             ));
         }
     }
+    s.push_str(&Structure::read(md, &[]).render());
     s
 }
 

@@ -1,4 +1,4 @@
-//! Discrepancy discovery (issue 10): finding where a calibrated model and its measurements
+//! Discrepancy discovery: finding where a calibrated model and its measurements
 //! disagree, which effect the model lacks, and whether adding it pays.
 //!
 //! - [`effects`]: the library of effect kinds with their formulas;

@@ -17,6 +17,9 @@ pub struct PortPlace {
     pub source: String,
     /// Listed by hand: a probe that cannot size it is an error, not a note.
     pub by_hand: bool,
+    /// Listed by hand, or paired with the states of its own component (not with all of them
+    /// for want of a shared prefix).
+    pub by_prefix: bool,
 }
 
 /// A continuous state whose derivative a diagnosis may add terms to.
@@ -47,7 +50,12 @@ impl Places {
             .ports
             .iter()
             .enumerate()
-            .map(|(k, p)| PortPlace { spec: p.clone(), source: format!("diagnose.ports[{k}]"), by_hand: true })
+            .map(|(k, p)| PortPlace {
+                spec: p.clone(),
+                source: format!("diagnose.ports[{k}]"),
+                by_hand: true,
+                by_prefix: true,
+            })
             .collect();
         let mapped: Vec<&str> = job.inputs.iter().map(|i| i.variable.as_str()).collect();
         for p in &structure.ports {
@@ -71,10 +79,31 @@ impl Places {
             if spec.signals().next().is_none() {
                 continue;
             }
-            ports.push(PortPlace { spec, source: format!("model input {}", p.name), by_hand: false });
+            ports.push(PortPlace { spec, source: format!("model input {}", p.name), by_hand: false, by_prefix: p.by_prefix });
         }
         let mut notes = vec![];
-        if ports.is_empty() {
+        // One physical place, one set of candidates. A port paired with its own component's
+        // states is the place where their terms enter, so those states get no state effects of
+        // the port's domain; a port paired with every state only for want of a shared prefix is
+        // left to the state effects, which say where (Model Exchange).
+        if model_exchange.is_ok() && !structure.states.is_empty() {
+            ports.retain(|p| {
+                let keep = p.by_hand || p.by_prefix;
+                if !keep {
+                    notes.push(format!(
+                        "input {}: not tied to one component; its effects are tried on the states' derivatives instead",
+                        p.spec.port
+                    ));
+                }
+                keep
+            });
+        }
+        let covered: Vec<&str> = ports
+            .iter()
+            .filter(|p| p.by_prefix)
+            .flat_map(|p| p.spec.velocities.iter().chain(&p.spec.temperatures).map(String::as_str))
+            .collect();
+        if ports.is_empty() && notes.is_empty() {
             notes.push("no injection input (a force, torque or heat-flow input not fed from data): no port effects".to_owned());
         }
         let states = match model_exchange {
@@ -89,6 +118,7 @@ impl Places {
                 .filter(|s| diagnose.states.as_ref().is_none_or(|only| only.contains(&s.name)))
                 // A position gets its terms through its velocity's derivative.
                 .filter(|s| s.role != Role::Position)
+                .filter(|s| !covered.contains(&s.name.as_str()))
                 .map(|s| StatePlace { state: s.name.clone(), role: s.role, position: s.position.clone() })
                 .collect(),
         };

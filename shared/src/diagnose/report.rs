@@ -18,19 +18,20 @@ pub enum Conclusion {
     /// An effect of the library was named.
     Named,
     /// None was, and the base model's residual is far from its noise
-    /// ([`super::residuals::Misfit::far`]): the model misses something none of the tried
-    /// effects explains.
+    /// ([`super::residuals::Misfit::far`]), or the best candidate left it far: the model
+    /// misses something none of the tried effects explains.
     MissesSomething,
     /// None was, and the residual is consistent with noise: the model fits.
     Fits,
 }
 
 impl Conclusion {
-    /// The conclusion from whether an effect was named and the base model's misfit.
-    pub fn of(named: bool, base: &Misfit) -> Conclusion {
+    /// The conclusion from whether an effect was named, whether one explained only part of the
+    /// misfit, and the base model's misfit.
+    pub fn of(named: bool, partial: bool, base: &Misfit) -> Conclusion {
         if named {
             Conclusion::Named
-        } else if base.far() {
+        } else if partial || base.far() {
             Conclusion::MissesSomething
         } else {
             Conclusion::Fits
@@ -56,6 +57,10 @@ pub struct Diagnosis {
     pub rounds: Vec<Round>,
     /// The effects named, in the order found (empty: "no effect found").
     pub named: Vec<NamedEffect>,
+    /// The candidate that passed every test but left the residual far from its noise: it
+    /// explains part of what is missing, and is not named.
+    #[serde(default)]
+    pub partial: Vec<NamedEffect>,
     /// RMS errors of the base model and of the model with the named effects.
     pub before: RmsPair,
     pub after: RmsPair,
@@ -251,6 +256,15 @@ impl Diagnosis {
             };
             let tried = first.map_or(0, |r| r.candidates.len());
             match self.conclusion {
+                Conclusion::MissesSomething if !self.partial.is_empty() => {
+                    let words: Vec<&str> = self.partial.iter().map(|p| p.words.as_str()).collect();
+                    let _ = writeln!(
+                        s,
+                        "the model misses something that none of the {tried} tried effects explains: the best, {}, passes every test but leaves the residual far from its noise ({})",
+                        words.join("; "),
+                        self.misfit_after.evidence()
+                    );
+                }
                 Conclusion::MissesSomething => {
                     let _ = writeln!(
                         s,

@@ -114,8 +114,9 @@ pub fn noise_sigma(r: &[f64]) -> f64 {
 }
 
 /// A fit whose calibration RMS is more than this multiple of the noise estimate leaves more
-/// than noise: at 2 the misfit itself is √3 times the noise.
-pub const FAR_RMS_OVER_NOISE: f64 = 2.0;
+/// than noise: at 1.3 the misfit itself is 0.83 times the noise, and white noise of 500
+/// samples or more estimates its own level within a few percent.
+pub const FAR_RMS_OVER_NOISE: f64 = 1.3;
 /// A Ljung–Box p-value below this says the residual is strongly non-white.
 pub const FAR_LJUNG_BOX_P: f64 = 1e-4;
 /// A held-out RMS above this multiple of the calibration RMS says the fit does not carry over.
@@ -306,6 +307,21 @@ mod tests {
             ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
         };
         (0..n).map(|_| (-2.0 * uniform().ln()).sqrt() * (std::f64::consts::TAU * uniform()).cos()).collect()
+    }
+
+    #[test]
+    fn far_needs_more_than_noise_and_a_pattern() {
+        let m = |rms: f64, validation: f64, p: f64| OutputMisfit {
+            variable: "y".into(),
+            rms,
+            validation_rms: Some(validation),
+            noise: 1.0,
+            ljung_box_p: Some(p),
+        };
+        assert!(m(1.4, 1.4, 1e-9).far(), "above the noise and not white");
+        assert!(m(1.4, 2.2, 0.5).far(), "above the noise and not carried over");
+        assert!(!m(1.2, 3.0, 1e-9).far(), "within the noise");
+        assert!(!m(3.0, 3.1, 0.2).far(), "large but white and carried over: the noise estimate is off");
     }
 
     #[test]

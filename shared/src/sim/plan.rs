@@ -140,28 +140,6 @@ fn invalid(msg: impl Into<String>) -> SimError {
     SimError::Invalid(msg.into())
 }
 
-/// The physical domain of a port from its unit (its own or its declared type's), when the unit
-/// says: a force (N) or torque (N.m) is mechanical, a heat flow (W) thermal. By the unit's SI
-/// base exponents when `UnitDefinitions` gives them, else by the usual names.
-fn port_domain(md: &ModelDescription, port: &ScalarVariable) -> Option<(String, effects::Domain)> {
-    let unit = md.unit_of(port)?.to_owned();
-    let by_base =
-        md.unit_definitions.iter().find(|u| u.name == unit).and_then(|u| u.base_unit.as_ref()).and_then(|b| {
-            let other = b.a != 0 || b.k != 0 || b.mol != 0 || b.cd != 0 || b.rad != 0 || b.kg != 1;
-            match (other, b.m, b.s) {
-                (false, 1 | 2, -2) => Some(effects::Domain::Mechanical),
-                (false, 2, -3) => Some(effects::Domain::Thermal),
-                _ => None,
-            }
-        });
-    let by_name = match unit.replace(['·', '*', ' '], ".").as_str() {
-        "N" | "N.m" | "Nm" | "m.N" => Some(effects::Domain::Mechanical),
-        "W" | "kW" | "J/s" => Some(effects::Domain::Thermal),
-        _ => None,
-    };
-    by_base.or(by_name).map(|d| (unit, d))
-}
-
 /// Resolves a port term: a known port effect, a continuous Real input as port whose unit (if
 /// it says) is of the effect's domain, a readable Real signal that does not depend directly on
 /// the port (an algebraic loop).
@@ -197,7 +175,7 @@ fn plan_term(
     {
         return Err(invalid(format!("port {} is not a continuous Real input of the model", quote_user_text(&t.port))));
     }
-    if let Some((unit, domain)) = port_domain(md, port)
+    if let Some((unit, domain)) = crate::diagnose::structure::port_domain(md, port)
         && domain != effect.domain()
     {
         return Err(invalid(format!(

@@ -75,6 +75,8 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
     let mut first_signals = vec![];
     let mut phases = Phases::default();
     let mut notes = ctx.places.notes.clone();
+    let mut partial = vec![];
+    let mut partial_look: Option<Look> = None;
     // The values of the model the diagnosis ends with (the base, or the base with the named
     // effects), with their standard errors.
     let (mut fitted, mut standard_errors) = (BTreeMap::new(), BTreeMap::new());
@@ -305,6 +307,13 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         let c = order[rank];
         let (fit, job, after) = fits.remove(&c).expect("the chosen candidate was fitted");
         let effect = name(ctx, &candidates[c], &fit, &job);
+        // An effect that leaves the model far from its noise is not the missing effect, only
+        // a part of what is missing: it is reported as such and not named.
+        if after.as_ref().is_none_or(|a| a.misfit(ctx.windows.calibration_stop).far()) {
+            partial.push(effect);
+            partial_look = after;
+            break;
+        }
         fitted = fit.x_opt.clone();
         standard_errors = fit.standard_errors.clone();
         last_look = after;
@@ -317,9 +326,12 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
     let before = first_look.context("no round ran")?;
     let after = last_look.unwrap_or_else(|| before.clone());
     let stop = ctx.windows.calibration_stop;
-    let (misfit_before, misfit_after) = (before.misfit(stop), after.misfit(stop));
-    let conclusion = Conclusion::of(!named.is_empty(), &misfit_before);
+    let misfit_before = before.misfit(stop);
+    // With a partial effect, "after" is how far that effect left the model.
+    let misfit_after = partial_look.as_ref().map_or_else(|| after.misfit(stop), |l| l.misfit(stop));
+    let conclusion = Conclusion::of(!named.is_empty(), !partial.is_empty(), &misfit_before);
     let diagnosis = Diagnosis {
+        partial,
         fitted,
         standard_errors,
         conclusion,

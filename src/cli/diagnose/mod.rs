@@ -67,7 +67,7 @@ pub(crate) struct Context {
     pub places: fmucal_shared::diagnose::places::Places,
 }
 
-/// Three standard errors of the widest parameter as a fraction of its range (the optimizers'
+/// One standard error of the widest parameter as a fraction of its range (the optimizers'
 /// scaled step), within [1e-6, 0.05]; `None` unless every calibrated value has one.
 fn local_step(job: &JobSpec, standard_errors: &std::collections::BTreeMap<String, f64>) -> Option<f64> {
     let calibrated = job.calibrated();
@@ -76,7 +76,7 @@ fn local_step(job: &JobSpec, standard_errors: &std::collections::BTreeMap<String
         .map(|c| {
             let se = standard_errors.get(&c.name).copied().filter(|s| s.is_finite() && *s > 0.0)?;
             let range = c.bounds.upper - c.bounds.lower;
-            (range > 0.0 && range.is_finite()).then(|| 3.0 * se / range)
+            (range > 0.0 && range.is_finite()).then(|| se / range)
         })
         .collect();
     let widest = steps?.into_iter().fold(0.0, f64::max);
@@ -164,7 +164,7 @@ pub fn run(args: Args) -> Result<()> {
     std::fs::write(args.out.join("report.json"), json + "\n")?;
     // The job that reproduces the diagnosis: the named effects added, every start at the
     // final fit, paths that hold from any folder, and (with standard errors for all) an
-    // initial step of three standard errors so that the search stays near the optimum.
+    // initial step of one standard error so that the search stays near the optimum.
     let mut kept = original.with_absolute_paths();
     kept.effects.extend(report.named.iter().map(|n| n.effect.clone()));
     let mut kept = fmucal_shared::diagnose::jobs::with_starts(kept, &report.fitted);
