@@ -6,10 +6,12 @@
 //! The grid is hidden effects × noise 0.5, 1 and 2 % of each output's range × with and without
 //! a driving input (spring-mass: no input mapped, the mass starts at x = 0.5 m and rings down,
 //! or a sine force F mapped from the data; Furuta: no input, the pendulum starts at φ = 1 rad
-//! and swings down, or torque pulses u; the exhaust pipe always has its five inputs), null
+//! and swings down, or a growing sine torque u; the exhaust pipe always has its five inputs), null
 //! cases (data from the base itself), cases whose effect is outside fmucal's library (drifting
 //! stiffness, periodic force, one-sided friction, growing mass) and a few effects at 10 % noise.
-//! Every case is seeded.
+//! Every case is seeded. Extra viscous damping on the spring-mass is in the grid but counted
+//! apart ([`Kind::Absorbed`]): it is the base's own damping parameter, so the right answer is
+//! `fits`.
 //!
 //! Besides the diagnosis's own held-out RMS (against the noisy data), each case measures the
 //! gap against the noise-free truth: the RMS, over the held-out window, of the model's outputs
@@ -113,6 +115,7 @@ impl Truth {
     fn kind(self) -> Kind {
         match self {
             Truth::None(_) => Kind::Null,
+            Truth::Viscous => Kind::Absorbed,
             Truth::DriftingStiffness | Truth::PeriodicForce | Truth::OneSidedFriction | Truth::GrowingMass => {
                 Kind::Outside
             }
@@ -130,8 +133,15 @@ impl Truth {
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Kind {
+    /// A library effect the base cannot express: right is naming it (or its family) first.
     Effect,
+    /// A library effect a base parameter already is: extra viscous damping −c·v on der(mass.v)
+    /// is the base's own damping d·v/m, so the base calibration absorbs it (d = 0.3 + 0.2) and
+    /// the model fits. Right is `fits`, as for a null case; counted apart from both.
+    Absorbed,
+    /// Data from the base itself: right is `fits`.
     Null,
+    /// Outside the library: right is `misses_something`, nothing named.
     Outside,
 }
 
@@ -189,25 +199,16 @@ fn inputs(model: Model, driven: bool) -> (Vec<f64>, Vec<(&'static str, &'static 
             (time, vec![("F", "F", f)])
         }
         Model::Furuta => {
-            let time = grid(1000, 0.02);
+            // The free pendulum swings down from 1 rad within some 6 s (sooner with the hidden
+            // Coulomb friction, which stops it): a 10 s record held out from 7.5 s.
+            let time = grid(1000, 0.01);
             if !driven {
                 return (time, vec![]);
             }
-            // Torque pulses in both directions, then a free swing.
-            let u = time
-                .iter()
-                .map(|t| {
-                    if *t < 1.0 {
-                        0.08
-                    } else if *t < 2.0 {
-                        -0.08
-                    } else if (8.0..8.5).contains(t) {
-                        0.1
-                    } else {
-                        0.0
-                    }
-                })
-                .collect();
+            // A slow sine with a faster one on top, its amplitude growing over the record (input
+            // profile 1 of tests/diagnosis_grid.rs): it keeps the pendulum moving through the
+            // held-out window, where a free swing has come to rest.
+            let u = time.iter().map(|t| (0.5 + 0.1 * t) * (0.05 * (1.3 * t).sin() + 0.02 * (4.1 * t).sin())).collect();
             (time, vec![("u", "u", u)])
         }
         Model::Exhaust => {
@@ -268,8 +269,8 @@ start = 0.003
 lower = 0.0
 upper = 0.02
 [simulation]
-stop_time = 15.0
-validation_stop_time = 20.0
+stop_time = 7.5
+validation_stop_time = 10.0
 tolerance = 1e-8
 [optimizer]
 x_tol = 1e-5
@@ -374,6 +375,7 @@ fn write_case(case: &Case, dir: &Path) -> (PathBuf, f64, SimResult) {
 /// A case's diagnosis, the noise floor of its data and the gap against the truth.
 struct Outcome {
     report: Diagnosis,
+    /// The RMS a perfect model has on the data (the noise), to compare the gap with.
     floor: f64,
     /// RMS of model − noise-free truth on the held-out window: the base model at its
     /// calibrated values, and the model with the effect named first at its fitted values.
@@ -602,13 +604,16 @@ fn full_grid() {
     });
     let cases = grid();
     println!(
-        "| case | truth | noise | driven | conclusion | named first | right | validation RMS before → after | gap to truth before → after | gap shrink | time [s] |"
+        "| case | truth | noise | driven | conclusion | named first | right | validation RMS before → after | gap to truth before → after | gap before ÷ noise | gap shrink | time [s] |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
-    let (mut effect_right, mut effect_total, mut null_fits, mut null_total, mut null_misses) = (0, 0, 0, 0, 0);
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let (mut effect_right, mut effect_total, mut effect_tied) = (0, 0, 0);
+    let (mut null_fits, mut null_total, mut null_misses) = (0, 0, 0);
+    let (mut absorbed_fits, mut absorbed_total) = (0, 0);
     let (mut outside_right, mut outside_total, mut outside_wrong) = (0, 0, 0);
     let (mut loud_wrong, mut loud_total) = (0, 0);
-    let (mut gap_halved, mut gap_cases) = (0, 0);
+    // Gap halved: over every case where something was named, and over the library-effect cases.
+    let (mut gap_halved, mut gap_cases, mut effect_gap_halved, mut effect_gap_cases) = (0, 0, 0, 0);
     let mut misses: Vec<String> = vec![];
     for (k, case) in cases.iter().enumerate() {
         if only.as_ref().is_some_and(|o| !o.contains(&k)) {
@@ -619,21 +624,36 @@ fn full_grid() {
         let d = &o.report;
         let got = named(d);
         let expected = case.truth.expected();
-        let right = match case.truth.kind() {
-            Kind::Effect => got.as_deref().is_some_and(|g| expected.contains(&g)),
-            Kind::Null => d.conclusion == Conclusion::Fits,
-            Kind::Outside => d.conclusion == Conclusion::MissesSomething,
-        };
-        let family = right && case.truth.kind() == Kind::Effect && got.as_deref() != Some(expected[0]);
+        let kind = case.truth.kind();
         let loud = case.noise > 0.05;
+        let wrong_name = got.as_deref().is_some_and(|g| !expected.contains(&g) || kind == Kind::Absorbed);
+        let right = match kind {
+            // At 10 % noise abstaining is right too; naming a wrong effect is not.
+            Kind::Effect if loud => !wrong_name,
+            Kind::Effect => got.as_deref().is_some_and(|g| expected.contains(&g)),
+            Kind::Null | Kind::Absorbed => d.conclusion == Conclusion::Fits,
+            Kind::Outside => d.conclusion == Conclusion::MissesSomething && got.is_none(),
+        };
+        let family = right && kind == Kind::Effect && got.is_some() && got.as_deref() != Some(expected[0]);
+        // The true effect among those the data support as well as the one named.
+        let tied = !right
+            && kind == Kind::Effect
+            && d.rounds.first().is_some_and(|r| {
+                r.equally_supported.iter().any(|i| expected.contains(&r.candidates[*i].description.as_str()))
+            });
         if loud {
             loud_total += 1;
-            loud_wrong += usize::from(got.as_deref().is_some_and(|g| !expected.contains(&g)));
+            loud_wrong += usize::from(wrong_name);
         } else {
-            match case.truth.kind() {
+            match kind {
                 Kind::Effect => {
                     effect_total += 1;
                     effect_right += usize::from(right);
+                    effect_tied += usize::from(tied);
+                }
+                Kind::Absorbed => {
+                    absorbed_total += 1;
+                    absorbed_fits += usize::from(right);
                 }
                 Kind::Null => {
                     null_total += 1;
@@ -642,7 +662,7 @@ fn full_grid() {
                 }
                 Kind::Outside => {
                     outside_total += 1;
-                    outside_right += usize::from(right && got.is_none());
+                    outside_right += usize::from(right);
                     outside_wrong += usize::from(got.is_some());
                 }
             }
@@ -651,15 +671,25 @@ fn full_grid() {
         if let Some(s) = shrink {
             gap_cases += 1;
             gap_halved += usize::from(s >= 0.5);
+            if kind == Kind::Effect {
+                effect_gap_cases += 1;
+                effect_gap_halved += usize::from(s >= 0.5);
+            }
             if s < 0.5 {
-                misses.push(format!("case {k}: gap to truth shrank by only {:.0} %", 100.0 * s));
+                misses.push(format!("case {k}: the gap to the truth shrank by only {:.0} %", 100.0 * s));
             }
         }
         if !right {
-            misses.push(format!("case {k} ({} {} %): {}", case.truth.name(), 100.0 * case.noise, d.summary().replace('\n', "\n    ")));
+            misses.push(format!(
+                "case {k} ({}, {} % noise, {}): {}",
+                case.truth.name(),
+                100.0 * case.noise,
+                if case.driven { "driven" } else { "not driven" },
+                d.summary().trim_end().replace('\n', "\n    ")
+            ));
         }
         println!(
-            "| {k} | {} | {} % | {} | {} | {} | {} | {:.3e} → {:.3e} | {:.3e} → {} | {} | {:.1} |",
+            "| {k} | {} | {} % | {} | {} | {} | {} | {:.3e} → {:.3e} | {:.3e} → {} | {:.2} | {} | {:.1} |",
             case.truth.name(),
             100.0 * case.noise,
             if case.driven { "yes" } else { "no" },
@@ -667,10 +697,12 @@ fn full_grid() {
             got.as_deref().unwrap_or("—"),
             if family {
                 "family"
+            } else if right && loud && got.is_none() {
+                "abstained"
             } else if right {
                 "yes"
-            } else if loud && got.is_none() {
-                "abstained"
+            } else if tied {
+                "tied"
             } else {
                 "NO"
             },
@@ -678,16 +710,20 @@ fn full_grid() {
             d.after.validation,
             o.gap_before,
             o.gap_after.map_or("—".to_owned(), |g| format!("{g:.3e}")),
+            o.gap_before / o.floor,
             shrink.map_or("—".to_owned(), |s| format!("{:.0} %", 100.0 * s)),
             d.elapsed_s,
         );
-        let _ = o.floor;
     }
     println!();
     let pct = |a: usize, b: usize| if b == 0 { 0.0 } else { 100.0 * a as f64 / b as f64 };
     println!(
         "target: true effect (or its family) named first at ≤ 2 % noise: {effect_right}/{effect_total} ({:.0} %, target ≥ 90 %)",
         pct(effect_right, effect_total)
+    );
+    println!("target:   (and {effect_tied} more where the true effect is among the equally supported)");
+    println!(
+        "target:   absorbed by a base parameter (viscous damping is the base's d), concluding fits: {absorbed_fits}/{absorbed_total} (not counted above)"
     );
     println!(
         "target: null cases concluding fits: {null_fits}/{null_total} ({:.0} %, target ≥ 95 %); null cases concluding misses_something: {null_misses} (target 0)",
@@ -699,10 +735,12 @@ fn full_grid() {
     );
     println!("target: at 10 % noise, a wrong effect named: {loud_wrong}/{loud_total} (target 0)");
     println!(
-        "target: gap against the noise-free truth on the held-out window at least halved where an effect was named: {gap_halved}/{gap_cases} ({:.0} %, target ≥ 90 %)",
-        pct(gap_halved, gap_cases)
+        "target: gap against the noise-free truth on the held-out window at least halved where an effect was named: {gap_halved}/{gap_cases} ({:.0} %, target ≥ 90 %); on the library-effect cases: {effect_gap_halved}/{effect_gap_cases} ({:.0} %)",
+        pct(gap_halved, gap_cases),
+        pct(effect_gap_halved, effect_gap_cases)
     );
     for m in misses {
         println!("miss: {m}");
     }
 }
+
