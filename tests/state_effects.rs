@@ -180,3 +180,66 @@ fn bad_state_terms_are_refused_before_any_model_code_runs() {
     let m = refused(state("viscous_damping", "mass.v", "mass.v", vec![1.0, 2.0]), Interface::ModelExchange);
     assert!(m.starts_with("viscous_damping takes 1 parameters"), "{m}");
 }
+
+/// `fmucal calibrate` on a job on `model` that fits `parameter` to data for `output` and whose
+/// one effect is `effect` (TOML lines); returns whether it succeeded, and its standard error.
+fn calibrate_with(model: &Path, output: &str, parameter: &str, effect: &str, dir: &Path) -> (bool, String) {
+    let rows: String = (0..=20).map(|k| format!("{},{}\n", k as f64 * 0.1, 0.5 - 0.01 * k as f64)).collect();
+    std::fs::write(dir.join("data.csv"), format!("time,y\n{rows}")).unwrap();
+    let job = format!(
+        "[model]\npath = {model:?}\n[data]\npath = \"data.csv\"\n[[outputs]]\nvariable = \"{output}\"\ncolumn = \"y\"\n\
+         [[parameters]]\nname = \"{parameter}\"\nstart = 4.0\nlower = 0.0\nupper = 8.0\n[[effects]]\n{effect}\n"
+    );
+    std::fs::write(dir.join("job.toml"), job).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(["calibrate", "--workers", "1", "--out"])
+        .arg(dir.join("out"))
+        .arg(dir.join("job.toml"))
+        .output()
+        .unwrap();
+    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+#[test]
+fn bad_state_effects_in_a_job_are_one_line_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let spring = Fixture::SpringMassExported.path();
+    let c = r#"parameters = { force = { start = 0.0, lower = 0.0, upper = 1.0 } }"#;
+    let cases = [
+        (
+            format!("kind = \"coulomb_friction\"\nstate = \"k\"\n{c}"),
+            "effects[0].state: \"k\" is not a continuous state of the model (its states: \"mass.x, mass.v\")",
+        ),
+        (
+            format!("kind = \"coulomb_friction\"\nstate = \"mass.v\"\nport = \"F\"\nsignal = \"mass.v\"\n{c}"),
+            "effects[0].state: give a port or a state, not both",
+        ),
+        (
+            "kind = \"radiation\"\nstate = \"mass.v\"\nparameters = { emissivity_area = { start = 0.0, lower = 0.0, upper = 1.0 }, t_ambient = { start = 293.0, lower = 200.0, upper = 400.0 } }".to_owned(),
+            "effects[0].kind: radiation acts on a temperature; state \"mass.v\" is a translational velocity (m/s)",
+        ),
+        (
+            "kind = \"linear_relaxation\"\nport = \"F\"\nsignal = \"mass.v\"\nparameters = { k = { start = 0.0, lower = 0.0, upper = 1.0 }, x0 = { start = 0.0, lower = -1.0, upper = 1.0 } }".to_owned(),
+            "effects[0].state: linear_relaxation needs a state",
+        ),
+        (
+            format!("kind = \"coulomb_friction\"\nstate = \"mass.x\"\n{c}"),
+            "effects[0].kind: coulomb_friction acts on a velocity; state \"mass.x\" is a translational position (m)",
+        ),
+    ];
+    for (effect, want) in cases {
+        let (ok, err) = calibrate_with(&spring, "mass.x", "k", &effect, dir.path());
+        assert!(!ok, "accepted:\n{effect}");
+        assert_eq!(err.lines().filter(|l| !l.trim().is_empty()).count(), 1, "one line: {err}");
+        assert!(err.contains(want), "{effect}\n→ {err}\nwanted {want}");
+    }
+    // A Co-Simulation-only FMU has no state effects.
+    let (ok, err) = calibrate_with(
+        &Fixture::FurutaFmi1Cs.path(),
+        "armJoint.phi",
+        "armFriction",
+        "kind = \"viscous_damping\"\nstate = \"armJoint.w\"\nparameters = { c = { start = 0.0, lower = 0.0, upper = 1.0 } }",
+        dir.path(),
+    );
+    assert!(!ok && err.contains("effects[0].state: the FMU offers Co-Simulation only"), "{err}");
+}

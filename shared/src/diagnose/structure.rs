@@ -90,8 +90,9 @@ impl Pairing {
 /// One continuous state.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct State {
-    /// The state variable: the base of the variable the derivative names (not an alias), unless
-    /// that base is itself a `der(…)` variable.
+    /// The state variable: the variable the derivative names (what the exporting tool calls
+    /// the state), or its base where that variable is itself a `der(…)`. Other variables that
+    /// share its value are in `aliases`.
     pub name: String,
     /// Position in the state vector (the order of [`ModelDescription::states`]).
     pub index: usize,
@@ -307,13 +308,12 @@ impl Structure {
     /// feeds from data: they are no injection ports.
     pub fn read(md: &ModelDescription, mapped_inputs: &[String]) -> Structure {
         let raw = md.states();
-        // The state variables (base names, unless the base is a `der(…)`), with their identity.
+        // The state variables: the variable the derivative names (what the exporting tool
+        // calls the state: `rightVolume.T`, not the output `outlet.T` that shares its value),
+        // else its base when that one is a `der(…)`; with their identity.
         let vars: Vec<&ScalarVariable> = raw
             .iter()
-            .map(|(s, _)| {
-                let base = md.base_of(s);
-                if base.name.starts_with("der(") { *s } else { base }
-            })
+            .map(|(s, _)| if s.name.starts_with("der(") { md.base_of(s) } else { *s })
             .collect();
         let ids: Vec<&str> = raw.iter().map(|(s, _)| md.base_of(s).name.as_str()).collect();
         let state_of = |id: &str| ids.iter().position(|s| *s == id);
@@ -836,9 +836,10 @@ mod tests {
     }
 
     #[test]
-    fn a_state_named_by_an_output_alias_keeps_the_base_and_pairs_by_its_aliases_prefix() {
-        // The state `mass.s` shares its value with the output `y`, which is the base; the
-        // velocity `mass.v` pairs with it through `mass.s`'s prefix.
+    fn a_state_shared_with_an_output_keeps_the_name_its_derivative_gives() {
+        // The state `mass.s` shares its value with the output `y` (the base of the two): the
+        // state keeps the name its derivative names, `y` is an alias, and the velocity
+        // `mass.v` pairs with it through `mass.s`'s prefix.
         let vars = [
             real("mass.s", 0, "local", r#"unit="m""#),
             real("der(mass.s)", 1, "local", r#"unit="m/s" derivative="1""#),
@@ -851,10 +852,11 @@ mod tests {
         let md = md("", &vars, r#"<Unknown index="2"/><Unknown index="4"/>"#);
         let s = Structure::read(&md, &[]);
         let x = s.state("mass.s").unwrap();
-        assert_eq!((x.name.as_str(), x.aliases.clone()), ("y", vec!["mass.s".to_owned()]));
+        assert_eq!((x.name.as_str(), x.aliases.clone()), ("mass.s", vec!["y".to_owned()]));
+        assert_eq!(s.state("y").unwrap().name, "mass.s", "found by its output alias too");
         assert_eq!((x.velocity.as_deref(), x.paired_by), (Some("mass.v"), Some(Pairing::PrefixAndUnit)));
         let f = s.port("mass.f").unwrap();
-        assert_eq!((f.positions.clone(), f.by_prefix), (vec!["y".to_owned()], true));
+        assert_eq!((f.positions.clone(), f.by_prefix), (vec!["mass.s".to_owned()], true));
     }
 
     #[test]

@@ -97,7 +97,9 @@ class Bounds:
 
 @dataclass(frozen=True)
 class Effect:
-    """An ``[[effects]]`` entry: a kind of fmucal's library, what it acts on, its parameters."""
+    """An ``[[effects]]`` entry: a kind of fmucal's library, what it acts on (a continuous
+    ``state`` in Model Exchange, a ``port`` and ``signal``, a mapped ``output`` or ``input``), its
+    parameters."""
 
     kind: str
     port: str | None
@@ -105,6 +107,7 @@ class Effect:
     output: str | None
     input: str | None
     parameters: dict[str, Bounds]
+    state: str | None = None
 
 
 @dataclass(frozen=True)
@@ -221,8 +224,8 @@ def parse_job(table: Mapping[str, Any], base_dir: Path) -> JobSpec:
         outputs=[_output(t) for t in outputs],
         inputs=[_input(t) for t in top.tables("inputs", ("column", "variable")) or []],
         parameters=[_parameter(t) for t in top.tables("parameters", PARAMETER_FIELDS) or []],
-        effects=[_effect(t) for t in top.tables("effects", ("kind", "port", "signal", "output", "input",
-                                                             "parameters")) or []],
+        effects=[_effect(t) for t in top.tables("effects", ("kind", "state", "port", "signal", "output",
+                                                             "input", "parameters")) or []],
         simulation=_simulation(top.table("simulation", SIMULATION_FIELDS), base_dir),
         optimizer=_optimizer(top.table("optimizer", OPTIMIZER_FIELDS)),
         experiments=[_experiment(t, base_dir) for t in top.tables("experiments", EXPERIMENT_FIELDS) or []],
@@ -299,6 +302,7 @@ def _effect(t: Table) -> Effect:
         output=t.text("output"),
         input=t.text("input"),
         parameters=parameters,
+        state=t.text("state"),
     )
 
 
