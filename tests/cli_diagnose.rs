@@ -188,3 +188,57 @@ fn a_once_per_process_fmu_loses_no_candidate() {
     }
     assert_eq!(d.named.len(), 1, "{}", d.summary());
 }
+
+/// Reads `result.json`'s evaluations and the validation RMS of `fit.csv` (optimized column)
+/// over (15, 20] s of a calibration folder.
+fn calibration(dir: &Path) -> (u64, f64) {
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("result.json")).unwrap()).unwrap();
+    let evaluations = result["evaluations"].as_u64().unwrap();
+    let fit = std::fs::read_to_string(dir.join("fit.csv")).unwrap();
+    let mut lines = fit.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |suffix: &str| header.iter().position(|h| h.ends_with(suffix)).unwrap();
+    let (measured, optimized) = (col("measured"), col("optimized"));
+    let squares: Vec<f64> = lines
+        .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap_or(f64::NAN)).collect::<Vec<_>>())
+        .filter(|r| r[0] > 15.0 && r[0] <= 20.0)
+        .map(|r| (r[optimized] - r[measured]).powi(2))
+        .collect();
+    (evaluations, (squares.iter().sum::<f64>() / squares.len() as f64).sqrt())
+}
+
+#[test]
+fn the_readme_example_finds_the_friction_of_a_model_with_no_port_and_its_job_reproduces_the_fit() {
+    // examples/friction: a spring–mass as a tool exports it (no injection input), data with a
+    // Coulomb friction of 0.05 m/s², no [diagnose] section.
+    let dir = tempfile::tempdir().unwrap();
+    let job = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/friction/job.toml");
+    let run = fmucal(&["diagnose", job.to_str().unwrap(), "--out", "diagnosis"], dir.path());
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(stdout.contains("found: coulomb_friction on der(mass.v), force 0.05"), "{stdout}");
+    assert!(stdout.contains(" m/s2"), "the strength is printed in the derivative's unit: {stdout}");
+    let d = report(&dir.path().join("diagnosis"));
+    assert_eq!(d.conclusion, fmucal_shared::diagnose::report::Conclusion::Named);
+    let (force, se) = (d.fitted["effects[0].force"], d.standard_errors["effects[0].force"]);
+    assert!((force - 0.05).abs() < 3.0 * se, "{force} ± {se}");
+    // Every fitted value is printed with its standard error.
+    for name in ["k", "d", "effects[0].force"] {
+        assert!(stdout.lines().any(|l| l.trim_start().starts_with(name) && l.contains(" ± ")), "{name}: {stdout}");
+    }
+
+    // The written job runs from another folder, starts at the fit, and reproduces it.
+    let elsewhere = dir.path().join("elsewhere");
+    std::fs::create_dir_all(&elsewhere).unwrap();
+    let written = dir.path().join("diagnosis/job.toml");
+    let again = fmucal(&["calibrate", written.to_str().unwrap(), "--out", "again"], &elsewhere);
+    assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
+    let base = fmucal(&["calibrate", job.to_str().unwrap(), "--out", "base"], &elsewhere);
+    assert!(base.status.success(), "{}", String::from_utf8_lossy(&base.stderr));
+    let (evaluations, validation) = calibration(&elsewhere.join("again"));
+    let (base_evaluations, _) = calibration(&elsewhere.join("base"));
+    let relative = (validation / d.after.validation - 1.0).abs();
+    assert!(relative < 0.01, "validation RMS {validation:e} vs the diagnosis's {:e}", d.after.validation);
+    eprintln!("the written job: {evaluations} evaluations; the base calibration: {base_evaluations}");
+}

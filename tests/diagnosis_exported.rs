@@ -512,6 +512,18 @@ fn concludes(truth: Truth, noise: f64, driven: bool, seed: u64, name: &str, conc
     let d = diagnose(&Case { truth, noise, driven, seed }, &dir).report;
     assert_eq!(named(&d), None, "{}", d.summary());
     assert_eq!(d.conclusion, conclusion, "{}", d.summary());
+    // `fmucal calibrate` on the same job warns exactly when the model misses something: the
+    // same test of "far from the noise".
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        .args(["calibrate", "--workers", "2", "--out"])
+        .arg(dir.join("calibration"))
+        .arg(dir.join("job.toml"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    let warned = stderr.contains("warning: the fit leaves more than noise (");
+    assert_eq!(warned, conclusion == Conclusion::MissesSomething, "{stderr}");
 }
 
 #[test]

@@ -1,6 +1,8 @@
 //! fmucal's example FMUs, built from `models/c` by this crate's build script: the paper's two
 //! examples (Furuta pendulum, diesel exhaust pipe), a bouncing ball (state events), Robertson
-//! kinetics (stiff), and Decay (resources, declared types, aliases, time events, failures).
+//! kinetics (stiff), Decay (resources, declared types, aliases, time events, failures), and a
+//! spring–mass described as Dymola exports it, without injection inputs (`spring-mass`, the
+//! fixture [`Fixture::SpringMassExported`]).
 //! Each offers Model Exchange and Co-Simulation with a linux64 binary.
 //!
 //! It also builds the test [`Fixture`]s: broken FMUs, FMUs that behave as tool-exported ones
@@ -43,6 +45,7 @@ embedded! {
     "decay" => "Decay",
     "robertson" => "Robertson",
     "exhaust-pipe" => "ExhaustPipe",
+    "spring-mass" => "SpringMassExported",
 }
 
 /// The examples' short names (`furuta`, `bouncing-ball`, ...).

@@ -115,6 +115,15 @@ pub fn run(args: Args) -> Result<()> {
     }
     if spec.experiments.is_empty() {
         let (fit, errors) = fits.pop().context("one experiment")?;
+        // The same test of "far from the noise" as a diagnosis's conclusion.
+        let stop = spec.simulation.stop_time.or_else(|| data.first().and_then(|d| d.time.last().copied()));
+        let misfit = fmucal_shared::diagnose::residuals::Misfit::of_fit(&fit, stop.unwrap_or(f64::INFINITY));
+        if misfit.far() {
+            eprintln!(
+                "warning: the fit leaves more than noise ({}): the model may miss something; `fmucal diagnose` looks for what",
+                misfit.evidence()
+            );
+        }
         result.errors = Some(errors);
         super::outputs::write(&args.out, &result, &fit)?;
         crate::report::draw_all(&args.out, &fit, &result.history, result.errors.as_ref())?;

@@ -91,7 +91,7 @@ impl Places {
                 let keep = p.by_hand || p.by_prefix;
                 if !keep {
                     notes.push(format!(
-                        "input {}: not tied to one component; its effects are tried on the states' derivatives instead",
+                        "port effects on input {}: it is not tied to one component, so its effects are tried on the states' derivatives instead",
                         p.spec.port
                     ));
                 }

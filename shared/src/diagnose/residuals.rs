@@ -189,6 +189,23 @@ pub struct Misfit {
 }
 
 impl Misfit {
+    /// How far the optimized model of `fit` is from its noise, per output: residuals up to
+    /// `calibration_stop` against those after it (the validation window, if the table has one).
+    pub fn of_fit(fit: &crate::job::FitTable, calibration_stop: f64) -> Misfit {
+        let rows = fit.time.partition_point(|t| *t <= calibration_stop);
+        let outputs = fit
+            .outputs
+            .iter()
+            .map(|o| {
+                let r: Vec<f64> =
+                    o.measured.iter().zip(&o.optimized).map(|(m, s)| s.map_or(f64::NAN, |s| s - m)).collect();
+                let cut = rows.min(r.len());
+                OutputMisfit::new(&o.variable, &r[..cut], &r[cut..])
+            })
+            .collect();
+        Misfit { outputs }
+    }
+
     /// Whether any output is far from its noise ([`OutputMisfit::far`]).
     pub fn far(&self) -> bool {
         self.outputs.iter().any(OutputMisfit::far)

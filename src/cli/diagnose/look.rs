@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 
-use fmucal_shared::diagnose::residuals::{Misfit, OutputMisfit};
+use fmucal_shared::diagnose::residuals::Misfit;
 use anyhow::{Context as _, Result};
 use fmucal_shared::diagnose::decision::effective_samples;
 use fmucal_shared::diagnose::report::RmsPair;
@@ -34,18 +34,7 @@ pub struct Look {
 impl Look {
     /// How far this fit is from its noise, per output, on the calibration and validation windows.
     pub fn misfit(&self, calibration_stop: f64) -> Misfit {
-        let rows = self.fit.time.partition_point(|t| *t <= calibration_stop);
-        let outputs = self
-            .fit
-            .outputs
-            .iter()
-            .map(|o| {
-                let r: Vec<f64> =
-                    o.measured.iter().zip(&o.optimized).map(|(m, s)| s.map_or(f64::NAN, |s| s - m)).collect();
-                OutputMisfit::new(&o.variable, &r[..rows.min(r.len())], &r[rows.min(r.len())..])
-            })
-            .collect();
-        Misfit { outputs }
+        Misfit::of_fit(&self.fit, calibration_stop)
     }
 }
 
