@@ -115,6 +115,8 @@ mod tests {
     fn a_section_survives_the_protocol_unchanged() {
         for text in [
             "",
+            "states = []",
+            "states = [\"mass.v\", \"T\"]\nexclude = [\"F\"]",
             "top = 3\nfix_base = true\nholdout = 0.3\nmin_validation_gain = 0.05\nconfidence = 0.99\nwindows = 4\nrounds = 2\nseries = false\nsignals = [\"a.b\"]\n[[ports]]\nport = \"p\"\ndomain = \"mechanical\"\nvelocities = [\"v\"]\npositions = [\"x\"]\nscale = 0.5\n[[ports]]\nport = \"q\"\ndomain = \"thermal\"\ntemperatures = [\"T\"]\nambient = 300.0",
         ] {
             let s = section(text);

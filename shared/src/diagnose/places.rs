@@ -42,10 +42,15 @@ pub struct Places {
 
 impl Places {
     /// The places of `job` on a model of `structure` (read with the job's mapped inputs left
-    /// out). `model_exchange`: the job simulates in Model Exchange, where fmucal integrates the
-    /// states; otherwise `why_not` says why state effects are out.
+    /// out). `model_exchange` is `Ok` when the job simulates in Model Exchange, where fmucal
+    /// integrates the states, else why state effects are out. Names in `states` and `exclude`
+    /// may be a state's aliases.
     pub fn new(job: &JobSpec, diagnose: &DiagnoseSpec, structure: &Structure, model_exchange: Result<(), String>) -> Places {
-        let excluded = |name: &str| diagnose.exclude.iter().any(|e| e == name);
+        // A state named by an alias stands for the state.
+        let canonical = |name: &str| structure.state(name).map_or_else(|| name.to_owned(), |s| s.name.clone());
+        let exclude: Vec<String> = diagnose.exclude.iter().map(|n| canonical(n)).collect();
+        let only: Option<Vec<String>> = diagnose.states.as_ref().map(|l| l.iter().map(|n| canonical(n)).collect());
+        let excluded = |name: &str| exclude.iter().any(|e| e == name) || diagnose.exclude.iter().any(|e| e == name);
         let mut ports: Vec<PortPlace> = diagnose
             .ports
             .iter()
@@ -115,7 +120,7 @@ impl Places {
                 .states
                 .iter()
                 .filter(|s| !excluded(&s.name))
-                .filter(|s| diagnose.states.as_ref().is_none_or(|only| only.contains(&s.name)))
+                .filter(|s| only.as_ref().is_none_or(|only| only.contains(&s.name)))
                 // A position gets its terms through its velocity's derivative.
                 .filter(|s| s.role != Role::Position)
                 .filter(|s| !covered.contains(&s.name.as_str()))
@@ -123,5 +128,93 @@ impl Places {
                 .collect(),
         };
         Places { ports, states, notes }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::effects::Domain;
+    use crate::diagnose::structure::{Port, Quantity, State};
+
+    fn state(name: &str, role: Role, position: Option<&str>) -> State {
+        State {
+            name: name.into(),
+            index: 0,
+            derivative: format!("der({name})"),
+            unit: None,
+            quantity: Quantity::Translational,
+            role,
+            position: position.map(str::to_owned),
+            velocity: None,
+            paired_by: None,
+            derivative_aliases: vec![],
+            aliases: vec![format!("{name}_alias")],
+        }
+    }
+
+    fn port(name: &str, velocities: &[&str], by_prefix: bool) -> Port {
+        Port {
+            name: name.into(),
+            unit: "N".into(),
+            domain: Domain::Mechanical,
+            quantity: Quantity::Translational,
+            velocities: velocities.iter().map(|s| s.to_string()).collect(),
+            positions: vec![],
+            temperatures: vec![],
+            by_prefix,
+        }
+    }
+
+    fn job(inputs: &str) -> JobSpec {
+        let text = format!(
+            "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n{inputs}"
+        );
+        JobSpec::from_toml(&text, std::path::Path::new("/")).unwrap()
+    }
+
+    #[test]
+    fn a_port_of_its_own_component_takes_its_states_and_one_of_no_component_leaves_them_to_state_effects() {
+        let structure = Structure {
+            states: vec![
+                state("a.x", Role::Position, None),
+                state("a.v", Role::Velocity, Some("a.x")),
+                state("b.v", Role::Velocity, None),
+                state("c", Role::Other, None),
+            ],
+            ports: vec![port("a.f", &["a.v"], true), port("F", &["a.v", "b.v"], false)],
+        };
+        let p = Places::new(&job(""), &DiagnoseSpec::default(), &structure, Ok(()));
+        let ports: Vec<&str> = p.ports.iter().map(|p| p.spec.port.as_str()).collect();
+        let states: Vec<&str> = p.states.iter().map(|s| s.state.as_str()).collect();
+        assert_eq!((ports, states), (vec!["a.f"], vec!["b.v", "c"]));
+        assert_eq!(p.notes.len(), 1);
+        assert!(p.notes[0].starts_with("port effects on input F: it is not tied to one component"), "{:?}", p.notes);
+
+        // Co-Simulation: no state effects, so the port of no component stays.
+        let p = Places::new(&job(""), &DiagnoseSpec::default(), &structure, Err("Co-Simulation only".into()));
+        assert_eq!(p.ports.len(), 2);
+        assert!(p.states.is_empty());
+        assert_eq!(p.notes, ["Co-Simulation only: no state effects"]);
+
+        // A mapped input is no port; `states` and `exclude` narrow, by a state's alias too.
+        let mapped = job("[[inputs]]\ncolumn = \"a\"\nvariable = \"a.f\"\n");
+        let settings = DiagnoseSpec {
+            states: Some(vec!["a.v_alias".into(), "c".into()]),
+            exclude: vec!["c_alias".into()],
+            ..DiagnoseSpec::default()
+        };
+        let p = Places::new(&mapped, &settings, &structure, Ok(()));
+        let states: Vec<&str> = p.states.iter().map(|s| s.state.as_str()).collect();
+        assert_eq!(states, ["a.v"]);
+        assert!(p.ports.is_empty());
+    }
+
+    #[test]
+    fn a_model_without_injection_inputs_says_so() {
+        let structure = Structure { states: vec![state("v", Role::Velocity, None)], ports: vec![] };
+        let p = Places::new(&job(""), &DiagnoseSpec::default(), &structure, Ok(()));
+        assert_eq!(p.notes.len(), 1);
+        assert!(p.notes[0].starts_with("no injection input"), "{:?}", p.notes);
     }
 }
