@@ -1,8 +1,9 @@
 //! Where a diagnosis may add effects, from the job's `[diagnose]` section and the model's own
-//! structure ([`super::structure`]): the injection ports listed by hand, then every injection
-//! input the model has that the job does not feed from data, then (Model Exchange) every
-//! continuous state, narrowed by `states` and `exclude`. What cannot be tried, and why, is kept
-//! as notes for the summary.
+//! structure ([`super::structure`]). With no port listed by hand (no `[diagnose]` section at
+//! all, say), every injection input the model has that the job does not feed from data, and
+//! (Model Exchange) every continuous state, narrowed by `states` and `exclude`. Ports listed by
+//! hand say where to look: then only they, and the states `states` names. What cannot be
+//! tried, and why, is kept as notes for the summary.
 
 use super::effects::Domain;
 use super::spec::{DiagnoseSpec, PortDomain, PortSpec};
@@ -63,7 +64,15 @@ impl Places {
             })
             .collect();
         let mapped: Vec<&str> = job.inputs.iter().map(|i| i.variable.as_str()).collect();
-        for p in &structure.ports {
+        let by_hand = !diagnose.ports.is_empty();
+        let mut notes = vec![];
+        if by_hand {
+            notes.push(
+                "the model's other injection inputs and states: diagnose.ports says where to look (name states in diagnose.states to add them)"
+                    .to_owned(),
+            );
+        }
+        for p in structure.ports.iter().filter(|_| !by_hand) {
             if excluded(&p.name) || mapped.contains(&p.name.as_str()) || ports.iter().any(|q| q.spec.port == p.name) {
                 continue;
             }
@@ -86,7 +95,6 @@ impl Places {
             }
             ports.push(PortPlace { spec, source: format!("model input {}", p.name), by_hand: false, by_prefix: p.by_prefix });
         }
-        let mut notes = vec![];
         // One physical place, one set of candidates. A port paired with its own component's
         // states is the place where their terms enter, so those states get no state effects of
         // the port's domain; a port paired with every state only for want of a shared prefix is
@@ -120,7 +128,10 @@ impl Places {
                 .states
                 .iter()
                 .filter(|s| !excluded(&s.name))
-                .filter(|s| only.as_ref().is_none_or(|only| only.contains(&s.name)))
+                .filter(|s| match &only {
+                    Some(only) => only.contains(&s.name),
+                    None => !by_hand,
+                })
                 // A position gets its terms through its velocity's derivative.
                 .filter(|s| s.role != Role::Position)
                 .filter(|s| !covered.contains(&s.name.as_str()))
@@ -208,6 +219,19 @@ mod tests {
         let states: Vec<&str> = p.states.iter().map(|s| s.state.as_str()).collect();
         assert_eq!(states, ["a.v"]);
         assert!(p.ports.is_empty());
+
+        // Ports listed by hand say where to look: no other place, unless `states` names one.
+        let hand: DiagnoseSpec = toml::from_str(
+            "[[ports]]\nport = \"F\"\ndomain = \"mechanical\"\nvelocities = [\"b.v\"]\n",
+        )
+        .unwrap();
+        let p = Places::new(&job(""), &hand, &structure, Ok(()));
+        assert_eq!((p.ports.len(), p.states.len()), (1, 0));
+        assert!(p.notes[0].contains("diagnose.ports says where to look"), "{:?}", p.notes);
+        let with_states = DiagnoseSpec { states: Some(vec!["c".into()]), ..hand };
+        let p = Places::new(&job(""), &with_states, &structure, Ok(()));
+        let states: Vec<&str> = p.states.iter().map(|s| s.state.as_str()).collect();
+        assert_eq!(states, ["c"]);
     }
 
     #[test]
