@@ -187,10 +187,7 @@ fn hostile_v4_files_are_refused_in_one_line_without_a_panic() {
         std::fs::write(&p, &whole[..n]).unwrap();
         let e = MeasurementTable::read(&p, "time").unwrap_err().to_string();
         assert!(!e.contains('\n') && e.starts_with(&format!("cannot read {}: ", p.display())), "{n}: {e}");
-        assert!(
-            ["truncated", "no ", "neither a MATLAB", "invalid"].iter().any(|w| e.contains(w)),
-            "{n} bytes: {e}"
-        );
+        assert!(["truncated", "no ", "neither a MATLAB", "invalid"].iter().any(|w| e.contains(w)), "{n} bytes: {e}");
     }
     // Headers that claim more than the file holds, negative sizes, unknown formats, and
     // dataInfo pointing outside the data.

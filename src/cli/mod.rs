@@ -179,7 +179,10 @@ pub fn main() -> ExitCode {
                     .collect::<Vec<_>>()
                     .join("\n")
             } else {
-                fmucal_shared::quote::escape_user_text(&text.replace('\n', " "), fmucal_shared::quote::MAX_ERROR_LINE_CHARS)
+                fmucal_shared::quote::escape_user_text(
+                    &text.replace('\n', " "),
+                    fmucal_shared::quote::MAX_ERROR_LINE_CHARS,
+                )
             };
             if let Some(hint) = protocol_hint(&line) {
                 line.push_str(hint);

@@ -139,7 +139,8 @@ pub fn check_columns<'a>(
         if present.contains(column) {
             continue;
         }
-        let near: Vec<String> = series::closest(column, names.iter().copied(), 5).into_iter().map(quote_user_text).collect();
+        let near: Vec<String> =
+            series::closest(column, names.iter().copied(), 5).into_iter().map(quote_user_text).collect();
         let hint = if near.is_empty() {
             "; the data hold no column but time".to_owned()
         } else {
@@ -187,7 +188,10 @@ mod tests {
         let e = MeasurementTable::read(&p, "time").unwrap_err().to_string();
         assert_eq!(e, format!("cannot read {}: line 3: column \"y\": \"x\" is not a number", p.display()));
         let e = MeasurementTable::read(&p, "t").unwrap_err().to_string();
-        assert_eq!(e, format!("cannot read {}: line 1: no column named \"t\"; the closest: \"y\", \"time\"", p.display()));
+        assert_eq!(
+            e,
+            format!("cannot read {}: line 1: no column named \"t\"; the closest: \"y\", \"time\"", p.display())
+        );
     }
 
     #[test]

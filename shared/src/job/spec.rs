@@ -899,7 +899,11 @@ upper = 2.0
     fn toml_errors_keep_the_parsers_layout_quoting_one_bounded_line() {
         let e = JobSpec::from_toml("[model]\npath = \"m.fmu\"\nbogus = = 1\n", Path::new(".")).unwrap_err().to_string();
         let lines: Vec<&str> = e.lines().collect();
-        assert_eq!(lines[..4], ["toml: TOML parse error at line 3, column 9", "  |", "3 | bogus = = 1", "  |         ^"], "{e}");
+        assert_eq!(
+            lines[..4],
+            ["toml: TOML parse error at line 3, column 9", "  |", "3 | bogus = = 1", "  |         ^"],
+            "{e}"
+        );
         assert_eq!(lines.len(), 5, "{e}");
         let long = format!("x = 1\ny = \"{}\u{202e}\" = 1\n", "y".repeat(10_000));
         let e = JobSpec::from_toml(&long, Path::new(".")).unwrap_err().to_string();

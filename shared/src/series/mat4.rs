@@ -123,7 +123,10 @@ fn matrices(bytes: &[u8]) -> Result<Vec<Matrix<'_>>, String> {
     let mut at = 0usize;
     while at < bytes.len() {
         let Some(header) = bytes.get(at..at + 20) else {
-            return Err(format!("truncated MATLAB v4 file: {} bytes at byte {at} are not a whole header", bytes.len() - at));
+            return Err(format!(
+                "truncated MATLAB v4 file: {} bytes at byte {at} are not a whole header",
+                bytes.len() - at
+            ));
         };
         let (m, precision, kind, big_endian) = type_code(&header[..4])
             .ok_or_else(|| format!("invalid MATLAB v4 file: no matrix type code at byte {at}"))?;
@@ -184,7 +187,10 @@ fn matrices(bytes: &[u8]) -> Result<Vec<Matrix<'_>>, String> {
 const MAX_EMPTY_SIDE: usize = 1 << 20;
 
 fn too_large(name: &str, rows: usize, cols: usize) -> String {
-    format!("truncated MATLAB v4 file: matrix {} says {rows}×{cols} values, more than the file holds", quote_user_text(name))
+    format!(
+        "truncated MATLAB v4 file: matrix {} says {rows}×{cols} values, more than the file holds",
+        quote_user_text(name)
+    )
 }
 
 type Wanted<'a> = std::collections::HashSet<&'a str>;

@@ -10,7 +10,7 @@ mod read;
 mod write;
 
 pub use read::{
-    Layout, MAX_FILE_BYTES, Missing, SeriesError, Selected, TimeColumn, read, read_capped, read_csv, read_csv_capped,
+    Layout, MAX_FILE_BYTES, Missing, Selected, SeriesError, TimeColumn, read, read_capped, read_csv, read_csv_capped,
     read_mat, read_selected,
 };
 pub use write::write_csv;

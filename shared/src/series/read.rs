@@ -211,7 +211,10 @@ fn csv_from(path: &Path, source: impl std::io::Read, layout: &Layout) -> Result<
     use std::io::{BufRead, Read};
     let mut source = std::io::BufReader::new(source);
     let mut first = vec![];
-    (&mut source).take(MAX_HEADER_PEEK).read_until(b'\n', &mut first).map_err(|e| SeriesError::new(path, None, e.to_string()))?;
+    (&mut source)
+        .take(MAX_HEADER_PEEK)
+        .read_until(b'\n', &mut first)
+        .map_err(|e| SeriesError::new(path, None, e.to_string()))?;
     let separator = delimiter(&first);
     let source = std::io::Cursor::new(first).chain(source);
     let mut reader =
@@ -255,8 +258,7 @@ fn time_index(headers: &[String], time: TimeColumn) -> Result<usize, String> {
     match time {
         TimeColumn::First(name) if headers.first().is_some_and(|h| h == name) => Ok(0),
         TimeColumn::First(name)
-            if headers.first().is_some_and(|h| h.eq_ignore_ascii_case(name))
-                && !headers.iter().any(|h| h == name) =>
+            if headers.first().is_some_and(|h| h.eq_ignore_ascii_case(name)) && !headers.iter().any(|h| h == name) =>
         {
             Ok(0)
         }
@@ -455,7 +457,10 @@ mod tests {
         assert_eq!(fault(read_csv(&p, &INPUTS)), (Some(1), "the first column must be named \"time\"".into()));
         assert_eq!(read_csv(&p, &MEASUREMENTS).unwrap().time, [0.0]);
         let named_t = Layout { time: TimeColumn::Named("t"), ..MEASUREMENTS };
-        assert_eq!(fault(read_csv(&p, &named_t)), (Some(1), "no column named \"t\"; the closest: \"u\", \"time\"".into()));
+        assert_eq!(
+            fault(read_csv(&p, &named_t)),
+            (Some(1), "no column named \"t\"; the closest: \"u\", \"time\"".into())
+        );
         // `Time` is time when no column is named `time` and no other differs from it in case only.
         let p = file(&dir, "upper.csv", "Time,u\n0,1\n");
         assert_eq!(read_csv(&p, &INPUTS).unwrap().time, [0.0]);
