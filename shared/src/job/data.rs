@@ -94,7 +94,11 @@ pub fn read_all(spec: &super::JobSpec) -> Result<Vec<MeasurementTable>, JobError
         let path = d.path.clone().ok_or_else(|| {
             JobError::invalid(format!("{}data", view.field_prefix), "give the path of the measurements")
         })?;
-        let mut wanted: Vec<String> = used_columns(&view.spec).map(|(_, c)| c.to_owned()).collect();
+        // Only a `.mat` file is read in part (a v4 result file): other files are read once
+        // whatever their experiments use.
+        let mat = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("mat"));
+        let mut wanted: Vec<String> =
+            if mat { used_columns(&view.spec).map(|(_, c)| c.to_owned()).collect() } else { vec![] };
         wanted.sort_unstable();
         wanted.dedup();
         let key = (path, d.time_column.clone(), wanted);
@@ -104,7 +108,7 @@ pub fn read_all(spec: &super::JobSpec) -> Result<Vec<MeasurementTable>, JobError
                 let field = format!("{}data.path", view.field_prefix);
                 super::limits::check_regular_file(&field, &key.0, super::limits::MAX_DATA_FILE_BYTES)?;
                 let wanted: Vec<&str> = key.2.iter().map(String::as_str).collect();
-                let s = MeasurementTable::read_selected(&key.0, &key.1, Some(&wanted))?;
+                let s = MeasurementTable::read_selected(&key.0, &key.1, mat.then_some(&wanted[..]))?;
                 read.push((key, s.clone()));
                 s
             }

@@ -334,3 +334,35 @@ fn result_file<'a>(
     names.remove(t);
     Ok(Read { time: time_values, columns, names })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A big-endian double matrix, as a v4 writer on such a machine writes it (type code 1000).
+    fn big_endian(name: &str, values: &[f64]) -> Vec<u8> {
+        let header = [1000, values.len() as i32, 1, 0, name.len() as i32 + 1];
+        let mut out: Vec<u8> = header.iter().flat_map(|v| v.to_be_bytes()).collect();
+        out.extend(name.as_bytes());
+        out.push(0);
+        out.extend(values.iter().flat_map(|v| v.to_be_bytes()));
+        out
+    }
+
+    #[test]
+    fn plain_big_endian_matrices_are_columns_by_name() {
+        let bytes =
+            [big_endian("Time", &[0.0, 0.5]), big_endian("y", &[1.0, -2.0]), big_endian("z", &[3.0, 4.0])].concat();
+        assert!(looks_like_v4(&bytes));
+        let r = read(&bytes, "time", None).unwrap();
+        assert_eq!(r.time, [0.0, 0.5]);
+        assert_eq!(r.columns, [("y".to_owned(), vec![1.0, -2.0]), ("z".to_owned(), vec![3.0, 4.0])]);
+        assert_eq!(r.names, ["y", "z"]);
+        let r = read(&bytes, "time", Some(&["z"])).unwrap();
+        assert_eq!((r.columns.len(), r.names.len()), (1, 2));
+        assert_eq!(
+            read(&bytes, "t", None).err().unwrap(),
+            "no variable named \"t\"; the closest: \"y\", \"z\", \"Time\""
+        );
+    }
+}
