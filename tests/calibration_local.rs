@@ -99,7 +99,7 @@ fn inconsistent_jobs_name_the_field() {
         ("name = \"k\"", "name = \"resourceFactor\"", "parameters[0].name: resourceFactor may not be set"),
         ("name = \"k\"", "name = \"power\"", "only Real parameters"),
         ("upper = 5.0", "upper = 500.0", "parameters[0].upper: 500 is above k's maximum 100"),
-        ("column = \"x\"", "column = \"y\"", "data.columns[y]: no such column"),
+        ("column = \"x\"", "column = \"y\"", "outputs[0].column: no column \"y\" in the data; the closest: \"x\""),
         ("variable = \"x\"", "variable = \"nope\"", "outputs[0].variable: unknown variable"),
     ];
     for (from, to, want) in cases {

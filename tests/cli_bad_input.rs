@@ -255,7 +255,7 @@ fn bad_experiments_name_their_field() {
         (
             "data = { path = \"steps.csv\" }",
             "data = { path = \"steps.csv\" }\noutputs = [{ variable = \"armJoint.phi\", column = \"arm\" }]",
-            &["experiments[1].data.columns[arm]: no such column"],
+            &["experiments[1].outputs[0].column: no column \"arm\" in the data; the closest: "],
         ),
         ("name = \"steps\"", "name = \"sine\"", &["experiments[1].name", "appears twice"]),
         ("lower = -1.5", "lower = -1.5\nscale = \"log\"", &["parameters[2].lower", "positive lower bound"]),

@@ -165,10 +165,25 @@ pub fn main() -> ExitCode {
         Err(e) => {
             // What the error quotes may come from a job file: bounded and escaped as a whole
             // too, so a long or hostile value the message did not quote itself stays harmless.
-            let mut line = fmucal_shared::quote::escape_user_text(
-                &format!("{e:#}").replace('\n', " "),
-                fmucal_shared::quote::MAX_ERROR_LINE_CHARS,
-            );
+            // A TOML syntax error keeps the parser's layout (its line, a caret under the
+            // column): each line escaped, as bounded as the one line of any other error.
+            let toml = e.chain().any(|c| {
+                matches!(c.downcast_ref::<fmucal_shared::job::JobError>(),
+                    Some(fmucal_shared::job::JobError::Invalid { field, .. }) if field == "toml")
+            });
+            let text = format!("{e:#}");
+            let mut line = if toml {
+                text.lines()
+                    .take(8)
+                    .map(|l| fmucal_shared::quote::escape_user_text(l, fmucal_shared::quote::MAX_ERROR_LINE_CHARS / 8))
+                    .collect::<Vec<_>>()
+                    .join("\n")
+            } else {
+                fmucal_shared::quote::escape_user_text(
+                    &text.replace('\n', " "),
+                    fmucal_shared::quote::MAX_ERROR_LINE_CHARS,
+                )
+            };
             if let Some(hint) = protocol_hint(&line) {
                 line.push_str(hint);
             }

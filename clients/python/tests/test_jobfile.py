@@ -91,7 +91,8 @@ def test_a_bad_job_file_names_the_field(tmp_path: Path, edit: tuple[str, str], f
     [
         ("time,y\n0,1\n1,x\n", 'line 3: column "y": "x" is not a number'),
         ("time,y\n0,1\n1,1_000\n", 'line 3: column "y": "1_000" is not a number'),
-        ("t,y\n0,1\n", 'line 1: no column named "time"'),
+        ("t,y\n0,1\n", 'line 1: no column named "time"; the closest: "t", "y"'),
+        ("Time;TIME\n0;1\n", 'line 1: no column named "time"; did you mean "Time" or "TIME"?'),
         ("time,y,y\n0,1,1\n", 'line 1: column "y" appears twice'),
         ("time,y,z\n0,1,1\n1,1\n", 'line 3: 2 cells for 3 columns, column "z" is missing'),
         ("time,y\n", "no data rows"),
@@ -175,3 +176,27 @@ def test_mat_files_need_scipy_and_say_so(monkeypatch: pytest.MonkeyPatch) -> Non
     with pytest.raises(JobFileError) as caught:
         read_table(mat, "time")
     assert caught.value.field == "data" and "needs SciPy" in caught.value.message
+
+
+DATA = Path(__file__).resolve().parents[3] / "tests" / "data"
+
+
+def test_csv_separators_decimal_commas_and_a_time_column_in_another_case() -> None:
+    comma = read_table(DATA / "decay_Time.csv", "time")
+    assert len(comma.time) == 21 and [n for n, _ in comma.columns] == ["x"]
+    for name in ("decay_semicolon.csv", "decay_tab.csv"):
+        assert read_table(DATA / name, "time") == comma, name
+
+
+def test_v4_result_files_read_as_the_cli_reads_them() -> None:
+    pytest.importorskip("scipy")
+    for name in ("decay_dymola.mat", "decay_om.mat", "decay_normal.mat"):
+        table = read_table(DATA / name, "time")
+        assert [n for n, _ in table.columns] == ["k", "x", "der(x)", "xAlias", "minusX", "kAlias"], name
+        values = dict(table.columns)
+        assert table.time[0] == 0.0 and len(table.time) == 21
+        assert values["x"][0] == 1.0 and values["xAlias"] == values["x"], name
+        assert values["minusX"] == [-v for v in values["x"]], name
+        assert values["kAlias"] == [-v for v in values["k"]] and abs(values["k"][5] - 1.7) < 1e-6, name
+    om = dict(read_table(DATA / "decay_om.mat", "time").columns)
+    assert om["x"][1] == math.exp(-1.7 * 0.1)

@@ -111,7 +111,7 @@ def mutated(edit: str) -> dict[str, Any]:
         ("bad bound", "parameters[0].lower", '"armFriction": lower 0.5 is above upper 0.022'),
         ("misspelled parameter", "parameters[1].name", 'unknown variable "pendulumFricton"'),
         ("unknown output", "outputs[1].variable", 'unknown variable "pendulumJoint.ph"'),
-        ("unknown column", "data.columns[psi]", "no such column"),
+        ("unknown column", "outputs[0].column", 'no column "psi" in the data; the closest: "phi"'),
         ("bad tolerance", "simulation.tolerance", "is not in [1e-14, 1)"),
     ],
 )

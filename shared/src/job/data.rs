@@ -1,6 +1,8 @@
 //! Measurement data: a [`TimeSeries`] whose NaN values are missing measurements, read by
-//! [`crate::series::read`] from CSV (empty or `NaN` cells are missing, the time column may
-//! stand anywhere) or from a MATLAB v5 `.mat` file, and the checks a job makes of it.
+//! [`crate::series::read`] from CSV (`,`, `;` or tab separated; empty or `NaN` cells are
+//! missing, the time column may stand anywhere and be named in any case when only one column
+//! is) or from a MATLAB `.mat` file (v5, or v4 as Dymola and OpenModelica write results, whose
+//! variables are columns by name), and the checks a job makes of it.
 
 use std::path::Path;
 
@@ -19,8 +21,21 @@ impl TimeSeries {
     /// # Errors
     /// [`JobError::Read`] for unreadable files, a missing time column or non-numeric cells.
     pub fn read(path: &Path, time_column: &str) -> Result<Self, JobError> {
+        Self::read_selected(path, time_column, None).map(|s| s.table)
+    }
+
+    /// As [`Self::read`], keeping of a MATLAB v4 result file only the variables in `wanted`
+    /// ([`series::read_selected`]), and giving the name of every column of the file.
+    ///
+    /// # Errors
+    /// As [`Self::read`].
+    pub fn read_selected(
+        path: &Path,
+        time_column: &str,
+        wanted: Option<&[&str]>,
+    ) -> Result<series::Selected, JobError> {
         let layout = Layout { time: TimeColumn::Named(time_column), missing: Missing::Allowed };
-        series::read_capped(path, &layout, super::limits::MAX_DATA_FILE_BYTES).map_err(read_error)
+        series::read_selected(path, &layout, super::limits::MAX_DATA_FILE_BYTES, wanted).map_err(read_error)
     }
 
     /// Checks the time column and the named columns: no more than the caps
@@ -71,26 +86,76 @@ impl TimeSeries {
 /// `data.path` when it is not a regular file or is over [`super::limits::MAX_DATA_FILE_BYTES`];
 /// else as [`TimeSeries::read`].
 pub fn read_all(spec: &super::JobSpec) -> Result<Vec<MeasurementTable>, JobError> {
-    let mut read: Vec<(std::path::PathBuf, String, MeasurementTable)> = vec![];
+    type Key = (std::path::PathBuf, String, Vec<String>);
+    let mut read: Vec<(Key, series::Selected)> = vec![];
     let mut out = vec![];
     for view in spec.experiment_views() {
         let d = &view.spec.data;
         let path = d.path.clone().ok_or_else(|| {
             JobError::invalid(format!("{}data", view.field_prefix), "give the path of the measurements")
         })?;
-        let table = match read.iter().find(|(p, c, _)| *p == path && *c == d.time_column) {
-            Some((_, _, t)) => t.clone(),
+        // Only a `.mat` file is read in part (a v4 result file): other files are read once
+        // whatever their experiments use.
+        let mat = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("mat"));
+        let mut wanted: Vec<String> =
+            if mat { used_columns(&view.spec).map(|(_, c)| c.to_owned()).collect() } else { vec![] };
+        wanted.sort_unstable();
+        wanted.dedup();
+        let key = (path, d.time_column.clone(), wanted);
+        let selected = match read.iter().find(|(k, _)| *k == key) {
+            Some((_, s)) => s.clone(),
             None => {
                 let field = format!("{}data.path", view.field_prefix);
-                super::limits::check_regular_file(&field, &path, super::limits::MAX_DATA_FILE_BYTES)?;
-                let t = MeasurementTable::read(&path, &d.time_column)?;
-                read.push((path, d.time_column.clone(), t.clone()));
-                t
+                super::limits::check_regular_file(&field, &key.0, super::limits::MAX_DATA_FILE_BYTES)?;
+                let wanted: Vec<&str> = key.2.iter().map(String::as_str).collect();
+                let s = MeasurementTable::read_selected(&key.0, &key.1, mat.then_some(&wanted[..]))?;
+                read.push((key, s.clone()));
+                s
             }
         };
-        out.push(table);
+        check_columns(&view.spec, &view.field_prefix, selected.names.iter().map(String::as_str))?;
+        out.push(selected.table);
     }
     Ok(out)
+}
+
+/// The data columns `spec` maps, each with the field that names it (`outputs[K].column`,
+/// `inputs[K].column`).
+fn used_columns(spec: &super::JobSpec) -> impl Iterator<Item = (String, &str)> {
+    let outputs = spec.outputs.iter().enumerate().map(|(k, o)| (format!("outputs[{k}].column"), o.column.as_str()));
+    let inputs = spec.inputs.iter().enumerate().map(|(k, i)| (format!("inputs[{k}].column"), i.column.as_str()));
+    outputs.chain(inputs)
+}
+
+/// Checks that every column `spec` maps is among `names`, the data's columns.
+///
+/// # Errors
+/// [`JobError::Invalid`] naming the field (after `prefix`), the column, and the (at most five)
+/// columns of the data closest to it by edit distance.
+pub fn check_columns<'a>(
+    spec: &super::JobSpec,
+    prefix: &str,
+    names: impl IntoIterator<Item = &'a str>,
+) -> Result<(), JobError> {
+    let names: Vec<&str> = names.into_iter().collect();
+    let present: std::collections::HashSet<&str> = names.iter().copied().collect();
+    for (field, column) in used_columns(spec) {
+        if present.contains(column) {
+            continue;
+        }
+        let near: Vec<String> =
+            series::closest(column, names.iter().copied(), 5).into_iter().map(quote_user_text).collect();
+        let hint = if near.is_empty() {
+            "; the data hold no column but time".to_owned()
+        } else {
+            format!("; the closest: {}", near.join(", "))
+        };
+        return Err(JobError::invalid(
+            format!("{prefix}{field}"),
+            format!("no column {} in the data{hint}", quote_user_text(column)),
+        ));
+    }
+    Ok(())
 }
 
 /// A reader's error as the job reports it: `cannot read PATH: line N: ...`.
@@ -127,7 +192,10 @@ mod tests {
         let e = MeasurementTable::read(&p, "time").unwrap_err().to_string();
         assert_eq!(e, format!("cannot read {}: line 3: column \"y\": \"x\" is not a number", p.display()));
         let e = MeasurementTable::read(&p, "t").unwrap_err().to_string();
-        assert_eq!(e, format!("cannot read {}: line 1: no column named \"t\"", p.display()));
+        assert_eq!(
+            e,
+            format!("cannot read {}: line 1: no column named \"t\"; the closest: \"y\", \"time\"", p.display())
+        );
     }
 
     #[test]

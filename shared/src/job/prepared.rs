@@ -252,6 +252,7 @@ impl PreparedExperiment {
         let md = cx.md;
         let mut used: Vec<&str> = spec.outputs.iter().map(|o| o.column.as_str()).collect();
         used.extend(spec.inputs.iter().map(|i| i.column.as_str()));
+        super::data::check_columns(spec, "", data.columns.iter().map(|(n, _)| n.as_str()))?;
         data.validate_measurements(&used)?;
 
         for (k, p) in spec.parameters.iter().enumerate() {

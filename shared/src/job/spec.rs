@@ -412,14 +412,59 @@ pub struct WorkersSpec {
     pub count: Option<usize>,
 }
 
+/// Characters of the quoted line a TOML error shows around the column at fault.
+const TOML_QUOTE_CHARS: usize = 80;
+
+/// A TOML parse error in the parser's layout, bounded: where, the one line at fault (escaped,
+/// cut to [`TOML_QUOTE_CHARS`] characters around the column) with a caret under the column,
+/// and what is wrong (itself one line, bounded).
+///
+/// ```text
+/// TOML parse error at line 3, column 9
+///   |
+/// 3 | bogus = "yyy
+///   |         ^
+/// invalid basic string
+/// ```
+pub fn toml_error(e: &toml::de::Error, text: &str) -> String {
+    use crate::quote::{MAX_QUOTED_CHARS, escape_user_text};
+    let message = escape_user_text(e.message().trim(), MAX_QUOTED_CHARS);
+    let Some(span) = e.span() else { return format!("TOML parse error\n{message}") };
+    let at = span.start.min(text.len());
+    let at = (0..=at).rev().find(|&i| text.is_char_boundary(i)).unwrap_or(0);
+    let line_start = text[..at].rfind('\n').map_or(0, |i| i + 1);
+    let line_end = text[at..].find('\n').map_or(text.len(), |i| at + i);
+    let line_number = text[..line_start].matches('\n').count() + 1;
+    let line = text[line_start..line_end].trim_end_matches('\r');
+    let column = text[line_start..at].chars().count();
+    // A window of the line around the column, escaped piece by piece so the caret stays under it.
+    let chars: Vec<char> = line.chars().collect();
+    let from = column.saturating_sub(TOML_QUOTE_CHARS / 2).min(chars.len());
+    let to = (from + TOML_QUOTE_CHARS).min(chars.len());
+    let piece = |a: usize, b: usize| {
+        let s: String = chars[a.min(b)..b].iter().collect();
+        escape_user_text(&s, TOML_QUOTE_CHARS * 10)
+    };
+    let lead = if from > 0 { "…" } else { "" };
+    let tail = if to < chars.len() { "…" } else { "" };
+    let before = format!("{lead}{}", piece(from, column.min(to)));
+    let quoted = format!("{before}{}{tail}", piece(column.min(to), to));
+    let gutter = " ".repeat(line_number.to_string().len());
+    let caret = " ".repeat(before.chars().count());
+    format!(
+        "TOML parse error at line {line_number}, column {}\n{gutter} |\n{line_number} | {quoted}\n{gutter} | {caret}^\n{message}",
+        column + 1
+    )
+}
+
 impl JobSpec {
     /// Parses TOML text; relative paths are resolved against `base_dir`.
     ///
     /// # Errors
-    /// [`JobError::Invalid`] with field `toml` and the parser's message (which gives the line).
+    /// [`JobError::Invalid`] with field `toml` and the parser's message in its layout
+    /// ([`toml_error`]): several lines, quoting one line of `text` at most.
     pub fn from_toml(text: &str, base_dir: &Path) -> Result<JobSpec, JobError> {
-        let mut spec: JobSpec =
-            toml::from_str(text).map_err(|e| JobError::invalid("toml", e.to_string().trim().replace('\n', " ")))?;
+        let mut spec: JobSpec = toml::from_str(text).map_err(|e| JobError::invalid("toml", toml_error(&e, text)))?;
         for value in spec.simulation.set.values_mut() {
             if let SetValue::Text(t) = value {
                 *value = SetValue::from_text(std::mem::take(t));
@@ -848,5 +893,24 @@ upper = 2.0
             let e = JobSpec::from_toml(&JOB.replace(from, to), Path::new(".")).unwrap_err().to_string();
             assert!(e.starts_with("toml: ") && e.contains("line") && e.contains(says), "{e}");
         }
+    }
+
+    #[test]
+    fn toml_errors_keep_the_parsers_layout_quoting_one_bounded_line() {
+        let e = JobSpec::from_toml("[model]\npath = \"m.fmu\"\nbogus = = 1\n", Path::new(".")).unwrap_err().to_string();
+        let lines: Vec<&str> = e.lines().collect();
+        assert_eq!(
+            lines[..4],
+            ["toml: TOML parse error at line 3, column 9", "  |", "3 | bogus = = 1", "  |         ^"],
+            "{e}"
+        );
+        assert_eq!(lines.len(), 5, "{e}");
+        let long = format!("x = 1\ny = \"{}\u{202e}\" = 1\n", "y".repeat(10_000));
+        let e = JobSpec::from_toml(&long, Path::new(".")).unwrap_err().to_string();
+        let lines: Vec<&str> = e.lines().collect();
+        assert!(lines.len() == 5 && e.len() < 500 && !e.contains('\u{202e}'), "{e}");
+        let caret = lines[3].chars().position(|c| c == '^').unwrap();
+        assert_eq!(lines[2].chars().nth(caret), Some('='), "{e}");
+        assert!(lines[2].starts_with("2 | …yyy") && lines[2].contains("\\u{202e}"), "{e}");
     }
 }

@@ -5,11 +5,13 @@
 //! inputs, [`crate::job::data`] checks measurements (where NaN marks a missing value).
 //! [`write_csv`] writes a table that reads back exactly.
 
+mod mat4;
 mod read;
 mod write;
 
 pub use read::{
-    Layout, MAX_FILE_BYTES, Missing, SeriesError, TimeColumn, read, read_capped, read_csv, read_csv_capped, read_mat,
+    Layout, MAX_FILE_BYTES, Missing, Selected, SeriesError, TimeColumn, read, read_capped, read_csv, read_csv_capped,
+    read_mat, read_selected,
 };
 pub use write::write_csv;
 
@@ -30,6 +32,33 @@ pub enum TimeFault {
     NotFinite { row: usize },
     #[error("not monotonic: row {row} has t={t} after t={previous}")]
     Decreasing { row: usize, t: f64, previous: f64 },
+}
+
+/// Up to `n` of `names` closest to `name` by edit distance (case-insensitive, over at most the
+/// first 64 characters of each), closest first, ties in their order: the hint of an error that
+/// names a column the data lack.
+pub fn closest<'a>(name: &str, names: impl IntoIterator<Item = &'a str>, n: usize) -> Vec<&'a str> {
+    let key = |s: &str| s.chars().take(64).flat_map(char::to_lowercase).collect::<Vec<char>>();
+    let target = key(name);
+    let mut scored: Vec<(usize, usize, &str)> =
+        names.into_iter().enumerate().map(|(i, c)| (edit_distance(&target, &key(c)), i, c)).collect();
+    scored.sort_unstable();
+    scored.into_iter().take(n).map(|(_, _, c)| c).collect()
+}
+
+/// The Levenshtein distance between `a` and `b`.
+fn edit_distance(a: &[char], b: &[char]) -> usize {
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.iter().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let next = (row[j + 1] + 1).min(row[j] + 1).min(diagonal + usize::from(ca != cb));
+            diagonal = row[j + 1];
+            row[j + 1] = next;
+        }
+    }
+    row[b.len()]
 }
 
 /// The first name that appears twice among `names`: a file's header or a table's columns,

@@ -1,7 +1,13 @@
-//! The one reader of time-series files: CSV with a header row, or MATLAB v5 `.mat` where every
-//! real numeric array is a column named after its variable (as the paper's `FurutaData.mat`
-//! with `time`, `phi` and `theta`). A [`Layout`] carries what differs between callers: where
-//! the time column stands, and whether an empty cell is a missing value or an error.
+//! The one reader of time-series files: CSV with a header row (separated by `,`, `;` or tab,
+//! whichever the header holds most of), MATLAB v5 `.mat` where every real numeric array is a
+//! column named after its variable (as the paper's `FurutaData.mat` with `time`, `phi` and
+//! `theta`), or MATLAB v4 `.mat`, a Modelica result file (Dymola's `dsres.mat`,
+//! OpenModelica's `_res.mat`: every variable a column, aliases included) or plain matrices
+//! ([`super::mat4`]). A [`Layout`] carries what differs between callers: where the time column
+//! stands, and whether an empty cell is a missing value or an error.
+//!
+//! The time column is found by its name; when no column has exactly that name but exactly one
+//! has it in another case (`Time` for `time`, as Dymola names it), that one is time.
 
 use std::path::{Path, PathBuf};
 
@@ -78,9 +84,39 @@ pub const MAX_FILE_BYTES: u64 = 4 << 30;
 /// As [`read`], and a [`SeriesError`] saying what the path is, or the cap when the file holds
 /// more.
 pub fn read_capped(path: &Path, layout: &Layout, max_bytes: u64) -> Result<TimeSeries, SeriesError> {
+    read_selected(path, layout, max_bytes, None).map(|s| s.table)
+}
+
+/// A table read by [`read_selected`] and the name of every column its file holds.
+#[derive(Debug, Clone)]
+pub struct Selected {
+    pub table: TimeSeries,
+    /// Every column of the file but time, those left out of `table` too.
+    pub names: Vec<String>,
+}
+
+/// As [`read_capped`], keeping of a MATLAB v4 file only the time and the variables named in
+/// `wanted` (a Modelica result file holds thousands; all of them would not fit the caps).
+/// Other formats keep every column.
+///
+/// # Errors
+/// As [`read_capped`].
+pub fn read_selected(
+    path: &Path,
+    layout: &Layout,
+    max_bytes: u64,
+    wanted: Option<&[&str]>,
+) -> Result<Selected, SeriesError> {
     let capped = open_capped(path, max_bytes)?;
     let mat = path.extension().and_then(|e| e.to_str()).is_some_and(|ext| ext.eq_ignore_ascii_case("mat"));
-    let result = if mat { mat_from(path, capped, layout.time.name()) } else { csv_from(path, capped, layout) };
+    let result = if mat {
+        mat_from(path, capped, layout.time.name(), wanted)
+    } else {
+        csv_from(path, capped, layout).map(|table| {
+            let names = table.columns.iter().map(|(n, _)| n.clone()).collect();
+            Selected { table, names }
+        })
+    };
     result.map_err(|e| said_cap(path, e, max_bytes))
 }
 
@@ -149,9 +185,40 @@ pub fn read_csv(path: &Path, layout: &Layout) -> Result<TimeSeries, SeriesError>
     csv_from(path, file, layout)
 }
 
+/// The delimiter of a CSV file whose first line is `header`: `,`, `;` or tab, whichever it
+/// holds most of outside quotes (`,` when it holds none, a one-column file).
+fn delimiter(header: &[u8]) -> u8 {
+    let mut counts = [0usize; 3];
+    let mut quoted = false;
+    for &b in header {
+        match b {
+            b'"' => quoted = !quoted,
+            b',' if !quoted => counts[0] += 1,
+            b';' if !quoted => counts[1] += 1,
+            b'\t' if !quoted => counts[2] += 1,
+            _ => {}
+        }
+    }
+    let best = (0..3).max_by_key(|&i| (counts[i], std::cmp::Reverse(i))).unwrap_or(0);
+    if counts[best] == 0 { b',' } else { [b',', b';', b'\t'][best] }
+}
+
+/// Bytes of the first line [`csv_from`] looks at for the delimiter.
+const MAX_HEADER_PEEK: u64 = 1 << 20;
+
 /// [`read_csv`] from an open reader of `path`.
 fn csv_from(path: &Path, source: impl std::io::Read, layout: &Layout) -> Result<TimeSeries, SeriesError> {
-    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).flexible(true).from_reader(source);
+    use std::io::{BufRead, Read};
+    let mut source = std::io::BufReader::new(source);
+    let mut first = vec![];
+    (&mut source)
+        .take(MAX_HEADER_PEEK)
+        .read_until(b'\n', &mut first)
+        .map_err(|e| SeriesError::new(path, None, e.to_string()))?;
+    let separator = delimiter(&first);
+    let source = std::io::Cursor::new(first).chain(source);
+    let mut reader =
+        csv::ReaderBuilder::new().delimiter(separator).trim(csv::Trim::All).flexible(true).from_reader(source);
     let header_err = |message: String| SeriesError::new(path, Some(1), message);
     let headers: Vec<String> =
         reader.headers().map_err(|e| header_err(e.to_string()))?.iter().map(str::to_owned).collect();
@@ -172,7 +239,7 @@ fn csv_from(path: &Path, source: impl std::io::Read, layout: &Layout) -> Result<
             return Err(err(format!("{} cells for {} columns{missing}", record.len(), headers.len())));
         }
         for ((cell, name), column) in record.iter().zip(&headers).zip(&mut values) {
-            let v = parse_cell(cell, layout.missing).ok_or_else(|| {
+            let v = parse_cell(cell, layout.missing, separator != b',').ok_or_else(|| {
                 err(format!("column {}: {} is not a number", quote_user_text(name), quote_user_text(cell)))
             })?;
             column.push(v);
@@ -190,16 +257,53 @@ fn csv_from(path: &Path, source: impl std::io::Read, layout: &Layout) -> Result<
 fn time_index(headers: &[String], time: TimeColumn) -> Result<usize, String> {
     match time {
         TimeColumn::First(name) if headers.first().is_some_and(|h| h == name) => Ok(0),
+        TimeColumn::First(name)
+            if headers.first().is_some_and(|h| h.eq_ignore_ascii_case(name)) && !headers.iter().any(|h| h == name) =>
+        {
+            Ok(0)
+        }
         TimeColumn::First(name) => Err(format!("the first column must be named {}", quote_user_text(name))),
-        TimeColumn::Named(name) => {
-            headers.iter().position(|h| h == name).ok_or_else(|| format!("no column named {}", quote_user_text(name)))
+        TimeColumn::Named(name) => find_time(headers, name),
+    }
+}
+
+/// The position of the column named `name` among `names`: the one of that name, else the one
+/// whose name differs from it in case only when exactly one does (`Time` for `time`).
+///
+/// # Errors
+/// `no column named "NAME"`, with a hint at the columns that differ only in case if several
+/// do.
+pub(super) fn find_time(names: &[String], name: &str) -> Result<usize, String> {
+    if let Some(i) = names.iter().position(|h| h == name) {
+        return Ok(i);
+    }
+    let alike: Vec<usize> = (0..names.len()).filter(|&i| names[i].eq_ignore_ascii_case(name)).collect();
+    match alike[..] {
+        [i] => Ok(i),
+        [] => {
+            let near: Vec<String> =
+                super::closest(name, names.iter().map(String::as_str), 5).into_iter().map(quote_user_text).collect();
+            let hint = if near.is_empty() { String::new() } else { format!("; the closest: {}", near.join(", ")) };
+            Err(format!("no column named {}{hint}", quote_user_text(name)))
+        }
+        _ => {
+            let listed: Vec<String> = alike.iter().take(5).map(|&i| quote_user_text(&names[i])).collect();
+            Err(format!("no column named {}; did you mean {}?", quote_user_text(name), listed.join(" or ")))
         }
     }
 }
 
-/// A cell's number; an empty cell is NaN if missing values are allowed.
-fn parse_cell(cell: &str, missing: Missing) -> Option<f64> {
-    if cell.is_empty() && missing == Missing::Allowed { Some(f64::NAN) } else { cell.parse().ok() }
+/// A cell's number; an empty cell is NaN if missing values are allowed. In a file not
+/// separated by commas a decimal comma is read too (`1,5` as 1.5, as spreadsheets write with
+/// `;`).
+fn parse_cell(cell: &str, missing: Missing, decimal_comma: bool) -> Option<f64> {
+    if cell.is_empty() && missing == Missing::Allowed {
+        return Some(f64::NAN);
+    }
+    cell.parse().ok().or_else(|| {
+        let once = decimal_comma && cell.matches(',').count() == 1 && !cell.contains('.');
+        if once { cell.replace(',', ".").parse().ok() } else { None }
+    })
 }
 
 /// Where a MATLAB v5 file's top-level data elements run past its end (or its 128-byte header
@@ -243,36 +347,54 @@ fn mat_truncated_at(bytes: &[u8]) -> Option<usize> {
 /// numeric, or empty.
 pub fn read_mat(path: &Path, time_column: &str) -> Result<TimeSeries, SeriesError> {
     let file = std::fs::File::open(path).map_err(|e| SeriesError::new(path, None, e.to_string()))?;
-    mat_from(path, file, time_column)
+    mat_from(path, file, time_column, None).map(|s| s.table)
 }
 
-/// [`read_mat`] from an open reader of `path`.
-fn mat_from(path: &Path, mut source: impl std::io::Read, time_column: &str) -> Result<TimeSeries, SeriesError> {
+/// [`read_mat`] from an open reader of `path`, a v4 file's columns limited to `wanted`.
+fn mat_from(
+    path: &Path,
+    mut source: impl std::io::Read,
+    time_column: &str,
+    wanted: Option<&[&str]>,
+) -> Result<Selected, SeriesError> {
     let err = |message: String| SeriesError::new(path, None, message);
     // Read once (the reader carries the size cap), then checked and parsed from memory.
     let mut bytes = vec![];
     source.read_to_end(&mut bytes).map_err(|e| err(e.to_string()))?;
-    let mat = matfile::MatFile::parse(bytes.as_slice()).map_err(|e| err(format!("not a MATLAB v5 file: {e:?}")))?;
+    let v5 = bytes.starts_with(b"MATLAB") || bytes.get(126..128).is_some_and(|m| m == b"IM" || m == b"MI");
+    if !v5 {
+        if !super::mat4::looks_like_v4(&bytes) {
+            return Err(err("neither a MATLAB v4 nor a v5 file".into()));
+        }
+        let r = super::mat4::read(&bytes, time_column, wanted).map_err(err)?;
+        if r.time.is_empty() {
+            return Err(err("no data rows".into()));
+        }
+        return Ok(Selected { table: TimeSeries { time: r.time, columns: r.columns }, names: r.names });
+    }
+    let mat = matfile::MatFile::parse(bytes.as_slice())
+        .map_err(|_| err("not a MATLAB v5 file: its structure does not parse".into()))?;
     // A file cut short reads as one with fewer variables (or none): say so rather than name
     // a missing one, or silently lose some.
     if let Some(at) = mat_truncated_at(&bytes) {
         return Err(err(format!("truncated or invalid MATLAB v5 file: a data element runs past its end at byte {at}")));
     }
-    let time_array = mat
-        .find_by_name(time_column)
-        .ok_or_else(|| err(format!("no variable named {}", quote_user_text(time_column))))?;
-    let time = real_values(time_array)
-        .ok_or_else(|| err(format!("{} is not a real numeric array", quote_user_text(time_column))))?;
+    let all: Vec<String> = mat.arrays().iter().map(|a| a.name().to_owned()).collect();
+    let t = find_time(&all, time_column).map_err(|e| err(e.replace("column", "variable")))?;
+    let time_name = all[t].as_str();
+    let time = real_values(&mat.arrays()[t])
+        .ok_or_else(|| err(format!("{} is not a real numeric array", quote_user_text(time_name))))?;
     if time.is_empty() {
         return Err(err("no data rows".into()));
     }
-    let columns = mat
+    let columns: Vec<(String, Vec<f64>)> = mat
         .arrays()
         .iter()
-        .filter(|a| a.name() != time_column)
+        .filter(|a| a.name() != time_name)
         .filter_map(|a| real_values(a).map(|v| (a.name().to_owned(), v)))
         .collect();
-    Ok(TimeSeries { time, columns })
+    let names = columns.iter().map(|(n, _)| n.clone()).collect();
+    Ok(Selected { table: TimeSeries { time, columns }, names })
 }
 
 /// The values of a real double, single, int32 or int64 array, in storage order.
@@ -335,7 +457,14 @@ mod tests {
         assert_eq!(fault(read_csv(&p, &INPUTS)), (Some(1), "the first column must be named \"time\"".into()));
         assert_eq!(read_csv(&p, &MEASUREMENTS).unwrap().time, [0.0]);
         let named_t = Layout { time: TimeColumn::Named("t"), ..MEASUREMENTS };
-        assert_eq!(fault(read_csv(&p, &named_t)), (Some(1), "no column named \"t\"".into()));
+        assert_eq!(
+            fault(read_csv(&p, &named_t)),
+            (Some(1), "no column named \"t\"; the closest: \"u\", \"time\"".into())
+        );
+        // `Time` is time when no column is named `time` and no other differs from it in case only.
+        let p = file(&dir, "upper.csv", "Time,u\n0,1\n");
+        assert_eq!(read_csv(&p, &INPUTS).unwrap().time, [0.0]);
+        assert_eq!(read_csv(&p, &MEASUREMENTS).unwrap().columns[0].0, "u");
     }
 
     #[test]
@@ -378,6 +507,28 @@ mod tests {
         }
         let e = read_csv(&dir.path().join("absent.csv"), &INPUTS).unwrap_err();
         assert_eq!(e.line, None);
+    }
+
+    #[test]
+    fn the_delimiter_is_the_commonest_of_comma_semicolon_and_tab_in_the_header() {
+        assert_eq!(delimiter(b"time,y\n"), b',');
+        assert_eq!(delimiter(b"time;y;z\n"), b';');
+        assert_eq!(delimiter(b"time\ty\n"), b'\t');
+        assert_eq!(delimiter(b"\"a,b\";y\n"), b';');
+        assert_eq!(delimiter(b"time\n"), b',');
+        let dir = tempfile::tempdir().unwrap();
+        let p = file(&dir, "d.csv", "time;y\n0;1,5\n1;2.5\n");
+        assert_eq!(read_csv(&p, &MEASUREMENTS).unwrap().column("y").unwrap(), [1.5, 2.5]);
+        // Decimal commas only where commas do not separate.
+        let p = file(&dir, "c.csv", "time,y\n0,\"1,5\"\n");
+        assert_eq!(fault(read_csv(&p, &MEASUREMENTS)), (Some(2), "column \"y\": \"1,5\" is not a number".into()));
+    }
+
+    #[test]
+    fn closest_names_by_edit_distance() {
+        assert_eq!(super::super::closest("phii", ["theta", "phi", "Phi_d", "time"], 2), ["phi", "Phi_d"]);
+        assert_eq!(super::super::closest("x", ["a", "b", "c", "d", "e", "f"], 5).len(), 5);
+        assert!(super::super::closest("x", [], 5).is_empty());
     }
 
     /// One little-endian MATLAB v5 data element, padded to 8 bytes.
@@ -432,11 +583,14 @@ mod tests {
         assert_eq!(t.column("n").unwrap(), [4.0, 5.0, 6.0]);
 
         let named_t = Layout { time: TimeColumn::Named("t"), ..MEASUREMENTS };
-        assert_eq!(fault(read(&p, &named_t)), (None, "no variable named \"t\"".into()));
+        assert_eq!(
+            fault(read(&p, &named_t)),
+            (None, "no variable named \"t\"; the closest: \"n\", \"z\", \"phi\", \"time\"".into())
+        );
         let as_time = Layout { time: TimeColumn::Named("z"), ..MEASUREMENTS };
         assert_eq!(fault(read(&p, &as_time)), (None, "\"z\" is not a real numeric array".into()));
         let p = file(&dir, "text.mat", "time,y\n0,1\n");
-        assert!(fault(read(&p, &MEASUREMENTS)).1.starts_with("not a MATLAB v5 file"));
+        assert_eq!(fault(read(&p, &MEASUREMENTS)).1, "neither a MATLAB v4 nor a v5 file");
     }
 
     #[test]

@@ -1,12 +1,20 @@
 """Measurement tables read as the CLI reads them, to send with a job.
 
-- CSV: a header row, the time column anywhere (named by ``time_column``), cells trimmed, an
+- CSV: a header row, separated by ``,``, ``;`` or tab (whichever the header holds most of
+  outside quotes), the time column anywhere (named by ``time_column``), cells trimmed, an
   empty cell a missing value (NaN), numbers in Rust's syntax (``1e-3``, ``.5``, ``inf``,
-  ``NaN``; no ``1_000``), blank lines skipped.
+  ``NaN``; no ``1_000``; a decimal comma where commas do not separate), blank lines skipped.
 - MATLAB v5 ``.mat`` (any case of the extension): the variable ``time_column`` is the time and
   every other real double, single, int32 or int64 array is a column, in the file's order and
   its storage (column-major) order; other arrays (complex, character, logical, structs, other
   integer classes) are left out. Read with SciPy (``pip install scipy``).
+- MATLAB v4 ``.mat``: a Modelica result file as Dymola (``dsres.mat``) and OpenModelica
+  (``_res.mat``) write it, every variable of ``name`` a column, resolved through ``dataInfo``
+  (parameters of ``data_1`` repeated at every time, aliases and negated aliases); a v4 file
+  without ``Aclass`` is read as a v5 one is. Read with SciPy.
+
+The time column is ``time_column``, or, when no column has that name and exactly one has it
+in another case (Dymola's ``Time``), that one.
 
 Errors name the field where the file was given (``data`` or ``experiments[K].data``) and, for
 CSV, the line, with the CLI's wording.
@@ -85,11 +93,59 @@ def read_table(path: Path, time_column: str, field: str = "data") -> Table:
         raise JobFileError(field, f"cannot read {path}: {e}") from None
 
 
-def _cell(text: str) -> float | None:
+def _cell(text: str, decimal_comma: bool = False) -> float | None:
     """A cell's number; empty is NaN (missing); ``None`` if it is not a number."""
     if text == "":
         return math.nan
-    return float(text) if _NUMBER.fullmatch(text) else None
+    if _NUMBER.fullmatch(text):
+        return float(text)
+    if decimal_comma and text.count(",") == 1 and "." not in text and _NUMBER.fullmatch(text.replace(",", ".")):
+        return float(text.replace(",", "."))
+    return None
+
+
+def _delimiter(header: str) -> str:
+    """``,``, ``;`` or tab: whichever ``header`` holds most of outside quotes (``,`` if none)."""
+    counts = {",": 0, ";": 0, "\t": 0}
+    quoted = False
+    for c in header:
+        if c == '"':
+            quoted = not quoted
+        elif c in counts and not quoted:
+            counts[c] += 1
+    best = max(counts, key=lambda c: counts[c])  # ties: the first, as the CLI
+    return best if counts[best] else ","
+
+
+def _edit_distance(a: str, b: str) -> int:
+    row = list(range(len(b) + 1))
+    for i, ca in enumerate(a):
+        diagonal, row[0] = row[0], i + 1
+        for j, cb in enumerate(b):
+            diagonal, row[j + 1] = row[j + 1], min(row[j + 1] + 1, row[j] + 1, diagonal + (ca != cb))
+    return row[len(b)]
+
+
+def closest(name: str, names: list[str], n: int = 5) -> list[str]:
+    """Up to ``n`` of ``names`` closest to ``name`` by edit distance (case-insensitive, over the
+    first 64 characters), ties in their order: as the CLI's hints."""
+    key = name[:64].lower()
+    return [c for _, _, c in sorted((_edit_distance(key, c[:64].lower()), i, c) for i, c in enumerate(names))][:n]
+
+
+def _find_time(names: list[str], time_column: str, what: str = "column") -> int:
+    """The position of the time column among ``names`` (see the module docs)."""
+    if time_column in names:
+        return names.index(time_column)
+    alike = [i for i, h in enumerate(names) if h.lower() == time_column.lower()]
+    if len(alike) == 1:
+        return alike[0]
+    if alike:
+        hint = f"; did you mean {' or '.join(quote(names[i]) for i in alike[:5])}?"
+    else:
+        near = closest(time_column, names)
+        hint = f"; the closest: {', '.join(quote(c) for c in near)}" if near else ""
+    raise _ReadError(f"no {what} named {quote(time_column)}{hint}", 1 if what == "column" else None)
 
 
 def read_csv(path: Path, time_column: str) -> Table:
@@ -97,12 +153,13 @@ def read_csv(path: Path, time_column: str) -> Table:
     try:
         # utf-8-sig: a byte-order mark (as Excel writes) is skipped, as the CLI's reader does.
         with path.open(newline="", encoding="utf-8-sig") as f:
-            rows = [row for row in csv.reader(f) if row]
+            separator = _delimiter(f.readline())
+            f.seek(0)
+            rows = [row for row in csv.reader(f, delimiter=separator) if row]
     except (OSError, UnicodeDecodeError, csv.Error) as e:
         raise _ReadError(str(e)) from e
     headers = [h.strip(_SPACE) for h in rows[0]] if rows else []
-    if time_column not in headers:
-        raise _ReadError(f"no column named {quote(time_column)}", 1)
+    t = _find_time(headers, time_column)
     for i, h in enumerate(headers):
         if h in headers[:i]:
             raise _ReadError(f"column {quote(h)} appears twice", 1)
@@ -113,11 +170,10 @@ def read_csv(path: Path, time_column: str) -> Table:
             raise _ReadError(f"{len(row)} cells for {len(headers)} columns{missing}", line)
         for cell, name, column in zip(row, headers, values):
             text = cell.strip(_SPACE)
-            v = _cell(text)
+            v = _cell(text, separator != ",")
             if v is None:
                 raise _ReadError(f"column {quote(name)}: {quote(text)} is not a number", line)
             column.append(v)
-    t = headers.index(time_column)
     time = values.pop(t)
     if not time:
         raise _ReadError("no data rows")
@@ -133,23 +189,27 @@ def read_mat(path: Path, time_column: str) -> Table:
         raise _ReadError("reading MATLAB .mat files needs SciPy (pip install scipy), or give the data as CSV") from None
     try:
         major, _ = matlab.matfile_version(str(path))
+        if major == 0:
+            return _read_mat4(loadmat(str(path), chars_as_strings=False), time_column)
         if major != 1:
-            raise ValueError(f"version {'7.3 (HDF5)' if major == 2 else 4}")
+            raise ValueError("version 7.3 (HDF5)")
         arrays = loadmat(str(path), mat_dtype=True)
     except OSError as e:
         raise _ReadError(str(e)) from e
+    except _ReadError:
+        raise
     except Exception as e:  # SciPy raises several kinds for files it cannot parse.
-        raise _ReadError(f"not a MATLAB v5 file: {e}") from e
-    if time_column not in arrays:
-        raise _ReadError(f"no variable named {quote(time_column)}")
-    time = _real_values(arrays[time_column])
+        raise _ReadError(f"not a MATLAB v4 or v5 file: {e}") from e
+    names = [n for n in arrays if n not in ("__header__", "__version__", "__globals__")]
+    time_name = names[_find_time(names, time_column, "variable")]
+    time = _real_values(arrays[time_name])
     if time is None:
-        raise _ReadError(f"{quote(time_column)} is not a real numeric array")
+        raise _ReadError(f"{quote(time_name)} is not a real numeric array")
     if not time:
         raise _ReadError("no data rows")
     columns = []
     for name, array in arrays.items():
-        if name in ("__header__", "__version__", "__globals__") or name == time_column:
+        if name in ("__header__", "__version__", "__globals__") or name == time_name:
             continue
         values = _real_values(array)
         if values is not None:
@@ -163,3 +223,56 @@ def _real_values(array: object) -> list[float] | None:
     if dtype is None or dtype.name not in _REAL_KINDS:
         return None
     return [float(v) for v in array.ravel(order="F")]  # type: ignore[attr-defined]
+
+
+def _read_mat4(arrays: dict, time_column: str) -> Table:
+    """A MATLAB v4 file as SciPy reads it: a Modelica result file, or plain matrices."""
+    if "Aclass" not in arrays:
+        numeric = {k: v for k, v in arrays.items() if not k.startswith("__") and _real_values(v) is not None}
+        names = list(numeric)
+        time_name = names[_find_time(names, time_column, "variable")]
+        columns = [(n, _real_values(v) or []) for n, v in numeric.items() if n != time_name]
+        return Table(_real_values(numeric[time_name]) or [], columns)
+
+    def strings(a: object, transposed: bool) -> list[str]:
+        rows = a.T if transposed else a  # type: ignore[attr-defined]
+        return ["".join(r).rstrip(" \0") for r in rows]
+
+    aclass = strings(arrays["Aclass"], False)
+    if not aclass or aclass[0] != "Atrajectory":
+        raise _ReadError("not a Modelica result file: Aclass does not start with \"Atrajectory\"")
+    transposed = len(aclass) > 3 and aclass[3] == "binTrans"
+    for needed in ("name", "dataInfo", "data_2"):
+        if needed not in arrays:
+            raise _ReadError(f"invalid result file: no {needed} matrix")
+    fix = (lambda a: a.T) if transposed else (lambda a: a)
+    names = strings(arrays["name"], transposed)
+    info = fix(arrays["dataInfo"])
+    data_2 = fix(arrays["data_2"]).astype(float)
+    data_1 = fix(arrays["data_1"]).astype(float) if "data_1" in arrays else None
+    if info.shape[0] != len(names) or info.shape[1] < 2:
+        raise _ReadError(f"invalid result file: dataInfo is {info.shape[0]}×{info.shape[1]} for {len(names)} names")
+    times = data_2.shape[0]
+    if times == 0:
+        raise _ReadError("no data rows: data_2 holds no time points")
+
+    def values(j: int) -> list[float]:
+        block, index = int(info[j, 0]), int(info[j, 1])
+        matrix = data_1 if block == 1 else data_2 if block in (0, 2) else None
+        if matrix is None or not 1 <= abs(index) <= matrix.shape[1] or matrix.shape[0] == 0:
+            raise _ReadError(f"invalid result file: dataInfo of {quote(names[j])} points outside the data")
+        sign = -1.0 if index < 0 else 1.0
+        if block == 1:
+            return [sign * float(matrix[0, abs(index) - 1])] * times
+        return [sign * float(v) for v in matrix[:, abs(index) - 1]]
+
+    t = _find_time(names, time_column, "variable")
+    seen: set[str] = set()
+    columns = []
+    for j, name in enumerate(names):
+        if name in seen:
+            continue
+        seen.add(name)
+        if j != t:
+            columns.append((name, values(j)))
+    return Table(values(t), columns)
