@@ -95,6 +95,8 @@ probe_case certs-host-empty --host -- "$FMUCAL" certs --out "$in_dir/certs" --ho
 probe_case certs-host-dotdot --host -- "$FMUCAL" certs --out "$in_dir/certs" --host '../../etc'
 probe_case certs-host-300 --host -- "$FMUCAL" certs --out "$in_dir/certs" --host "$(printf 'a%.0s' $(seq 300))"
 probe_case coordinator-ftp --coordinator -- "${in_calibrate[@]}" "$EX/furuta/job.toml" --coordinator ftp://example.org
+probe_case worker-coordinator-ftp --coordinator -- "$FMUCAL" worker --coordinator ftp://example.org
+probe_case health-url-ftp URL -- "$FMUCAL" health ftp://example.org
 printf 'x\n' > "$in_dir/token-short"
 probe_case token-one-char --token-file -- \
   "${in_calibrate[@]}" "$EX/furuta/job.toml" --coordinator http://127.0.0.1:9 --token-file "$in_dir/token-short"

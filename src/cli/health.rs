@@ -34,6 +34,7 @@ pub fn run(args: Args) -> Result<()> {
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
         bail!("--timeout must be a positive number of seconds, not {}", args.timeout);
     }
+    super::client::check_url("URL", &args.url)?;
     let tls = args.tls.load()?;
     let timeout = Duration::try_from_secs_f64(args.timeout)
         .map_err(|_| anyhow::anyhow!("--timeout must be a positive number of seconds, not {}", args.timeout))?;

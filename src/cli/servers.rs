@@ -167,6 +167,7 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
 }
 
 pub fn worker(args: WorkerArgs) -> Result<()> {
+    super::client::check_url("--coordinator", &args.coordinator)?;
     let ca = args.tls.ca_path();
     let url = args.coordinator.clone();
     worker_with(args).map_err(|e| {
