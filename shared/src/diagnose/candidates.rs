@@ -1,8 +1,10 @@
 //! Candidate generation and screening (steps 3 of a diagnosis).
 //!
-//! [`generate`] lists every effect kind × every compatible (port, signal) pair of the job's
-//! `[diagnose]` section, plus sensor effects on every output and actuator effects on every
-//! input, each with its parameters guessed from the sizes of this job ([`super::guess`]).
+//! [`generate`] lists every effect kind at every place it fits ([`super::places`]): each
+//! compatible (port, signal) pair, each state's derivative (with the state or its position as
+//! signal), sensor effects on every output and actuator effects on every input, each with its
+//! parameters guessed from the sizes of this job ([`super::guess`]): a port's load scale, a
+//! state's derivative scale.
 //!
 //! [`Screening`] ranks them without fitting any: all candidates are added to one job at their
 //! neutral values (where each does nothing), and one batch of points measures the residual's
@@ -151,7 +153,8 @@ pub fn generate(job: &JobSpec, diagnose: &DiagnoseSpec, places: &Places, sizes: 
             PortDomain::Mechanical => Domain::Mechanical,
             PortDomain::Thermal => Domain::Thermal,
         };
-        let load = sizes.port_scales.get(&port.port).copied().unwrap_or(1.0);
+        // A port the probe could not size gets no candidates (the probe says why).
+        let Some(&load) = sizes.port_scales.get(&port.port) else { continue };
         let ambient = port.ambient.unwrap_or(293.15);
         for kind in effects::port_kinds().iter().filter(|e| e.domain() == domain) {
             let signals: Vec<(String, &str)> = match kind.signal_role() {
@@ -217,6 +220,9 @@ pub fn generate(job: &JobSpec, diagnose: &DiagnoseSpec, places: &Places, sizes: 
             )
             .collect();
         for (domain, source, variable) in series {
+            if diagnose.exclude.iter().any(|e| e == variable) {
+                continue;
+            }
             let Some(stats) = sizes.series.get(variable) else { continue };
             let scales = Scales {
                 load: stats.range(),

@@ -56,6 +56,7 @@ impl Places {
             .ports
             .iter()
             .enumerate()
+            .filter(|(_, p)| !excluded(&p.port))
             .map(|(k, p)| PortPlace {
                 spec: p.clone(),
                 source: format!("diagnose.ports[{k}]"),
@@ -66,7 +67,7 @@ impl Places {
         let mapped: Vec<&str> = job.inputs.iter().map(|i| i.variable.as_str()).collect();
         let by_hand = !diagnose.ports.is_empty();
         let mut notes = vec![];
-        if by_hand {
+        if by_hand && only.is_none() {
             notes.push(
                 "the model's other injection inputs and states: diagnose.ports says where to look (name states in diagnose.states to add them)"
                     .to_owned(),
@@ -138,6 +139,21 @@ impl Places {
                 .map(|s| StatePlace { state: s.name.clone(), role: s.role, position: s.position.clone() })
                 .collect(),
         };
+        // A state `states` names that is no place says why.
+        for name in only.iter().flatten() {
+            if states.iter().any(|s: &StatePlace| &s.state == name) || excluded(name) {
+                continue;
+            }
+            match structure.state(name) {
+                Some(s) if s.role == Role::Position => notes.push(format!(
+                    "diagnose.states: {name} is a position; its terms go on its velocity's derivative"
+                )),
+                Some(_) if covered.contains(&name.as_str()) => {
+                    notes.push(format!("diagnose.states: {name} is left to the port of its component"))
+                }
+                _ => {}
+            }
+        }
         Places { ports, states, notes }
     }
 }

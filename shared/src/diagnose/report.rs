@@ -61,6 +61,9 @@ pub struct Diagnosis {
     /// explains part of what is missing, and is not named.
     #[serde(default)]
     pub partial: Vec<NamedEffect>,
+    /// How far the model with the partial effect is from the noise.
+    #[serde(default)]
+    pub misfit_partial: Option<Misfit>,
     /// RMS errors of the base model and of the model with the named effects.
     pub before: RmsPair,
     pub after: RmsPair,
@@ -262,7 +265,7 @@ impl Diagnosis {
                         s,
                         "the model misses something that none of the {tried} tried effects explains: the best, {}, passes every test but leaves the residual far from its noise ({})",
                         words.join("; "),
-                        self.misfit_after.evidence()
+                        self.misfit_partial.as_ref().map_or_else(String::new, Misfit::evidence)
                     );
                 }
                 Conclusion::MissesSomething => {
@@ -284,7 +287,17 @@ impl Diagnosis {
         for e in &self.named {
             let _ = writeln!(s, "found: {}", e.words);
         }
-        if !self.named.is_empty() && self.misfit_after.far() {
+        if !self.named.is_empty() {
+            for p in &self.partial {
+                let _ = writeln!(
+                    s,
+                    "the next round's best, {}, passes every test but leaves the residual far from its noise ({}): not named",
+                    p.words,
+                    self.misfit_partial.as_ref().map_or_else(String::new, Misfit::evidence)
+                );
+            }
+        }
+        if !self.named.is_empty() && self.partial.is_empty() && self.misfit_after.far() {
             let _ = writeln!(
                 s,
                 "the named effects explain part of the misfit; the model still misses something: {}",

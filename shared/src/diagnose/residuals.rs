@@ -121,6 +121,9 @@ pub const FAR_RMS_OVER_NOISE: f64 = 1.3;
 pub const FAR_LJUNG_BOX_P: f64 = 1e-4;
 /// A held-out RMS above this multiple of the calibration RMS says the fit does not carry over.
 pub const FAR_VALIDATION_OVER_CALIBRATION: f64 = 1.5;
+/// The smallest noise level assumed, as a fraction of the measured output's range: on
+/// noise-free (synthetic) data the integrator's own smooth error must not read as a misfit.
+pub const NOISE_FLOOR: f64 = 1e-6;
 
 /// How far one output's fit is from its noise.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -139,8 +142,8 @@ pub struct OutputMisfit {
 
 impl OutputMisfit {
     /// The fit of `variable` from its residuals on the calibration and validation windows
-    /// (NaN where missing).
-    pub fn new(variable: &str, calibration: &[f64], validation: &[f64]) -> OutputMisfit {
+    /// (NaN where missing); `range` is the measured output's range (for [`NOISE_FLOOR`]).
+    pub fn new(variable: &str, calibration: &[f64], validation: &[f64], range: f64) -> OutputMisfit {
         let rms = |r: &[f64]| {
             let valid: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
             (!valid.is_empty()).then(|| (valid.iter().map(|v| v * v).sum::<f64>() / valid.len() as f64).sqrt())
@@ -149,7 +152,7 @@ impl OutputMisfit {
             variable: variable.to_owned(),
             rms: rms(calibration).unwrap_or(0.0),
             validation_rms: rms(validation),
-            noise: noise_sigma(calibration),
+            noise: noise_sigma(calibration).max(NOISE_FLOOR * range.abs()),
             ljung_box_p: ljung_box(calibration, super::localise::LJUNG_BOX_LAGS).map(|l| l.p_value),
         }
     }
@@ -168,8 +171,8 @@ impl OutputMisfit {
         self.rms_over_noise() > FAR_RMS_OVER_NOISE && (non_white || not_carried)
     }
 
-    /// The evidence in words: "mass.x: RMS 8.1 × the noise estimate, Ljung–Box p = 3e-205,
-    /// held-out RMS 2.3 × the calibration RMS".
+    /// The evidence in words: "mass.x: RMS 8.100 × the noise estimate 1.2e-2, Ljung–Box p =
+    /// 3.0e-205, held-out RMS 2.30 × the calibration RMS".
     pub fn evidence(&self) -> String {
         let mut parts = vec![format!("RMS {:.3} × the noise estimate {:.3e}", self.rms_over_noise(), self.noise)];
         if let Some(p) = self.ljung_box_p {
@@ -200,7 +203,10 @@ impl Misfit {
                 let r: Vec<f64> =
                     o.measured.iter().zip(&o.optimized).map(|(m, s)| s.map_or(f64::NAN, |s| s - m)).collect();
                 let cut = rows.min(r.len());
-                OutputMisfit::new(&o.variable, &r[..cut], &r[cut..])
+                let finite = o.measured.iter().copied().filter(|m| m.is_finite());
+                let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| (a.min(m), b.max(m)));
+                let range = if hi >= lo { hi - lo } else { 0.0 };
+                OutputMisfit::new(&o.variable, &r[..cut], &r[cut..], range)
             })
             .collect();
         Misfit { outputs }
@@ -347,12 +353,15 @@ mod tests {
         let noise: Vec<f64> = gaussian(n, 7).iter().map(|e| 0.01 * e).collect();
         // The noise estimate recovers σ within a few percent.
         assert!((noise_sigma(&noise) / 0.01 - 1.0).abs() < 0.06, "{}", noise_sigma(&noise));
-        let fits = OutputMisfit::new("y", &noise[..1500], &noise[1500..]);
+        let fits = OutputMisfit::new("y", &noise[..1500], &noise[1500..], 1.0);
         assert!(!fits.far() && fits.rms_over_noise() < 1.2, "{fits:?}");
         // A slow misfit of 5 σ on top: the noise estimate barely moves, the RMS does.
         let misfit: Vec<f64> =
             noise.iter().enumerate().map(|(i, e)| e + 0.05 * (i as f64 * 0.01).sin()).collect();
-        let m = OutputMisfit::new("y", &misfit[..1500], &misfit[1500..]);
+        let m = OutputMisfit::new("y", &misfit[..1500], &misfit[1500..], 1.0);
+        // Noise-free data: a smooth error of the integrator's size is not a misfit.
+        let smooth: Vec<f64> = (0..2000).map(|i| 1e-9 * (i as f64 * 0.01).sin()).collect();
+        assert!(!OutputMisfit::new("y", &smooth[..1500], &smooth[1500..], 1.0).far());
         assert!(m.far(), "{m:?}");
         assert!(m.evidence().starts_with("y: RMS "), "{}", m.evidence());
         let all = Misfit { outputs: vec![fits, m] };

@@ -22,8 +22,8 @@
 //! time or at a root too. A model without states but with event indicators is integrated on a
 //! stand-in state with derivative 0 (never shown to the FMU), so the roots are still found.
 //!
-//! The port terms of effects with kinks (a dead zone's edges) add event indicators of their
-//! own after the FMU's: the integrator stops at a kink as at any state event. State terms
+//! The port and state terms of effects with kinks (a dead zone's edges) add event indicators
+//! of their own after the FMU's: the integrator stops at a kink as at any state event. State terms
 //! ([`super::spec::StateTerm`]) are added to the derivatives `fmi2GetDerivatives` returns, so
 //! the FMU never sees them: an event indicator the FMU computes from its own derivative (a
 //! stick–slip check on the acceleration, say) does not see the term.
@@ -58,7 +58,8 @@ struct Model<'a> {
     /// End of the segment being integrated.
     segment_end: Cell<f64>,
     nx: usize,
-    /// The FMU's event indicators, then the port terms' ([`Plan::term_indicators`]): `nz` in all.
+    /// The FMU's event indicators, then the port and state terms' ([`Plan::term_indicators`]):
+    /// `nz` in all.
     fmu_nz: usize,
     nz: usize,
 }

@@ -65,10 +65,14 @@ pub struct PlannedTerm {
     pub base: PortBase,
 }
 
+/// A term's kinks, none where it vanishes.
+fn active_kinks(effect: &dyn PortEffect, parameters: &[f64]) -> Vec<f64> {
+    if effect.vanishes(parameters) { vec![] } else { effect.kinks(parameters) }
+}
+
 impl PlannedTerm {
-    /// The term's kinks, none where it vanishes.
     fn kinks(&self) -> Vec<f64> {
-        if self.effect.vanishes(&self.parameters) { vec![] } else { self.effect.kinks(&self.parameters) }
+        active_kinks(self.effect, &self.parameters)
     }
 }
 
@@ -94,7 +98,7 @@ pub struct PlannedStateTerm {
 
 impl PlannedStateTerm {
     fn kinks(&self) -> Vec<f64> {
-        if self.effect.vanishes(&self.parameters) { vec![] } else { self.effect.kinks(&self.parameters) }
+        active_kinks(self.effect, &self.parameters)
     }
 }
 
@@ -406,11 +410,12 @@ impl Plan {
         let output_state_terms = real
             .iter()
             .enumerate()
-            .filter_map(|(k, (slot, vr))| {
+            .filter_map(|(k, (_, vr))| {
                 let terms: Vec<usize> = state_terms
                     .iter()
                     .enumerate()
-                    .filter(|(_, t)| t.derivative_vr == *vr && !outputs[*slot].negated)
+                    // Added to the value behind the reference, before a negated alias's sign.
+                    .filter(|(_, t)| t.derivative_vr == *vr)
                     .map(|(i, _)| i)
                     .collect();
                 (!terms.is_empty()).then_some((k, terms))
@@ -483,14 +488,14 @@ impl Plan {
         Ok(())
     }
 
-    /// Event indicators of the port terms: one per kink of each term ([`PortEffect::kinks`])
-    /// that does not vanish ([`PortEffect::vanishes`]).
+    /// Event indicators of the port and state terms: one per kink of each term
+    /// ([`PortEffect::kinks`]) that does not vanish ([`PortEffect::vanishes`]), port terms first.
     pub fn term_indicator_count(&self) -> usize {
         self.port_terms.iter().map(|t| t.kinks().len()).sum::<usize>()
             + self.state_terms.iter().map(|t| t.kinks().len()).sum::<usize>()
     }
 
-    /// The port terms' event indicators, signal − kink, into `z` (of
+    /// The port and state terms' event indicators, signal − kink, into `z` (of
     /// [`Plan::term_indicator_count`] values); the states must be set.
     ///
     /// # Errors

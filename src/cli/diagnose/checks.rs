@@ -1,8 +1,9 @@
 //! What `fmucal diagnose` checks before any model code runs: the windows (the job's validation
 //! window, or a holdout cut from its calibration window), the job against its model and data,
-//! and every candidate the `[diagnose]` section would generate — ports that are real inputs of
-//! the right domain, signals that can be read, no algebraic loop — each refused in one line
-//! naming the `[diagnose]` field.
+//! and every candidate the diagnosis would generate — ports that are real inputs of the right
+//! domain, signals that can be read, no algebraic loop, states that are continuous states.
+//! A candidate from the `[diagnose]` section is refused in one line naming its field; a place
+//! found in the model's structure that the model refuses is dropped with a note.
 
 use std::collections::BTreeMap;
 
@@ -62,7 +63,8 @@ fn any_sizes(spec: &JobSpec, places: &Places) -> Sizes {
         .map(|v| (v, unit))
         .collect();
     let state_scales = places.states.iter().map(|s| (s.state.clone(), 1.0)).collect();
-    Sizes { port_scales: BTreeMap::new(), state_scales, signals, series, duration: 1.0, sample: 0.1 }
+    let port_scales = places.ports.iter().map(|p| (p.spec.port.clone(), 1.0)).collect();
+    Sizes { port_scales, state_scales, signals, series, duration: 1.0, sample: 0.1 }
 }
 
 /// The places of the diagnosis (ports by hand and from the model's structure, states in

@@ -307,15 +307,18 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         let c = order[rank];
         let (fit, job, after) = fits.remove(&c).expect("the chosen candidate was fitted");
         let effect = name(ctx, &candidates[c], &fit, &job);
-        // An effect that leaves the model far from its noise is not the missing effect, only
-        // a part of what is missing: it is reported as such and not named.
-        if after.as_ref().is_none_or(|a| a.misfit(ctx.windows.calibration_stop).far()) {
+        // In the last round, an effect that leaves the model far from its noise is not the
+        // missing effect, only a part of what is missing: it is reported as such and not
+        // named. (An earlier round keeps it and looks for the rest.)
+        let last_round = round + 1 == ctx.settings.rounds;
+        if last_round && after.as_ref().is_none_or(|a| a.misfit(ctx.windows.calibration_stop).far()) {
             partial.push(effect);
             partial_look = after;
             break;
         }
-        fitted = fit.x_opt.clone();
-        standard_errors = fit.standard_errors.clone();
+        // With fix_base the fit holds only the effect's values: the base's stay.
+        fitted.extend(fit.x_opt.clone());
+        standard_errors.extend(fit.standard_errors.clone());
         last_look = after;
         // The next round's base: this round's job (its own optimizer settings and parameters)
         // with the named effect, every start at the fitted value.
@@ -327,11 +330,12 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
     let after = last_look.unwrap_or_else(|| before.clone());
     let stop = ctx.windows.calibration_stop;
     let misfit_before = before.misfit(stop);
-    // With a partial effect, "after" is how far that effect left the model.
-    let misfit_after = partial_look.as_ref().map_or_else(|| after.misfit(stop), |l| l.misfit(stop));
+    let misfit_after = after.misfit(stop);
+    let misfit_partial = partial_look.as_ref().map(|l| l.misfit(stop));
     let conclusion = Conclusion::of(!named.is_empty(), !partial.is_empty(), &misfit_before);
     let diagnosis = Diagnosis {
         partial,
+        misfit_partial,
         fitted,
         standard_errors,
         conclusion,

@@ -68,15 +68,21 @@ pub(crate) struct Context {
 }
 
 /// One standard error of the widest parameter as a fraction of its range (the optimizers'
-/// scaled step), within [1e-6, 0.05]; `None` unless every calibrated value has one.
+/// scaled step: of log(x) for a log-scaled parameter), within [1e-6, 0.05]; `None` unless
+/// every calibrated value has one.
 fn local_step(job: &JobSpec, standard_errors: &std::collections::BTreeMap<String, f64>) -> Option<f64> {
     let calibrated = job.calibrated();
     let steps: Option<Vec<f64>> = calibrated
         .iter()
         .map(|c| {
             let se = standard_errors.get(&c.name).copied().filter(|s| s.is_finite() && *s > 0.0)?;
-            let range = c.bounds.upper - c.bounds.lower;
-            (range > 0.0 && range.is_finite()).then(|| se / range)
+            let b = c.bounds;
+            let (se, range) = match c.scale {
+                // d log x = dx / x.
+                fmucal_shared::job::choices::Scale::Log => (se / b.start.abs(), (b.upper / b.lower).ln()),
+                _ => (se, b.upper - b.lower),
+            };
+            (range > 0.0 && range.is_finite() && se.is_finite()).then(|| se / range)
         })
         .collect();
     let widest = steps?.into_iter().fold(0.0, f64::max);
@@ -168,6 +174,12 @@ pub fn run(args: Args) -> Result<()> {
     let mut kept = original.with_absolute_paths();
     kept.effects.extend(report.named.iter().map(|n| n.effect.clone()));
     let mut kept = fmucal_shared::diagnose::jobs::with_starts(kept, &report.fitted);
+    // A held-out window becomes the job's validation window, so that the job is judged where
+    // the diagnosis was.
+    if report.windows.holdout {
+        kept.simulation.stop_time = Some(report.windows.calibration_stop);
+        kept.simulation.validation_stop_time = Some(report.windows.validation_stop);
+    }
     if kept.optimizer.initial_step.is_none() {
         kept.optimizer.initial_step = local_step(&kept, &report.standard_errors);
     }
