@@ -200,6 +200,7 @@ fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
                 mutation_rate,
                 elitism,
                 restarts,
+                max_time: None,
             },
         )
 }
