@@ -146,7 +146,7 @@ mod tests {
         }
     }
 
-    const JOB: &str = "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"y\"\n\
+    const JOB: &str = "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"y\"\ncolumn = \"y\"\n\
         [[parameters]]\nname = \"a\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n\
         [[parameters]]\nname = \"b\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n";
 
