@@ -200,7 +200,7 @@ fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
                 mutation_rate,
                 elitism,
                 restarts,
-                max_time: None,
+                max_time: Some(12.5),
             },
         )
 }
