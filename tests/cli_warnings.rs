@@ -165,3 +165,24 @@ fn a_validation_window_past_the_data_is_refused() {
     assert!(line.contains("simulation.validation_stop_time: 20 is past the end of the data (2)"), "{stderr}");
     assert!(!dir.path().join("out").exists());
 }
+
+#[test]
+fn the_largest_correlation_is_printed_with_its_sign_and_pair() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = write_job(dir.path(), 5.0, "", |_, x| Some(x + 0.05));
+    let text = std::fs::read_to_string(&job).unwrap().replace(
+        "[optimizer]",
+        "[[effects]]\nkind = \"sensor_offset\"\noutput = \"x\"\n\
+         parameters = { offset = { start = 0.0, lower = -0.2, upper = 0.2 } }\n[optimizer]",
+    );
+    std::fs::write(&job, text).unwrap();
+    let (out, stdout, stderr) = calibrate(dir.path(), false);
+    assert!(out.status.success(), "{stderr}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/result.json")).unwrap()).unwrap();
+    let id = &r["identifiability"];
+    let names: Vec<&str> = id["names"].as_array().unwrap().iter().map(|n| n.as_str().unwrap()).collect();
+    let c = id["correlation"][0][1].as_f64().unwrap();
+    let line = format!("largest parameter correlation: {c:+.3} ({}, {})", names[0], names[1]);
+    assert!(stdout.contains(&line), "{line} not in\n{stdout}");
+}
