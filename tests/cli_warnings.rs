@@ -186,3 +186,12 @@ fn the_largest_correlation_is_printed_with_its_sign_and_pair() {
     let line = format!("largest parameter correlation: {c:+.3} ({}, {})", names[0], names[1]);
     assert!(stdout.contains(&line), "{line} not in\n{stdout}");
 }
+
+#[test]
+fn a_max_time_that_is_not_a_positive_number_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    write_job(dir.path(), 5.0, "max_time = -1.0\n", |_, x| Some(x));
+    let (out, _, stderr) = calibrate(dir.path(), false);
+    assert!(!out.status.success());
+    assert!(stderr.contains("optimizer.max_time: must be a positive number of seconds, got -1"), "{stderr}");
+}

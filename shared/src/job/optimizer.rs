@@ -55,12 +55,8 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
         (None, None) => default_budget(o.algorithm, n),
         set => set,
     };
-    let stopping = Stopping {
-        x_tol: rule(o.x_tol, defaults.x_tol),
-        f_tol: rule(o.f_tol, defaults.f_tol),
-        max_iters,
-        max_fevals,
-    };
+    let stopping =
+        Stopping { x_tol: rule(o.x_tol, defaults.x_tol), f_tol: rule(o.f_tol, defaults.f_tol), max_iters, max_fevals };
     Ok(match o.algorithm {
         Algorithm::DifferentialEvolution => {
             let d = DeSettings::new(n);

@@ -577,7 +577,10 @@ impl JobSpec {
         if let Some(t) = self.optimizer.max_time
             && !(t > 0.0 && t.is_finite())
         {
-            return Err(JobError::invalid("optimizer.max_time", format!("must be a positive number of seconds, got {t}")));
+            return Err(JobError::invalid(
+                "optimizer.max_time",
+                format!("must be a positive number of seconds, got {t}"),
+            ));
         }
         self.validate_simulation()?;
         self.validate_experiments()?;
