@@ -314,7 +314,7 @@ fn an_objective_that_overflows_is_reported_as_such_and_a_zero_weight_prints_no_n
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(stdout.contains("scaled RMS error") && !stdout.contains("NaN"), "{stdout}");
-    assert!(stdout.contains("n/a (the nominal error is 0"), "{stdout}");
+    assert!(stdout.contains("n/a (the start error is 0"), "{stdout}");
 }
 
 #[test]

@@ -267,6 +267,7 @@ x_tol = 0
 f_tol = 1e-9
 max_iters = 77
 max_fevals = 999
+max_time = 3600.5
 seed = 42
 initial_step = 0.2
 population = 12

@@ -192,6 +192,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 mutation_rate: o.mutation_rate,
                 elitism: o.elitism.map(|v| v as usize),
                 restarts: o.restarts,
+                max_time: o.max_time,
             },
             effects: p.effects.into_iter().map(EffectSpec::from).collect(),
             workers: WorkersSpec::default(),
@@ -313,6 +314,7 @@ pub fn job_to_proto(spec: &JobSpec, data: &[MeasurementTable], model_id: &str) -
             mutation_rate: o.mutation_rate,
             elitism: o.elitism.map(|v| v as u64),
             restarts: o.restarts,
+            max_time: o.max_time,
         }),
         kind: match spec.kind {
             JobKind::Calibration => pb::JobKind::Calibration,
@@ -403,6 +405,7 @@ pub fn result_from_proto(r: pb::JobResult, history: Vec<HistoryPoint>) -> Calibr
         identifiability: None,
         experiments: vec![],
         fmi_version: None,
+        warnings: vec![],
     }
 }
 

@@ -200,6 +200,7 @@ fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
                 mutation_rate,
                 elitism,
                 restarts,
+                max_time: Some(12.5),
             },
         )
 }

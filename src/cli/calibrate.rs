@@ -36,7 +36,16 @@ pub struct Args {
     token_file: Option<PathBuf>,
     #[command(flatten)]
     tls: super::tls::ClientArgs,
+    /// Any warning (a parameter at a bound, a run ended by its budget, ...) ends the run with
+    /// exit code 3, after the results are written.
+    #[arg(long)]
+    strict: bool,
 }
+
+/// A run whose checks warned, under `--strict` (exit code 3).
+#[derive(Debug, thiserror::Error)]
+#[error("{0} warning(s) under --strict")]
+pub(crate) struct Warned(pub usize);
 
 /// Resolves `example:NAME` and checks the file is a regular file.
 pub(super) fn model_path(spec: &JobSpec) -> Result<PathBuf> {
@@ -69,12 +78,33 @@ pub fn run(args: Args) -> Result<()> {
     let _out = super::outputs::OutDir::create(&args.out)?;
 
     let rt = tokio::runtime::Runtime::new()?;
+    let started = std::time::Instant::now();
     // Ctrl-C or SIGTERM cancels the job and keeps its best point so far; a local cluster's
     // workers and temporary folder go with it.
+    let max_time = spec.optimizer.max_time;
     let work = async |mut client: Client| {
         let mut stopper = client.clone();
+        // `optimizer.max_time` stops the calibration (not the analysis after it) with its best
+        // point so far, as Ctrl-C does, but as a result like any other.
+        let deadline = async {
+            match max_time {
+                Some(t) => tokio::time::sleep(std::time::Duration::from_secs_f64(t)).await,
+                None => std::future::pending().await,
+            }
+        };
+        let result = tokio::select! {
+            r = client.calibrate(&prepared.spec, &data, &model) => r?,
+            () = deadline => {
+                let mut r = stopper.interrupt().await?.with_context(|| {
+                    format!("optimizer.max_time: {} s passed before the run had a result", max_time.unwrap_or(0.0))
+                })?;
+                r.termination = "max_time reached".into();
+                r
+            }
+            () = super::servers::terminate_signal() => return Ok(Err(stopper.interrupt().await?)),
+        };
         tokio::select! {
-            r = client.calibrate_and_identify(&prepared, &data, &model) => r.map(Ok),
+            identified = client.identify(&prepared, &result, &data, &model) => Ok(Ok((result, identified))),
             () = super::servers::terminate_signal() => Ok(Err(stopper.interrupt().await?)),
         }
     };
@@ -87,6 +117,8 @@ pub fn run(args: Args) -> Result<()> {
             None => super::local_cluster::run(threads, work).await,
         }
     })?;
+    // The wall time as the user saw it (a coordinator's result may not carry its own).
+    let wall_s = started.elapsed().as_secs_f64();
     let (mut result, identified) = match outcome {
         Ok(done) => done,
         Err(partial) => {
@@ -113,18 +145,27 @@ pub fn run(args: Args) -> Result<()> {
     for (k, table) in data.iter().enumerate() {
         fits.push(report::compare(&fmu, &prepared, k, table, &x_opt)?);
     }
+    let model_start = fmu.description.default_experiment.as_ref().and_then(|d| d.start_time).unwrap_or(0.0);
+    let data_start = data.first().and_then(|d| d.time.first().copied());
+    if !(result.elapsed_s > 0.0) {
+        result.elapsed_s = wall_s;
+    }
+    // The misfit check needs the fit's series; the others only the result.
+    let mut misfit_warning = None;
     if spec.experiments.is_empty() {
         let (fit, errors) = fits.pop().context("one experiment")?;
         // The same test of "far from the noise" as a diagnosis's conclusion.
         let stop = spec.simulation.stop_time.or_else(|| data.first().and_then(|d| d.time.last().copied()));
         let misfit = fmucal_shared::diagnose::residuals::Misfit::of_fit(&fit, stop.unwrap_or(f64::INFINITY));
         if misfit.far() {
-            eprintln!(
-                "warning: the fit leaves more than noise ({}): the model may miss something; `fmucal diagnose` looks for what",
+            misfit_warning = Some(format!(
+                "the fit leaves more than noise ({}): the model may miss something; `fmucal diagnose` looks for what",
                 misfit.evidence()
-            );
+            ));
         }
         result.errors = Some(errors);
+        result.warnings = fmucal_shared::job::warnings::check(&spec, &result, model_start, data_start);
+        result.warnings.extend(misfit_warning);
         super::outputs::write(&args.out, &result, &fit)?;
         crate::report::draw_all(&args.out, &fit, &result.history, result.errors.as_ref())?;
     } else {
@@ -139,51 +180,88 @@ pub fn run(args: Args) -> Result<()> {
                 errors: errors.clone(),
             });
         }
+        result.warnings = fmucal_shared::job::warnings::check(&spec, &result, model_start, data_start);
         super::outputs::write_result(&args.out, &result)?;
     }
+    let budget = if fmucal_shared::job::warnings::ended_on_budget(&result.termination) {
+        " (a budget, not convergence, ended the run)"
+    } else {
+        ""
+    };
     println!(
-        "termination: {}; f_opt = {:.6e} after {} evaluations in {:.1} s",
-        result.termination, result.f_opt, result.evaluations, result.elapsed_s
+        "termination: {}{budget}; f_opt = {:.6e} after {} evaluations in {:.1} s",
+        result.termination, result.f_opt, result.evaluations, wall_s
     );
+    let (names, _, lower, upper) = spec.parameter_vectors();
     for (name, v) in &result.x_opt {
-        let se = result.identifiability.as_ref().and_then(|id| {
-            let k = id.names.iter().position(|n| n == name)?;
-            Some(format!("  (standard error {:.2e})", id.standard_errors[k]))
-        });
+        let bound = names
+            .iter()
+            .position(|n| n == name)
+            .and_then(|i| fmucal_shared::job::warnings::at_bound(*v, lower[i], upper[i]));
+        let se = match bound {
+            Some(side) => Some(format!("  (at {side} bound)")),
+            None => result.identifiability.as_ref().and_then(|id| {
+                let k = id.names.iter().position(|n| n == name)?;
+                Some(format!("  (standard error {:.2e})", id.standard_errors[k]))
+            }),
+        };
         println!("  {name} = {v:.6e}{}", se.unwrap_or_default());
     }
     if let Some(e) = &result.errors {
         let v = e.validation.as_ref().map(|v| format!(", validation {}", ratio(v))).unwrap_or_default();
-        println!("scaled RMS error (optimized / nominal): calibration {}{v}", ratio(&e.calibration));
+        println!("scaled RMS error (optimized / start): calibration {}{v}", ratio(&e.calibration));
     }
     for x in &result.experiments {
         let e = &x.errors;
         let v = e.validation.as_ref().map(|v| format!(", validation window {}", ratio(v))).unwrap_or_default();
         let window = if x.role == "fit" { "calibration window" } else { "whole span (not fitted)" };
         println!(
-            "experiment {} ({}): scaled RMS error (optimized / nominal): {window} {}{v}",
+            "experiment {} ({}): scaled RMS error (optimized / start): {window} {}{v}",
             x.name,
             x.role,
             ratio(&e.calibration)
         );
     }
     if let Some(id) = &result.identifiability
-        && id.names.len() > 1
+        && let Some((a, b, c)) = largest_correlation(id)
     {
-        println!("largest parameter correlation: {:.3}", id.max_abs_correlation());
+        println!("largest parameter correlation: {c:+.3} ({a}, {b})");
+    }
+    for w in &result.warnings {
+        eprintln!("warning: {w}");
     }
     eprintln!("wrote {}", args.out.join("result.json").display());
+    if args.strict && !result.warnings.is_empty() {
+        return Err(Warned(result.warnings.len()).into());
+    }
     Ok(())
 }
 
-/// A window's scaled RMS error for the summary, or why there is none: it is optimized / nominal,
-/// which has no value when the nominal error is zero or not a number (every weight 0, a
-/// nominal model that fits exactly, or errors that overflow).
+/// The pair of different parameters with the largest |correlation|, and that correlation with
+/// its sign.
+fn largest_correlation(id: &fmucal_shared::job::identifiability::Identifiability) -> Option<(&str, &str, f64)> {
+    let n = id.names.len();
+    let mut best: Option<(&str, &str, f64)> = None;
+    for i in 0..n {
+        for j in i + 1..n {
+            let c = id.correlation[i][j];
+            if best.is_none_or(|b| c.abs() > b.2.abs() || b.2.is_nan()) {
+                best = Some((&id.names[i], &id.names[j], c));
+            }
+        }
+    }
+    best
+}
+
+/// A window's scaled RMS error for the summary, or why there is none: it is optimized / start
+/// (the job's start values, `rms_nominal` in `result.json`), which has no value when the start
+/// error is zero or not a number (every weight 0, a start point that fits exactly, or errors
+/// that overflow).
 fn ratio(w: &fmucal_shared::job::result::WindowError) -> String {
     if w.scaled_rms.is_finite() {
         format!("{:.3}", w.scaled_rms)
     } else if w.rms_nominal == 0.0 {
-        "n/a (the nominal error is 0: every weight is 0, or the nominal model fits exactly)".into()
+        "n/a (the start error is 0: every weight is 0, or the start point fits exactly)".into()
     } else {
         "n/a (an RMS error is not a finite number)".into()
     }

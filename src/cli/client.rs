@@ -72,19 +72,6 @@ impl Client {
         Ok(Client { inner, submitted: Arc::default(), uploaded: Arc::default() })
     }
 
-    /// Calibrates `job`, then runs its identifiability analysis at the optimum. A failed
-    /// analysis is the inner error: the calibration result stands without it.
-    pub async fn calibrate_and_identify(
-        &mut self,
-        job: &PreparedJob,
-        data: &[MeasurementTable],
-        model: &Path,
-    ) -> Result<(CalibrationResult, Result<Identifiability>)> {
-        let result = self.calibrate(&job.spec, data, model).await?;
-        let identified = self.identify(job, &result, data, model).await;
-        Ok((result, identified))
-    }
-
     /// Submits a calibration, shows its progress, and returns its result (without errors or
     /// identifiability, which are computed afterwards).
     pub async fn calibrate(

@@ -158,6 +158,10 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is::<calibrate::Warned>() => {
+            status(&format!("{e}"));
+            ExitCode::from(3)
+        }
         Err(e) if e.is::<Interrupted>() => {
             status("interrupted");
             ExitCode::from(130)

@@ -30,6 +30,7 @@ pub mod report;
 pub mod result;
 pub mod run;
 pub mod spec;
+pub mod warnings;
 
 use crate::fmu::FmuError;
 use crate::optim::OptimError;

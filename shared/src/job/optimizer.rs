@@ -9,6 +9,20 @@ use crate::optim::{
     LsSettings, NelderMead, NmSettings, OptimError, PointBatch, Stopping,
 };
 
+/// The default budget `(max_iters, max_fevals)` of `algorithm` on `n` parameters, for a job
+/// that sets neither; it grows with n and follows SciPy where SciPy has one: Nelder–Mead
+/// 200·n iterations (`scipy.optimize.minimize`'s `maxiter`), least squares 100·n evaluations
+/// (`scipy.optimize.least_squares`'s `max_nfev`); differential evolution, the genetic algorithm
+/// and CMA-ES 1000·n generations.
+pub fn default_budget(algorithm: Algorithm, n: usize) -> (Option<u64>, Option<u64>) {
+    let n = n.max(1) as u64;
+    match algorithm {
+        Algorithm::NelderMead => (Some(200 * n), None),
+        Algorithm::LeastSquares => (None, Some(100 * n)),
+        Algorithm::DifferentialEvolution | Algorithm::Genetic | Algorithm::CmaEs => (Some(1000 * n), None),
+    }
+}
+
 /// The optimizer of `spec`, starting at the parameters' start values (for an
 /// [`JobKind::EvaluatePoints`] job: one batch of its points).
 ///
@@ -36,12 +50,13 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
         Some(t) => Some(t),
         None => default,
     };
-    let stopping = Stopping {
-        x_tol: rule(o.x_tol, defaults.x_tol),
-        f_tol: rule(o.f_tol, defaults.f_tol),
-        max_iters: o.max_iters.or(defaults.max_iters),
-        max_fevals: o.max_fevals,
+    // A job that sets either budget gets exactly what it set; else the algorithm's default.
+    let (max_iters, max_fevals) = match (o.max_iters, o.max_fevals) {
+        (None, None) => default_budget(o.algorithm, n),
+        set => set,
     };
+    let stopping =
+        Stopping { x_tol: rule(o.x_tol, defaults.x_tol), f_tol: rule(o.f_tol, defaults.f_tol), max_iters, max_fevals };
     Ok(match o.algorithm {
         Algorithm::DifferentialEvolution => {
             let d = DeSettings::new(n);
@@ -101,4 +116,19 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
             AnyOptimizer::NelderMead(NelderMead::new(&lower, &upper, &x0, s)?)
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_budgets_grow_with_n_and_follow_scipy() {
+        assert_eq!(default_budget(Algorithm::NelderMead, 3), (Some(600), None));
+        assert_eq!(default_budget(Algorithm::LeastSquares, 3), (None, Some(300)));
+        for a in [Algorithm::DifferentialEvolution, Algorithm::Genetic, Algorithm::CmaEs] {
+            assert_eq!(default_budget(a, 3), (Some(3000), None), "{a:?}");
+        }
+        assert_eq!(default_budget(Algorithm::NelderMead, 0), (Some(200), None));
+    }
 }

@@ -452,6 +452,14 @@ fn objective_of(spec: &JobSpec, data: &MeasurementTable) -> Result<(Objective, O
         return Err(JobError::invalid("simulation.stop_time", format!("{stop} is not after the start time {start}")));
     }
     spec.simulation.check_validation_stop(stop)?;
+    if let (Some(v), Some(&end)) = (spec.simulation.validation_stop_time, data.time.last())
+        && v > end + 1e-12 * end.abs().max(1.0)
+    {
+        return Err(JobError::invalid(
+            "simulation.validation_stop_time",
+            format!("{v} is past the end of the data ({end}): the validation window must lie inside the data"),
+        ));
+    }
     let tol = 1e-12 * stop.abs().max(start.abs()).max(1.0);
     let mut times: Vec<f64> = vec![];
     let mut groups: Vec<(usize, usize)> = vec![];

@@ -84,6 +84,10 @@ pub struct CalibrationResult {
     /// The FMI version of the model (`fmiVersion` of its description), when the CLI wrote it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fmi_version: Option<String>,
+    /// The checks after the fit that failed ([`super::warnings`]), one sentence each; the CLI
+    /// prints each as `warning: ...`, and `--strict` makes any of them exit code 3.
+    #[serde(default)]
+    pub warnings: Vec<String>,
 }
 
 /// One experiment's RMS errors in `result.json`.
@@ -159,6 +163,7 @@ mod tests {
             identifiability: None,
             experiments: vec![],
             fmi_version: None,
+            warnings: vec![],
         };
         let json = serde_json::to_string(&result).unwrap();
         // The optimum and the best value so far keep their infinity (a job with no successful

@@ -315,6 +315,7 @@ impl JobRun {
             identifiability: None,
             experiments: vec![],
             fmi_version: None,
+            warnings: vec![],
         }
     }
 }

@@ -366,8 +366,17 @@ pub struct OptimizerSpec {
     /// Spread of objective values rule; 0 disables it. Default: 1e-8. Least squares does not
     /// use it: it stops on x_tol (its trust radius), slow progress, max_iters and max_fevals.
     pub f_tol: Option<f64>,
+    /// Iterations (NM, least squares) or generations (DE, GA, CMA-ES). With `max_fevals`
+    /// unset too, the algorithm's default budget ([`super::optimizer::default_budget`]):
+    /// Nelder–Mead 200·n iterations, least squares 100·n evaluations, DE, GA and CMA-ES 1000·n
+    /// generations, for n parameters.
     pub max_iters: Option<u64>,
+    /// Objective evaluations (see `max_iters` for the default).
     pub max_fevals: Option<u64>,
+    /// Wall time in seconds after which the run stops with its best point so far (termination
+    /// `max_time reached`). Enforced by `fmucal calibrate`, local or with `--coordinator`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_time: Option<f64>,
     /// Seed of DE, GA and CMA-ES. Default: 0.
     #[serde(default)]
     pub seed: u64,
@@ -564,6 +573,14 @@ impl JobSpec {
         }
         for (k, e) in self.effects.iter().enumerate() {
             self.validate_effect(k, e)?;
+        }
+        if let Some(t) = self.optimizer.max_time
+            && !(t > 0.0 && t.is_finite())
+        {
+            return Err(JobError::invalid(
+                "optimizer.max_time",
+                format!("must be a positive number of seconds, got {t}"),
+            ));
         }
         self.validate_simulation()?;
         self.validate_experiments()?;

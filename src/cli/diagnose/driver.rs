@@ -504,6 +504,7 @@ async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &Candida
         identifiability: None,
         experiments: vec![],
         fmi_version: None,
+        warnings: vec![],
     };
     Ok(Fitted { job: job.clone(), result: Ok((result, id)), elapsed, simulations })
 }

@@ -119,6 +119,7 @@ def job_message(spec: JobSpec, tables: list[Table], model_id: str) -> pb.JobSpec
             f_tol=o.f_tol,
             max_iters=o.max_iters,
             max_fevals=o.max_fevals,
+            max_time=o.max_time,
             seed=o.seed,
             initial_step=o.initial_step,
             population=o.population,

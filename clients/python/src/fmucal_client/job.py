@@ -132,6 +132,7 @@ class Optimizer:
     f_tol: float | None = None
     max_iters: int | None = None
     max_fevals: int | None = None
+    max_time: float | None = None
     seed: int = 0
     initial_step: float | None = None
     population: int | None = None
@@ -235,7 +236,7 @@ def parse_job(table: Mapping[str, Any], base_dir: Path) -> JobSpec:
 
 PARAMETER_FIELDS = ("name", "start", "lower", "upper", "per_experiment", "scale")
 SIMULATION_FIELDS = ("start_time", "stop_time", "tolerance", "solver", "set", "set_from", "validation_stop_time")
-OPTIMIZER_FIELDS = ("algorithm", "parallel", "x_tol", "f_tol", "max_iters", "max_fevals", "seed", "initial_step",
+OPTIMIZER_FIELDS = ("algorithm", "parallel", "x_tol", "f_tol", "max_iters", "max_fevals", "max_time", "seed", "initial_step",
                     "population", "restarts", "weight", "crossover", "bits", "crossover_rate", "mutation_rate",
                     "elitism")
 EXPERIMENT_FIELDS = ("name", "role", "data", "outputs", "inputs", "set", "start_time", "stop_time",
@@ -368,6 +369,7 @@ def _optimizer(t: Table | None) -> Optimizer:
         f_tol=t.number("f_tol"),
         max_iters=t.count("max_iters"),
         max_fevals=t.count("max_fevals"),
+        max_time=t.number("max_time"),
         seed=t.count("seed") or 0,
         initial_step=t.number("initial_step"),
         population=t.count("population"),
