@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The discrepancy-discovery grid of issue 27 on models as tools export them
+# The discrepancy-discovery grid on models as tools export them
 # (tests/diagnosis_exported.rs, `full_grid`): the exported-shape bases without injection ports
 # (SpringMassExported, FurutaExported, ExhaustPipeExported), hidden effects × noise 0.5, 1 and
 # 2 % of each output's range × with and without a driving input, null cases, cases outside the

@@ -1,4 +1,4 @@
-//! The checks after every fit (issue 30), through `fmucal calibrate`: each warning is printed as
+//! The checks after every fit, through `fmucal calibrate`: each warning is printed as
 //! `warning: ...` and listed in result.json's `warnings`; `--strict` turns any of them into exit
 //! code 3 after the results are written; a validation window past the data is refused; the
 //! summary says "start" and when a budget ended the run.

@@ -1,4 +1,4 @@
-//! The data files modellers have (issue 30, item 4): MATLAB v4 result files as Dymola and
+//! The data files modellers have: MATLAB v4 result files as Dymola and
 //! OpenModelica write them (checked against SciPy's reader), CSV separated by `;` or tab, a
 //! `Time` column, column errors that name the job field and the closest columns, hostile v4
 //! files refused in one line, and TOML errors in the parser's layout.

@@ -1,4 +1,4 @@
-//! Discrepancy discovery on models as tools export them (issue 27): bases without injection
+//! Discrepancy discovery on models as tools export them: bases without injection
 //! ports (`*Exported` fixtures, Dymola's FMI 2.0 description), so the diagnosis adds its
 //! candidates to the continuous states' derivatives ("state effects") or to the outputs. No job
 //! has a `[diagnose]` section: nothing to configure.
@@ -421,7 +421,8 @@ fn gap(
     let w = &d.windows;
     sim.start_time = Some(truth.time[0]);
     sim.stop_time = Some(w.validation_stop);
-    sim.output_times = Some(OutputTimes::Times(truth.time.iter().copied().filter(|t| *t <= w.validation_stop).collect()));
+    sim.output_times =
+        Some(OutputTimes::Times(truth.time.iter().copied().filter(|t| *t <= w.validation_stop).collect()));
     sim.outputs = truth.names.clone();
     sim.tolerance = Some(1e-10);
     let mut result = simulate(&fmu, &sim).unwrap();
@@ -498,12 +499,7 @@ fn named_and_gap_shrinks(truth: Truth, noise: f64, driven: bool, seed: u64, name
     assert_eq!(named(d).as_deref(), Some(truth.expected()[0]), "{}", d.summary());
     assert_eq!(d.conclusion, Conclusion::Named, "{}", d.summary());
     let after = o.gap_after.expect("named");
-    assert!(
-        after <= 0.5 * o.gap_before,
-        "gap against the truth {:.3e} → {after:.3e}: {}",
-        o.gap_before,
-        d.summary()
-    );
+    assert!(after <= 0.5 * o.gap_before, "gap against the truth {:.3e} → {after:.3e}: {}", o.gap_before, d.summary());
 }
 
 /// A case whose data hide nothing the library has: `conclusion` as given, nothing named.
@@ -552,7 +548,10 @@ fn a_radiating_exhaust_wall_is_found_on_a_wall_but_one_output_cannot_say_which()
     // The best fitted candidates are heat losses of the two walls, and they pass every test.
     let round = &d.rounds[0];
     let best: Vec<&str> = round.candidates[..2].iter().map(|c| c.description.as_str()).collect();
-    assert!(best.iter().all(|b| b.contains("der(leftVolume.wallT)") || b.contains("der(rightVolume.wallT)")), "{best:?}");
+    assert!(
+        best.iter().all(|b| b.contains("der(leftVolume.wallT)") || b.contains("der(rightVolume.wallT)")),
+        "{best:?}"
+    );
     assert!(round.candidates.iter().any(|c| c.description == "radiation on der(rightVolume.wallT)"
         && c.fit.as_ref().and_then(|f| f.verdict.as_ref()).is_some_and(|v| v.accepted())));
 }
@@ -601,8 +600,9 @@ fn grid() -> Vec<Case> {
     push(Truth::None(Model::Furuta), 0.02, true);
     push(Truth::None(Model::Exhaust), 0.01, true);
     push(Truth::None(Model::Exhaust), 0.02, true);
-    for (k, truth) in
-        [Truth::DriftingStiffness, Truth::PeriodicForce, Truth::OneSidedFriction, Truth::GrowingMass].into_iter().enumerate()
+    for (k, truth) in [Truth::DriftingStiffness, Truth::PeriodicForce, Truth::OneSidedFriction, Truth::GrowingMass]
+        .into_iter()
+        .enumerate()
     {
         push(truth, 0.01, k % 2 == 1);
         push(truth, 0.02, k % 2 == 0);
@@ -772,4 +772,3 @@ fn full_grid() {
         println!("miss: {m}");
     }
 }
-

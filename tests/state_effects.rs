@@ -76,15 +76,14 @@ fn coulomb_friction_on_der_v_equals_the_force_over_the_mass_on_the_force_port() 
     // der(mass.v) is recorded too: an output that is the derivative carries the term.
     let outputs = ["mass.x", "mass.v", "der(mass.v)"];
     let base = SimSpec { port_terms: vec![], ..spec(20.0, 0.01, spring_force(), &outputs, &[("m", "2")]) };
-    let on_port = SimSpec {
-        port_terms: vec![port("coulomb_friction", "mass.Fext", "mass.v", vec![force])],
-        ..base.clone()
-    };
+    let on_port =
+        SimSpec { port_terms: vec![port("coulomb_friction", "mass.Fext", "mass.v", vec![force])], ..base.clone() };
     let on_state = SimSpec {
         state_terms: vec![state("coulomb_friction", "mass.v", "mass.v", vec![force / mass])],
         ..base.clone()
     };
-    let (p, s, w) = (simulate(&fmu, &on_port).unwrap(), simulate(&fmu, &on_state).unwrap(), simulate(&fmu, &base).unwrap());
+    let (p, s, w) =
+        (simulate(&fmu, &on_port).unwrap(), simulate(&fmu, &on_state).unwrap(), simulate(&fmu, &base).unwrap());
     compare(&p, &s, &w, &outputs, "mass.x");
 }
 
@@ -95,9 +94,9 @@ fn a_spring_on_der_v_reads_the_position_and_equals_the_port_spring() {
     let outputs = ["mass.x", "mass.v"];
     let base = spec(20.0, 0.01, spring_force(), &outputs, &[("m", "2")]);
     let on_port = SimSpec { port_terms: vec![port("cubic_spring", "mass.Fext", "mass.x", vec![0.6])], ..base.clone() };
-    let on_state =
-        SimSpec { state_terms: vec![state("cubic_spring", "mass.v", "mass.x", vec![0.3])], ..base.clone() };
-    let (p, s, w) = (simulate(&fmu, &on_port).unwrap(), simulate(&fmu, &on_state).unwrap(), simulate(&fmu, &base).unwrap());
+    let on_state = SimSpec { state_terms: vec![state("cubic_spring", "mass.v", "mass.x", vec![0.3])], ..base.clone() };
+    let (p, s, w) =
+        (simulate(&fmu, &on_port).unwrap(), simulate(&fmu, &on_state).unwrap(), simulate(&fmu, &base).unwrap());
     compare(&p, &s, &w, &outputs, "mass.x");
 }
 
@@ -111,7 +110,8 @@ fn a_dead_zone_on_a_state_stops_the_integrator_at_its_edges_as_on_the_port() {
         SimSpec { port_terms: vec![port("dead_zone_spring", "mass.Fext", "mass.x", vec![3.0, 0.4])], ..base.clone() };
     let on_state =
         SimSpec { state_terms: vec![state("dead_zone_spring", "mass.v", "mass.x", vec![3.0, 0.4])], ..base.clone() };
-    let (p, s, w) = (simulate(&fmu, &on_port).unwrap(), simulate(&fmu, &on_state).unwrap(), simulate(&fmu, &base).unwrap());
+    let (p, s, w) =
+        (simulate(&fmu, &on_port).unwrap(), simulate(&fmu, &on_state).unwrap(), simulate(&fmu, &base).unwrap());
     compare(&p, &s, &w, &outputs, "mass.x");
     // The kinks are events of both.
     assert_eq!(p.stats.events, s.stats.events);
@@ -133,7 +133,8 @@ fn radiation_on_der_t_equals_the_heat_flow_over_the_capacity_on_the_heat_port() 
         state_terms: vec![state("radiation", "rightVolume.wallT", "rightVolume.wallT", vec![0.2 / capacity, 293.15])],
         ..base.clone()
     };
-    let (p, s, w) = (simulate(&fmu, &on_port).unwrap(), simulate(&fmu, &on_state).unwrap(), simulate(&fmu, &base).unwrap());
+    let (p, s, w) =
+        (simulate(&fmu, &on_port).unwrap(), simulate(&fmu, &on_state).unwrap(), simulate(&fmu, &base).unwrap());
     compare(&p, &s, &w, &outputs, "outlet.T");
 }
 
@@ -170,7 +171,10 @@ fn bad_state_terms_are_refused_before_any_model_code_runs() {
         }
     };
     let m = refused(state("viscous_damping", "m", "mass.v", vec![1.0]), Interface::ModelExchange);
-    assert!(m.starts_with("state \"m\" is not a continuous state of the model (its states: \"mass.x, mass.v\")"), "{m}");
+    assert!(
+        m.starts_with("state \"m\" is not a continuous state of the model (its states: \"mass.x, mass.v\")"),
+        "{m}"
+    );
     let m = refused(state("viscous_damping", "mass.v", "F", vec![1.0]), Interface::ModelExchange);
     assert!(m.starts_with("signal \"F\" is not a continuous state"), "{m}");
     let m = refused(state("viscous_damping", "mass.v", "mass.v", vec![1.0]), Interface::CoSimulation);

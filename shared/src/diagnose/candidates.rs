@@ -24,8 +24,8 @@ use serde::{Deserialize, Serialize};
 
 use super::effects::{self, Domain, Found};
 use super::guess::{Guess, Guesses, Scales, SignalRole, SignalStats};
-use super::residuals::chi_squared_survival;
 use super::places::Places;
+use super::residuals::chi_squared_survival;
 use super::spec::{DiagnoseSpec, PortDomain};
 use super::structure::Role;
 use crate::job::identifiability::relative_step;
@@ -177,8 +177,7 @@ pub fn generate(job: &JobSpec, diagnose: &DiagnoseSpec, places: &Places, sizes: 
                 let Some(stats) = sizes.signals.get(signal) else { continue };
                 let scales = Scales { load, signal: *stats, duration: sizes.duration, sample: sizes.sample, ambient };
                 let e = effect(kind.name(), Some(&port.port), Some(signal), None, None);
-                let source =
-                    if place.by_hand { format!("{}.{field}", place.source) } else { place.source.clone() };
+                let source = if place.by_hand { format!("{}.{field}", place.source) } else { place.source.clone() };
                 out.push(candidate(e, *kind, &scales, source));
             }
         }
@@ -200,7 +199,8 @@ pub fn generate(job: &JobSpec, diagnose: &DiagnoseSpec, places: &Places, sizes: 
                 _ => place.state.as_str(),
             };
             let Some(stats) = sizes.signals.get(signal) else { continue };
-            let scales = Scales { load, signal: *stats, duration: sizes.duration, sample: sizes.sample, ambient: 293.15 };
+            let scales =
+                Scales { load, signal: *stats, duration: sizes.duration, sample: sizes.sample, ambient: 293.15 };
             let mut e = effect(kind.name(), None, Some(signal), None, None);
             e.state = Some(place.state.clone());
             out.push(candidate(e, *kind, &scales, format!("model state {}", place.state)));
@@ -585,7 +585,8 @@ mod tests {
     #[test]
     fn each_state_gets_the_kinds_of_its_quantity_and_springs_read_its_position() {
         use crate::diagnose::places::StatePlace;
-        let text = "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n";
+        let text =
+            "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n";
         let base = JobSpec::from_toml(text, std::path::Path::new("/")).unwrap();
         let stats = SignalStats::of(&[-1.0, 1.0]);
         let names = ["x", "v", "w", "T", "c"];

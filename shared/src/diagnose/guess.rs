@@ -13,8 +13,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::effects::{
-    ActuatorSaturation, ConstantLoad, ConstantRate, Convection, CoulombFriction, CubicSpring, DeadZoneSpring, HeatLoss, Kind,
-    LinearRelaxation, LinearSpring, QuadraticDrag, Radiation, SIGMA, SensorLag, Shared, StribeckFriction, ViscousDamping,
+    ActuatorSaturation, ConstantLoad, ConstantRate, Convection, CoulombFriction, CubicSpring, DeadZoneSpring, HeatLoss,
+    Kind, LinearRelaxation, LinearSpring, QuadraticDrag, Radiation, SIGMA, SensorLag, Shared, StribeckFriction,
+    ViscousDamping,
 };
 
 /// What an effect's signal must be.

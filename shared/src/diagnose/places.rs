@@ -46,7 +46,12 @@ impl Places {
     /// out). `model_exchange` is `Ok` when the job simulates in Model Exchange, where fmucal
     /// integrates the states, else why state effects are out. Names in `states` and `exclude`
     /// may be a state's aliases.
-    pub fn new(job: &JobSpec, diagnose: &DiagnoseSpec, structure: &Structure, model_exchange: Result<(), String>) -> Places {
+    pub fn new(
+        job: &JobSpec,
+        diagnose: &DiagnoseSpec,
+        structure: &Structure,
+        model_exchange: Result<(), String>,
+    ) -> Places {
         // A state named by an alias stands for the state.
         let canonical = |name: &str| structure.state(name).map_or_else(|| name.to_owned(), |s| s.name.clone());
         let exclude: Vec<String> = diagnose.exclude.iter().map(|n| canonical(n)).collect();
@@ -94,7 +99,12 @@ impl Places {
             if spec.signals().next().is_none() {
                 continue;
             }
-            ports.push(PortPlace { spec, source: format!("model input {}", p.name), by_hand: false, by_prefix: p.by_prefix });
+            ports.push(PortPlace {
+                spec,
+                source: format!("model input {}", p.name),
+                by_hand: false,
+                by_prefix: p.by_prefix,
+            });
         }
         // One physical place, one set of candidates. A port paired with its own component's
         // states is the place where their terms enter, so those states get no state effects of
@@ -118,7 +128,9 @@ impl Places {
             .flat_map(|p| p.spec.velocities.iter().chain(&p.spec.temperatures).map(String::as_str))
             .collect();
         if ports.is_empty() && notes.is_empty() {
-            notes.push("no injection input (a force, torque or heat-flow input not fed from data): no port effects".to_owned());
+            notes.push(
+                "no injection input (a force, torque or heat-flow input not fed from data): no port effects".to_owned(),
+            );
         }
         let states = match model_exchange {
             Err(why) => {
@@ -145,9 +157,8 @@ impl Places {
                 continue;
             }
             match structure.state(name) {
-                Some(s) if s.role == Role::Position => notes.push(format!(
-                    "diagnose.states: {name} is a position; its terms go on its velocity's derivative"
-                )),
+                Some(s) if s.role == Role::Position => notes
+                    .push(format!("diagnose.states: {name} is a position; its terms go on its velocity's derivative")),
                 Some(_) if covered.contains(&name.as_str()) => {
                     notes.push(format!("diagnose.states: {name} is left to the port of its component"))
                 }
@@ -237,10 +248,8 @@ mod tests {
         assert!(p.ports.is_empty());
 
         // Ports listed by hand say where to look: no other place, unless `states` names one.
-        let hand: DiagnoseSpec = toml::from_str(
-            "[[ports]]\nport = \"F\"\ndomain = \"mechanical\"\nvelocities = [\"b.v\"]\n",
-        )
-        .unwrap();
+        let hand: DiagnoseSpec =
+            toml::from_str("[[ports]]\nport = \"F\"\ndomain = \"mechanical\"\nvelocities = [\"b.v\"]\n").unwrap();
         let p = Places::new(&job(""), &hand, &structure, Ok(()));
         assert_eq!((p.ports.len(), p.states.len()), (1, 0));
         assert!(p.notes[0].contains("diagnose.ports says where to look"), "{:?}", p.notes);

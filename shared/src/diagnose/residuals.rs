@@ -160,7 +160,13 @@ impl OutputMisfit {
     /// The calibration RMS over the noise estimate (infinite on a noise-free residual that is
     /// not zero).
     pub fn rms_over_noise(&self) -> f64 {
-        if self.noise > 0.0 { self.rms / self.noise } else if self.rms > 0.0 { f64::INFINITY } else { 1.0 }
+        if self.noise > 0.0 {
+            self.rms / self.noise
+        } else if self.rms > 0.0 {
+            f64::INFINITY
+        } else {
+            1.0
+        }
     }
 
     /// Far from the noise: an RMS above [`FAR_RMS_OVER_NOISE`] × the noise, and a residual
@@ -356,8 +362,7 @@ mod tests {
         let fits = OutputMisfit::new("y", &noise[..1500], &noise[1500..], 1.0);
         assert!(!fits.far() && fits.rms_over_noise() < 1.2, "{fits:?}");
         // A slow misfit of 5 σ on top: the noise estimate barely moves, the RMS does.
-        let misfit: Vec<f64> =
-            noise.iter().enumerate().map(|(i, e)| e + 0.05 * (i as f64 * 0.01).sin()).collect();
+        let misfit: Vec<f64> = noise.iter().enumerate().map(|(i, e)| e + 0.05 * (i as f64 * 0.01).sin()).collect();
         let m = OutputMisfit::new("y", &misfit[..1500], &misfit[1500..], 1.0);
         // Noise-free data: a smooth error of the integrator's size is not a misfit.
         let smooth: Vec<f64> = (0..2000).map(|i| 1e-9 * (i as f64 * 0.01).sin()).collect();

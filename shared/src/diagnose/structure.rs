@@ -1,4 +1,4 @@
-//! A model's physical structure as its description states it (issue 27): which continuous
+//! A model's physical structure as its description states it: which continuous
 //! states are positions, velocities or temperatures, which velocity is the derivative of
 //! which position, which other variables *are* a state's derivative (an acceleration output
 //! such as Dymola's `mass.a`), and which continuous Real inputs are injection ports (a force,
@@ -311,10 +311,8 @@ impl Structure {
         // The state variables: the variable the derivative names (what the exporting tool
         // calls the state: `rightVolume.T`, not the output `outlet.T` that shares its value),
         // else its base when that one is a `der(…)`; with their identity.
-        let vars: Vec<&ScalarVariable> = raw
-            .iter()
-            .map(|(s, _)| if s.name.starts_with("der(") { md.base_of(s) } else { *s })
-            .collect();
+        let vars: Vec<&ScalarVariable> =
+            raw.iter().map(|(s, _)| if s.name.starts_with("der(") { md.base_of(s) } else { *s }).collect();
         let ids: Vec<&str> = raw.iter().map(|(s, _)| md.base_of(s).name.as_str()).collect();
         let state_of = |id: &str| ids.iter().position(|s| *s == id);
         let n = raw.len();

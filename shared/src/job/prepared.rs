@@ -13,13 +13,13 @@ use super::objective::{Objective, Target};
 use super::spec::{EffectSpec, JobSpec};
 use super::{JobError, JobKind, limits};
 use crate::diagnose::effects;
+use crate::diagnose::effects::Domain;
+use crate::diagnose::guess::SignalRole;
+use crate::diagnose::structure::{Quantity, Role, Structure};
 use crate::fmu::schema::{Causality, VarType};
 use crate::fmu::{Interface, ModelDescription};
 use crate::quote::quote_user_text;
 use crate::sim::plan::Plan;
-use crate::diagnose::effects::Domain;
-use crate::diagnose::guess::SignalRole;
-use crate::diagnose::structure::{Quantity, Role, Structure};
 use crate::sim::{InputTable, OutputTimes, PortTerm, SimResult, SimSpec, StateTerm};
 
 /// A job checked against its model and data.
@@ -184,19 +184,17 @@ fn state_signal(
         let wants = if kind.domain() == Domain::Thermal { "a temperature" } else { "a velocity" };
         return Err(JobError::invalid(
             field("kind"),
-            format!(
-                "{} acts on {wants}; state {} is {}",
-                e.kind,
-                quote_user_text(state),
-                describe_state(s)
-            ),
+            format!("{} acts on {wants}; state {} is {}", e.kind, quote_user_text(state), describe_state(s)),
         ));
     }
     if let Some(signal) = &e.signal {
         if structure.state(signal).is_none() {
             return Err(JobError::invalid(
                 field("signal"),
-                format!("{} is not a continuous state of the model: a state effect reads a state", quote_user_text(signal)),
+                format!(
+                    "{} is not a continuous state of the model: a state effect reads a state",
+                    quote_user_text(signal)
+                ),
             ));
         }
         return Ok(signal.clone());

@@ -1,4 +1,4 @@
-//! The checks after every fit (issue 30): answers that may be wrong although the run ended
+//! The checks after every fit: answers that may be wrong although the run ended
 //! normally. Each check gives one sentence for `result.json`'s `warnings` (the CLI prints each
 //! as `warning: ...`): a parameter at a bound, a run ended by its budget, a validation error
 //! worse than at the start point, a correlation near ±1 and a defaulted start time that is not

@@ -104,7 +104,14 @@ impl PlannedStateTerm {
 
 impl std::fmt::Debug for PlannedStateTerm {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}({:?}) of state {} into der(state {})", self.effect.name(), self.parameters, self.signal, self.state)
+        write!(
+            f,
+            "{}({:?}) of state {} into der(state {})",
+            self.effect.name(),
+            self.parameters,
+            self.signal,
+            self.state
+        )
     }
 }
 
@@ -144,6 +151,26 @@ fn invalid(msg: impl Into<String>) -> SimError {
     SimError::Invalid(msg.into())
 }
 
+/// The additive kind named `kind` (a port or state term, not a series effect) given exactly
+/// its parameters; `to` says where it was to be added.
+fn additive_kind(kind: &str, parameters: &[f64], to: &str) -> Result<&'static dyn PortEffect, SimError> {
+    let effect = match effects::find(kind).map_err(|e| invalid(e.to_string()))? {
+        effects::Found::Port(e) => e,
+        effects::Found::Series(_) => {
+            return Err(invalid(format!("{kind} changes a measured series, it is not added to {to}")));
+        }
+    };
+    if parameters.len() != effect.parameters().len() {
+        return Err(invalid(format!(
+            "{kind} takes {} parameters ({}), got {}",
+            effect.parameters().len(),
+            effect.parameters().join(", "),
+            parameters.len()
+        )));
+    }
+    Ok(effect)
+}
+
 /// Resolves a port term: a known port effect, a continuous Real input as port whose unit (if
 /// it says) is of the effect's domain, a readable Real signal that does not depend directly on
 /// the port (an algebraic loop).
@@ -154,21 +181,7 @@ fn plan_term(
     inputs: Option<&TimeSeries>,
     bindings: &[InputBinding],
 ) -> Result<PlannedTerm, SimError> {
-    let effect = match effects::find(&t.kind).map_err(|e| invalid(e.to_string()))? {
-        effects::Found::Port(e) => e,
-        effects::Found::Series(_) => {
-            return Err(invalid(format!("{} changes a measured series, it is not added to a port", t.kind)));
-        }
-    };
-    if t.parameters.len() != effect.parameters().len() {
-        return Err(invalid(format!(
-            "{} takes {} parameters ({}), got {}",
-            t.kind,
-            effect.parameters().len(),
-            effect.parameters().join(", "),
-            t.parameters.len()
-        )));
-    }
+    let effect = additive_kind(&t.kind, &t.parameters, "a port")?;
     if effect.domain() == effects::Domain::Generic {
         return Err(invalid(format!("{} acts on a state's derivative, not on a port: name a state instead", t.kind)));
     }
@@ -238,33 +251,21 @@ fn plan_term(
 /// of that name stands for).
 fn state_index(md: &ModelDescription, name: &str, what: &str) -> Result<usize, SimError> {
     let v = term_variable(md, name, what)?;
-    md.states().iter().position(|(s, _)| s.value_reference == v.value_reference && s.var_type == v.var_type).ok_or_else(|| {
-        let states: Vec<&str> = md.states().iter().map(|(s, _)| s.name.as_str()).collect();
-        invalid(format!(
-            "{what} {} is not a continuous state of the model (its states: {})",
-            quote_user_text(name),
-            if states.is_empty() { "none".to_owned() } else { quote_user_text(&states.join(", ")) }
-        ))
-    })
+    md.states().iter().position(|(s, _)| s.value_reference == v.value_reference && s.var_type == v.var_type).ok_or_else(
+        || {
+            let states: Vec<&str> = md.states().iter().map(|(s, _)| s.name.as_str()).collect();
+            invalid(format!(
+                "{what} {} is not a continuous state of the model (its states: {})",
+                quote_user_text(name),
+                if states.is_empty() { "none".to_owned() } else { quote_user_text(&states.join(", ")) }
+            ))
+        },
+    )
 }
 
 /// Resolves a state term: a known additive kind, a continuous state and a signal that is one.
 fn plan_state_term(md: &ModelDescription, t: &StateTerm) -> Result<PlannedStateTerm, SimError> {
-    let effect = match effects::find(&t.kind).map_err(|e| invalid(e.to_string()))? {
-        effects::Found::Port(e) => e,
-        effects::Found::Series(_) => {
-            return Err(invalid(format!("{} changes a measured series, it is not added to a state", t.kind)));
-        }
-    };
-    if t.parameters.len() != effect.parameters().len() {
-        return Err(invalid(format!(
-            "{} takes {} parameters ({}), got {}",
-            t.kind,
-            effect.parameters().len(),
-            effect.parameters().join(", "),
-            t.parameters.len()
-        )));
-    }
+    let effect = additive_kind(&t.kind, &t.parameters, "a state")?;
     let state = state_index(md, &t.state, "state")?;
     let signal = state_index(md, &t.signal, "signal")?;
     let states = md.states();
@@ -399,7 +400,11 @@ impl Plan {
             .map(|t| plan_term(md, t, &spec.parameters, spec.inputs.as_ref(), &input_bindings))
             .collect::<Result<Vec<_>, _>>()?;
         if !spec.state_terms.is_empty() && interface != Interface::ModelExchange {
-            let only = if interfaces.contains(&Interface::ModelExchange) { "" } else { " (the FMU offers Co-Simulation only)" };
+            let only = if interfaces.contains(&Interface::ModelExchange) {
+                ""
+            } else {
+                " (the FMU offers Co-Simulation only)"
+            };
             return Err(invalid(format!(
                 "state effects need Model Exchange, where fmucal integrates the states{only}; use a port effect instead"
             )));

@@ -9,14 +9,14 @@ use std::collections::BTreeMap;
 
 use anyhow::{Result, bail};
 use fmucal_shared::diagnose::candidates::{Sizes, generate};
-use fmucal_shared::diagnose::places::Places;
-use fmucal_shared::diagnose::structure::Structure;
 use fmucal_shared::diagnose::guess::SignalStats;
+use fmucal_shared::diagnose::places::Places;
 use fmucal_shared::diagnose::report::Windows;
 use fmucal_shared::diagnose::spec::{DEFAULT_HOLDOUT, DiagnoseSpec};
+use fmucal_shared::diagnose::structure::Structure;
 use fmucal_shared::fmu::{Fmu, Interface};
-use fmucal_shared::quote::quote_user_text;
 use fmucal_shared::job::{JobError, JobSpec, MeasurementTable, PreparedJob};
+use fmucal_shared::quote::quote_user_text;
 
 /// The windows of the diagnosis. With a validation window in the job, fits use the job's
 /// calibration window and decisions its validation window; without one, the last `holdout`
@@ -53,7 +53,9 @@ fn any_sizes(spec: &JobSpec, places: &Places) -> Sizes {
         .ports
         .iter()
         .flat_map(|p| p.spec.signals().map(|(_, s)| (s.to_owned(), unit)))
-        .chain(places.states.iter().flat_map(|s| std::iter::once(&s.state).chain(&s.position).map(|n| (n.clone(), unit))))
+        .chain(
+            places.states.iter().flat_map(|s| std::iter::once(&s.state).chain(&s.position).map(|n| (n.clone(), unit))),
+        )
         .collect();
     let series = spec
         .outputs
@@ -74,7 +76,12 @@ fn any_sizes(spec: &JobSpec, places: &Places) -> Sizes {
 ///
 /// # Errors
 /// The job's own error, or one naming the `[diagnose]` field a bad candidate or name comes from.
-pub fn job_and_candidates(spec: &JobSpec, settings: &DiagnoseSpec, fmu: &Fmu, data: &MeasurementTable) -> Result<Places> {
+pub fn job_and_candidates(
+    spec: &JobSpec,
+    settings: &DiagnoseSpec,
+    fmu: &Fmu,
+    data: &MeasurementTable,
+) -> Result<Places> {
     let md = &fmu.description;
     let interfaces = fmu.interfaces();
     PreparedJob::new(spec, md, &interfaces, std::slice::from_ref(data))?;

@@ -111,9 +111,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         // Localise: the residual against every signal the diagnosis may read.
         let mut names: Vec<String> =
             ctx.places.ports.iter().flat_map(|p| p.spec.signals().map(|(_, s)| s.to_owned())).collect();
-        names.extend(
-            ctx.places.states.iter().flat_map(|s| std::iter::once(s.state.clone()).chain(s.position.clone())),
-        );
+        names.extend(ctx.places.states.iter().flat_map(|s| std::iter::once(s.state.clone()).chain(s.position.clone())));
         names.extend(ctx.settings.signals.iter().cloned());
         names.extend(base.inputs.iter().map(|i| i.variable.clone()));
         names.extend(base.outputs.iter().map(|o| o.variable.clone()));
@@ -515,13 +513,7 @@ fn prepare(ctx: &Context, job: &JobSpec) -> Result<PreparedJob> {
 
 /// The sizes the candidates are guessed from: the ports' scales, the simulated signals, and the
 /// measured outputs and inputs on the calibration window.
-fn sizes(
-    ctx: &Context,
-    base: &JobSpec,
-    before: &Look,
-    signal_values: &[(String, Vec<f64>)],
-    probed: &Probed,
-) -> Sizes {
+fn sizes(ctx: &Context, base: &JobSpec, before: &Look, signal_values: &[(String, Vec<f64>)], probed: &Probed) -> Sizes {
     let signals = signal_values.iter().map(|(n, v)| (n.clone(), SignalStats::of(v))).collect();
     let rows = before.time.len();
     let mut series: BTreeMap<String, SignalStats> =
@@ -636,15 +628,16 @@ fn name(ctx: &Context, candidate: &Candidate, fit: &CandidateFit, job: &JobSpec)
     let md = &ctx.fmu.description;
     // A port's strength is in the port's unit; a state's in its derivative's (an acceleration
     // on a velocity), which is the state's unit per second when the derivative has none.
-    let unit = match (&candidate.effect.state, &candidate.effect.port) {
-        (Some(state), _) => md.states().into_iter().find(|(s, _)| &s.name == state).and_then(|(s, d)| {
-            md.unit_of(d).map(str::to_owned).or_else(|| md.unit_of(s).map(|u| format!("{u}/s")))
-        }),
-        (_, Some(port)) => md.variable(port).and_then(|v| md.unit_of(v)).map(str::to_owned),
-        _ => None,
-    }
-    .map(|u| format!(" {u}"))
-    .unwrap_or_default();
+    let unit =
+        match (&candidate.effect.state, &candidate.effect.port) {
+            (Some(state), _) => md.states().into_iter().find(|(s, _)| &s.name == state).and_then(|(s, d)| {
+                md.unit_of(d).map(str::to_owned).or_else(|| md.unit_of(s).map(|u| format!("{u}/s")))
+            }),
+            (_, Some(port)) => md.variable(port).and_then(|v| md.unit_of(v)).map(str::to_owned),
+            _ => None,
+        }
+        .map(|u| format!(" {u}"))
+        .unwrap_or_default();
     let names = candidate.parameter_names();
     let fitted: Vec<f64> =
         names.iter().map(|n| fit.x_opt.get(&format!("effects[{k}].{n}")).copied().unwrap_or(f64::NAN)).collect();

@@ -50,7 +50,13 @@ struct Place {
 
 /// The scale of every place of `places`, given or probed around the base optimum `x_base`
 /// of `base`.
-pub async fn scales(client: &mut Client, ctx: &Context, places: &Places, base: &JobSpec, x_base: &[f64]) -> Result<Probed> {
+pub async fn scales(
+    client: &mut Client,
+    ctx: &Context,
+    places: &Places,
+    base: &JobSpec,
+    x_base: &[f64],
+) -> Result<Probed> {
     let mut out = Probed {
         port_scales: places.ports.iter().filter_map(|p| p.spec.scale.map(|s| (p.spec.port.clone(), s))).collect(),
         ..Probed::default()
