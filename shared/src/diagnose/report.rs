@@ -268,6 +268,15 @@ impl Diagnosis {
                         self.misfit_partial.as_ref().map_or_else(String::new, Misfit::evidence)
                     );
                 }
+                // Effects at different places explain it equally: something is missing, but
+                // the data do not say where.
+                Conclusion::MissesSomething if !apart.is_empty() => {
+                    let _ = writeln!(
+                        s,
+                        "the model misses something: {why}; the evidence: {}",
+                        self.misfit_before.evidence()
+                    );
+                }
                 Conclusion::MissesSomething => {
                     let _ = writeln!(
                         s,
