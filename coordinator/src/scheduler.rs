@@ -99,11 +99,18 @@ pub struct Timing {
     pub evaluation_timeout: Duration,
 }
 
+/// Times a point held by a dying worker beside other points is sent again before the death
+/// counts against it.
+const MAX_UNCHARGED_RETRIES: u32 = 3;
+
 /// A work item of a job: a point on one experiment.
 struct Point {
     x: Vec<f64>,
     experiment: usize,
     failed_on: Vec<String>,
+    /// Times the point was sent again, uncharged, because a worker that held it beside other
+    /// points died: any of them may have killed it ([`MAX_UNCHARGED_RETRIES`]).
+    uncharged_retries: u32,
     /// Why the last attempt failed.
     last_error: String,
     assigned: Option<(String, Instant)>,
@@ -580,6 +587,7 @@ impl Scheduler {
                     x: c.x,
                     experiment: c.experiment,
                     failed_on: vec![],
+                    uncharged_retries: 0,
                     last_error: String::new(),
                     assigned: None,
                 };
@@ -670,6 +678,21 @@ impl Scheduler {
 
     /// Records a failed attempt; the point is told as failed after two different workers (or
     /// three attempts), else queued again.
+    /// Sends `point` again without counting an attempt against it, unless it was already sent
+    /// again so [`MAX_UNCHARGED_RETRIES`] times; says whether it was.
+    fn retry_uncharged(&mut self, id: &str, point: u64) -> bool {
+        let Some(job) = self.jobs.get_mut(id) else { return true };
+        let Some(p) = job.open.get_mut(&point) else { return true };
+        if p.uncharged_retries >= MAX_UNCHARGED_RETRIES {
+            return false;
+        }
+        p.uncharged_retries += 1;
+        p.assigned = None;
+        job.queue.push_back(point);
+        self.wake_parked();
+        true
+    }
+
     fn attempt_failed(&mut self, id: &str, point: u64, worker: &str, why: &str) {
         let Some(job) = self.jobs.get_mut(id) else { return };
         let Some(p) = job.open.get_mut(&point) else { return };
@@ -932,7 +955,13 @@ impl Scheduler {
         for wid in expired {
             let w = self.workers.remove(&wid).expect("listed above");
             tracing::warn!(worker = %wid, points = w.inflight.len(), "worker expired");
+            // A worker that dies holding several points says nothing of which one killed it: each
+            // is sent again uncharged, a few times, before the deaths count against it.
+            let shared = w.inflight.len() > 1;
             for (job, point) in w.inflight {
+                if shared && self.retry_uncharged(&job, point) {
+                    continue;
+                }
                 self.attempt_failed(&job, point, &wid, "the worker stopped answering");
             }
         }
