@@ -1,4 +1,4 @@
-//! The physical structure fmucal reads from the descriptions of the built models (issue 27):
+//! The physical structure fmucal reads from the descriptions of the built models:
 //! which states are positions, velocities and temperatures, how they pair, which variables are
 //! a state's derivative, and which inputs are injection ports paired with which states — on the
 //! examples (spring–mass, Furuta, exhaust pipe) and on fixtures shaped as tools export models

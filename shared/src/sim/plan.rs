@@ -506,26 +506,13 @@ impl Plan {
     /// # Errors
     /// [`FmuError::Call`] if the FMU rejects a call.
     pub fn term_indicators(&self, inst: &mut Instance, z: &mut [f64]) -> Result<(), FmuError> {
+        // Port terms first, then state terms: (signal's value reference, kinks).
+        let terms = self.port_terms.iter().map(|t| (t.signal_vr, t.kinks()));
+        let terms = terms.chain(self.state_terms.iter().map(|t| (t.signal_vr, t.kinks())));
         let mut k = 0;
-        for term in &self.port_terms {
-            let kinks = term.kinks();
-            if kinks.is_empty() {
-                continue;
-            }
+        for (vr, kinks) in terms.filter(|(_, kinks)| !kinks.is_empty()) {
             let mut s = [0.0];
-            inst.call("fmi2GetReal", |c| c.get_real(&[term.signal_vr], &mut s))?;
-            for kink in kinks {
-                z[k] = s[0] - kink;
-                k += 1;
-            }
-        }
-        for term in &self.state_terms {
-            let kinks = term.kinks();
-            if kinks.is_empty() {
-                continue;
-            }
-            let mut s = [0.0];
-            inst.call("fmi2GetReal", |c| c.get_real(&[term.signal_vr], &mut s))?;
+            inst.call("fmi2GetReal", |c| c.get_real(&[vr], &mut s))?;
             for kink in kinks {
                 z[k] = s[0] - kink;
                 k += 1;
