@@ -165,14 +165,16 @@ fn ctrl_c_keeps_the_best_point_and_leaves_no_worker_or_temporary_folder() {
     // A private temporary folder, to see what the run leaves there.
     let tmp = dir.path().join("tmp");
     std::fs::create_dir_all(&tmp).unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(["calibrate", job.to_str().unwrap(), "--workers", "2", "--out", "out"])
-        .current_dir(dir.path())
-        .env("FMUCAL_CACHE_DIR", dir.path().join("cache"))
-        .env("TMPDIR", &tmp)
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = common::KillOnDrop(
+        Command::new(env!("CARGO_BIN_EXE_fmucal"))
+            .args(["calibrate", job.to_str().unwrap(), "--workers", "2", "--out", "out"])
+            .current_dir(dir.path())
+            .env("FMUCAL_CACHE_DIR", dir.path().join("cache"))
+            .env("TMPDIR", &tmp)
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
     // Wait until both workers run, then for a few rounds.
     let marker = tmp.to_string_lossy().into_owned();
     let started = std::time::Instant::now();

@@ -10,6 +10,8 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use common::KillOnDrop;
+
 use fmucal_proto::auth::AttachToken;
 use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::v1 as pb;
@@ -95,25 +97,27 @@ async fn pool(url: &str, token: &str) -> Pool {
     WorkerPoolClient::with_interceptor(channel(url).await, AttachToken::new(Some(token)).unwrap())
 }
 
-fn start_worker(url: &str, cache: &Path, token: &str) -> Child {
+fn start_worker(url: &str, cache: &Path, token: &str) -> KillOnDrop {
     start_worker_with(url, cache, token, &[], None)
 }
 
 /// A worker process with more `args`, logging at debug level to `log` if given.
-fn start_worker_with(url: &str, cache: &Path, token: &str, args: &[&str], log: Option<&Path>) -> Child {
+fn start_worker_with(url: &str, cache: &Path, token: &str, args: &[&str], log: Option<&Path>) -> KillOnDrop {
     let stderr = log.map_or_else(Stdio::null, |path| Stdio::from(std::fs::File::create(path).unwrap()));
-    Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(["worker", "--coordinator", url, "--cache-dir"])
-        .arg(cache)
-        .args(args)
-        .env("FMUCAL_WORKER_TOKEN", token)
-        .env("FMUCAL_LOG", "fmucal=debug,fmucal_worker=debug")
-        .env_remove("FMUCAL_TOKEN")
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(stderr)
-        .spawn()
-        .unwrap()
+    KillOnDrop(
+        Command::new(env!("CARGO_BIN_EXE_fmucal"))
+            .args(["worker", "--coordinator", url, "--cache-dir"])
+            .arg(cache)
+            .args(args)
+            .env("FMUCAL_WORKER_TOKEN", token)
+            .env("FMUCAL_LOG", "fmucal=debug,fmucal_worker=debug")
+            .env_remove("FMUCAL_TOKEN")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(stderr)
+            .spawn()
+            .unwrap(),
+    )
 }
 
 /// The decay example's job (`k` from 1.0 in [0.5, 3]) on data made with k = 1.7, with `extra`
@@ -447,7 +451,7 @@ async fn a_model_that_never_returns_fails_its_point_and_does_not_wedge_the_worke
 }
 
 /// `fmucal coordinator` on a free port with `args`, its descriptors limited to `max_fds`.
-fn coordinator_process(dir: &Path, max_fds: u32, args: &[&str]) -> (Child, String) {
+fn coordinator_process(dir: &Path, max_fds: u32, args: &[&str]) -> (KillOnDrop, String) {
     let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
     let child = Command::new("sh")
         .arg("-c")
@@ -464,7 +468,7 @@ fn coordinator_process(dir: &Path, max_fds: u32, args: &[&str]) -> (Child, Strin
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    (child, format!("http://127.0.0.1:{port}"))
+    (KillOnDrop(child), format!("http://127.0.0.1:{port}"))
 }
 
 /// Lists the jobs of the coordinator at `url`, retrying for up to `limit`; whether it answered.
@@ -655,6 +659,8 @@ async fn salvage_gives_back_the_jobs_of_a_damaged_store() {
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let refused = fmucal_coordinator::run(config(&data_dir, None), listener, async {}).await.unwrap_err().to_string();
     assert!(refused.contains("Not a redb database"), "{refused}");
+    // The refusal says what gives the jobs back.
+    assert!(refused.contains("jobs.redb") && refused.contains("--salvage"), "{refused}");
 
     let out = Command::new(env!("CARGO_BIN_EXE_fmucal"))
         .args(["coordinator", "--salvage", "--data-dir"])

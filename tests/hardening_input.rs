@@ -197,11 +197,13 @@ fn a_killed_calibration_takes_its_workers_and_the_next_run_removes_its_folder() 
         "job.toml",
         &std::fs::read_to_string(&job).unwrap().replace("x_tol = 1e-4\nf_tol = 1e-10", "x_tol = 0.0\nf_tol = 0.0"),
     );
-    let mut run = command(d, &["calibrate", job.to_str().unwrap(), "--out", "out"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut run = common::KillOnDrop(
+        command(d, &["calibrate", job.to_str().unwrap(), "--out", "out"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
     let started = Instant::now();
     let workers = loop {
         let w = children_of(run.id());

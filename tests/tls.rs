@@ -99,12 +99,14 @@ async fn a_job_runs_over_mutual_tls_and_plaintext_is_refused() {
         all
     };
     let worker_args = tls_args(&["worker", "--coordinator", &url, "--cache-dir", "wcache"]);
-    let mut worker = fmucal(&worker_args.iter().map(String::as_str).collect::<Vec<_>>(), dir.path())
-        .env("FMUCAL_WORKER_TOKEN", WORKER_TOKEN)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut worker = common::KillOnDrop(
+        fmucal(&worker_args.iter().map(String::as_str).collect::<Vec<_>>(), dir.path())
+            .env("FMUCAL_WORKER_TOKEN", WORKER_TOKEN)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
     let fmu = common::load_example("decay", &dir.path().join("cache"));
     let r = fmucal_shared::sim::simulate(
         &fmu,

@@ -203,7 +203,19 @@ pub async fn run_with_ready(
     let data_dir = config.data_dir.clone();
     let (store, models2, timing) =
         (tokio::task::spawn_blocking(move || store::Store::open(&data_dir)), models.clone(), config.timing.clone());
-    let store = store.await.map_err(|e| CoordinatorError::Storage(e.to_string()))?.map_err(in_data_dir)?;
+    let store = store.await.map_err(|e| CoordinatorError::Storage(e.to_string()))?.map_err(in_data_dir).map_err(|e| {
+        // A store that exists but does not open is damaged: say what gives its jobs back.
+        match e {
+            CoordinatorError::Storage(m) if config.data_dir.join("jobs.redb").exists() => {
+                CoordinatorError::Storage(format!(
+                    "{}: {m}; if the file is damaged, `fmucal coordinator --data-dir {} --salvage` keeps every job that still reads",
+                    config.data_dir.join("jobs.redb").display(),
+                    config.data_dir.display()
+                ))
+            }
+            other => other,
+        }
+    })?;
     let (keep, metrics) = (config.keep_finished_jobs, config.metrics.clone());
     // The jobs of diagnoses that died with the previous coordinator: nothing follows them now.
     let orphans = diagnoses::orphaned_jobs(&config.data_dir);

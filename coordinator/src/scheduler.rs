@@ -863,8 +863,25 @@ impl Scheduler {
     /// already failed on it while another worker is alive. A worker may ask for several points
     /// per poll (to amortise the round trip), but gets at most its fair share of the queue,
     /// ⌈queued / live slots⌉, so expensive batches still spread over the whole pool.
+    ///
+    /// A point sent again after a worker died holding it beside others (a suspect: it may be
+    /// the one that kills) goes only to an idle worker, alone, and that worker gets nothing
+    /// else until it answers: if it dies again, the death is the point's own, and a healthy
+    /// point is not charged for a neighbour's crash.
     fn assign(&mut self, wid: &str, max: usize) -> Vec<pb::Assignment> {
         let alone = self.workers.len() <= 1;
+        let (idle, holds_suspect) = match self.workers.get(wid) {
+            Some(w) => (
+                w.inflight.is_empty(),
+                w.inflight.iter().any(|(j, pid)| {
+                    self.jobs.get(j).and_then(|job| job.open.get(pid)).is_some_and(|p| p.uncharged_retries > 0)
+                }),
+            ),
+            None => (true, false),
+        };
+        if holds_suspect {
+            return vec![];
+        }
         let queued: usize = self.jobs.values().filter(|j| is_running(j.state.status)).map(|j| j.queue.len()).sum();
         let slots: usize = self.workers.values().map(|w| w.slots).sum::<usize>().max(1);
         let max = max.min(queued.div_ceil(slots).max(1));
@@ -872,12 +889,18 @@ impl Scheduler {
         let mut order: Vec<(&String, &mut Job)> =
             self.jobs.iter_mut().filter(|(_, j)| is_running(j.state.status)).collect();
         order.sort_by_key(|(_, j)| j.state.seq);
+        let mut took_suspect = false;
         for (id, job) in order {
             let mut skipped = VecDeque::new();
-            while out.len() < max {
+            while out.len() < max && !took_suspect {
                 let Some(pid) = job.queue.pop_front() else { break };
                 let Some(p) = job.open.get_mut(&pid) else { continue };
                 if !alone && p.failed_on.iter().any(|w| w == wid) {
+                    skipped.push_back(pid);
+                    continue;
+                }
+                let suspect = p.uncharged_retries > 0;
+                if suspect && (!idle || !out.is_empty()) {
                     skipped.push_back(pid);
                     continue;
                 }
@@ -889,10 +912,11 @@ impl Scheduler {
                     want_residuals: job.state.run.wants_residuals(),
                     experiment: u32::try_from(p.experiment).unwrap_or(u32::MAX),
                 });
+                took_suspect = suspect;
             }
             skipped.extend(job.queue.drain(..));
             job.queue = skipped;
-            if out.len() >= max {
+            if out.len() >= max || took_suspect {
                 break;
             }
         }

@@ -259,3 +259,28 @@ pub fn fmpy_python() -> &'static Path {
         PathBuf::from(String::from_utf8(out.stdout).unwrap().trim())
     })
 }
+
+/// A child process killed and reaped when dropped, so that a test that panics (a failed
+/// assertion) leaves no process behind. It derefs to the [`std::process::Child`].
+#[allow(dead_code)]
+pub struct KillOnDrop(pub std::process::Child);
+
+impl std::ops::Deref for KillOnDrop {
+    type Target = std::process::Child;
+    fn deref(&self) -> &std::process::Child {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for KillOnDrop {
+    fn deref_mut(&mut self) -> &mut std::process::Child {
+        &mut self.0
+    }
+}
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
