@@ -272,6 +272,9 @@ pub enum Fixture {
     /// grows with time, m·(1 + 0.5·t/20 s) (1 kg at t = 0, 1.5 kg at the stop time): changes the
     /// outputs by 15.9 %.
     SpringMassExportedGrowingMass,
+    /// [`Fixture::SpringMassExported`] as Dymola exports it unless told otherwise: its
+    /// `DefaultExperiment` says `tolerance="0.0001"` (the same binary and description otherwise).
+    SpringMassExportedLooseTolerance,
     /// Exported shape (Dymola's FMI 2.0 description) of the Furuta example, without the
     /// injection ports `armJoint.tauExt` and `pendulumJoint.tauExt`: states `armJoint.phi`
     /// \[rad\] (start 0), `armJoint.w` \[rad/s\] (0), `pendulumJoint.phi` \[rad\] (1, away from
@@ -349,6 +352,7 @@ impl Fixture {
             Fixture::SpringMassExportedPeriodicForce => "SpringMassExportedPeriodicForce.fmu",
             Fixture::SpringMassExportedOneSidedFriction => "SpringMassExportedOneSidedFriction.fmu",
             Fixture::SpringMassExportedGrowingMass => "SpringMassExportedGrowingMass.fmu",
+            Fixture::SpringMassExportedLooseTolerance => "SpringMassExportedLooseTolerance.fmu",
             Fixture::FurutaExported => "FurutaExported.fmu",
             Fixture::FurutaExportedHiddenCoulomb => "FurutaExportedHiddenCoulomb.fmu",
             Fixture::ExhaustPipeExported => "ExhaustPipeExported.fmu",

@@ -169,6 +169,9 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 start_time: sim.start_time,
                 stop_time: sim.stop_time,
                 tolerance: sim.tolerance,
+                // The guard runs in the client that reads the job file, before and after it
+                // submits: a coordinator's job never runs it.
+                tolerance_guard: None,
                 solver: choice("spec.simulation.solver", sim.solver)?,
                 set: sim.set.into_iter().map(|(k, v)| (k, SetValue::from_text(v))).collect(),
                 set_from: None,
@@ -406,6 +409,7 @@ pub fn result_from_proto(r: pb::JobResult, history: Vec<HistoryPoint>) -> Calibr
         experiments: vec![],
         fmi_version: None,
         warnings: vec![],
+        tolerance_guard: None,
     }
 }
 

@@ -13,7 +13,7 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use fmucal_shared::fmu::Fmu;
-use fmucal_shared::job::{ExperimentErrors, JobSpec, PreparedJob, report};
+use fmucal_shared::job::{ExperimentErrors, JobSpec, PreparedJob, report, tolerance};
 use fmucal_shared::quote::quote_user_text;
 
 use super::client::Client;
@@ -41,6 +41,11 @@ pub struct Args {
     #[arg(long)]
     strict: bool,
 }
+
+/// The optimizer's initial step (a fraction of each parameter's range) of a refit at a tighter
+/// tolerance, unless the job sets one: it starts at the first optimum, so the search stays
+/// local.
+const REFIT_STEP: f64 = 0.01;
 
 /// A run whose checks warned, under `--strict` (exit code 3).
 #[derive(Debug, thiserror::Error)]
@@ -77,6 +82,17 @@ pub fn run(args: Args) -> Result<()> {
     // Removed again if the run fails before writing anything into it.
     let _out = super::outputs::OutDir::create(&args.out)?;
 
+    // The tolerance guard, before the calibration: tighten until the start point's integration
+    // error is small against the noise.
+    let guarded = spec.simulation.tolerance_guard.unwrap_or(true);
+    let (prepared, start_checks) = if guarded {
+        let (_, x0, _, _) = prepared.spec.parameter_vectors();
+        let t = tolerance::tighten(&fmu, prepared, &data, &x0, "start")?;
+        (t.job, t.checks)
+    } else {
+        (prepared, vec![])
+    };
+
     let rt = tokio::runtime::Runtime::new()?;
     let started = std::time::Instant::now();
     // Ctrl-C or SIGTERM cancels the job and keeps its best point so far; a local cluster's
@@ -92,7 +108,7 @@ pub fn run(args: Args) -> Result<()> {
                 None => std::future::pending().await,
             }
         };
-        let result = tokio::select! {
+        let mut result = tokio::select! {
             r = client.calibrate(&prepared.spec, &data, &model) => r?,
             () = deadline => {
                 let mut r = stopper.interrupt().await?.with_context(|| {
@@ -103,8 +119,42 @@ pub fn run(args: Args) -> Result<()> {
             }
             () = super::servers::terminate_signal() => return Ok(Err(stopper.interrupt().await?)),
         };
+        // The guard at the optimum: if the integration error there is not small against the
+        // noise, refit from the optimum at the tolerance that makes it so.
+        let mut job = prepared.clone();
+        let mut checks = vec![];
+        let mut refit = None;
+        if guarded && result.termination != "max_time reached" {
+            let x = result.x_opt_in(&job.parameter_names);
+            let t = tokio::task::block_in_place(|| tolerance::tighten(&fmu, job.clone(), &data, &x, "optimum"))?;
+            let tightened = t.tightened(&job.spec);
+            checks = t.checks.clone();
+            if tightened {
+                // From the optimum, a local search; the report still compares with the job's
+                // own starts (`t.job`).
+                let mut from_optimum = t.spec.clone().with_starts(&result.x_opt);
+                from_optimum.optimizer.initial_step.get_or_insert(REFIT_STEP);
+                let refit_started = std::time::Instant::now();
+                let second = tokio::select! {
+                    r = client.calibrate(&from_optimum, &data, &model) => r?,
+                    () = super::servers::terminate_signal() => return Ok(Err(stopper.interrupt().await?)),
+                };
+                refit = Some(tolerance::Refit {
+                    from_tolerance: tolerance::effective_tolerance(&job.spec, &fmu),
+                    evaluations: second.evaluations,
+                    seconds: refit_started.elapsed().as_secs_f64(),
+                });
+                result = result.followed_by(second);
+                job = t.job;
+            }
+        }
+        let guard = guarded.then(|| {
+            let mut all = start_checks.clone();
+            all.extend(checks);
+            tolerance::Guard { tolerance: tolerance::effective_tolerance(&job.spec, &fmu), checks: all, refit }
+        });
         tokio::select! {
-            identified = client.identify(&prepared, &result, &data, &model) => Ok(Ok((result, identified))),
+            identified = client.identify(&job, &result, &data, &model) => Ok(Ok((result, identified, job, guard))),
             () = super::servers::terminate_signal() => Ok(Err(stopper.interrupt().await?)),
         }
     };
@@ -119,7 +169,7 @@ pub fn run(args: Args) -> Result<()> {
     })?;
     // The wall time as the user saw it (a coordinator's result may not carry its own).
     let wall_s = started.elapsed().as_secs_f64();
-    let (mut result, identified) = match outcome {
+    let (mut result, identified, prepared, guard) = match outcome {
         Ok(done) => done,
         Err(partial) => {
             if let Some(result) = partial {
@@ -134,6 +184,7 @@ pub fn run(args: Args) -> Result<()> {
             return Err(super::Interrupted.into());
         }
     };
+    result.tolerance_guard = guard;
     match identified {
         Ok(id) => result.identifiability = Some(id),
         Err(e) => tracing::warn!("no identifiability analysis: {e:#}"),
@@ -221,6 +272,9 @@ pub fn run(args: Args) -> Result<()> {
             x.role,
             ratio(&e.calibration)
         );
+    }
+    if let Some(g) = &result.tolerance_guard {
+        println!("{}", g.summary());
     }
     if let Some(id) = &result.identifiability
         && let Some((a, b, c)) = largest_correlation(id)

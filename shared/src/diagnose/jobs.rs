@@ -108,24 +108,6 @@ pub fn gauss_newton(
     gain.is_finite().then_some((next, gain))
 }
 
-/// `job` with the start of every calibrated value named in `values` (`[[parameters]]` by name,
-/// effect parameters as `effects[K].NAME`) set to that value, clamped into its bounds.
-pub fn with_starts(mut job: JobSpec, values: &BTreeMap<String, f64>) -> JobSpec {
-    for p in &mut job.parameters {
-        if let Some(v) = values.get(&p.name).filter(|v| v.is_finite()) {
-            p.start = v.clamp(p.lower, p.upper);
-        }
-    }
-    for (k, e) in job.effects.iter_mut().enumerate() {
-        for (name, b) in e.parameters.iter_mut() {
-            if let Some(v) = values.get(&format!("effects[{k}].{name}")).filter(|v| v.is_finite()) {
-                b.start = v.clamp(b.lower, b.upper);
-            }
-        }
-    }
-    job
-}
-
 /// The calibration of `candidate` added to `base`: the base's values start at `starts`, the
 /// candidate's parameters at `effect_starts`; with `fix_base`, the base's `[[parameters]]` are
 /// fixed at their starts (`[simulation] set`) and only the effects are fitted.
@@ -136,7 +118,7 @@ pub fn candidate_job(
     effect_starts: &[f64],
     fix_base: bool,
 ) -> JobSpec {
-    let mut job = with_starts(base.clone(), starts);
+    let mut job = base.clone().with_starts(starts);
     job.diagnose = None;
     if fix_base {
         for p in std::mem::take(&mut job.parameters) {

@@ -12,7 +12,9 @@
 //!   ([`local`]);
 //! - standard errors and correlations at the optimum ([`identifiability`]), the result
 //!   ([`result`]) and what its report compares: measured against nominal and optimized outputs,
-//!   RMS errors per window ([`report`]).
+//!   RMS errors per window ([`report`]);
+//! - the integration-tolerance guard: the integrator's error small against the noise
+//!   ([`tolerance`]).
 
 pub mod choices;
 pub mod data;
@@ -30,6 +32,7 @@ pub mod report;
 pub mod result;
 pub mod run;
 pub mod spec;
+pub mod tolerance;
 pub mod warnings;
 
 use crate::fmu::FmuError;

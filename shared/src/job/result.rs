@@ -88,6 +88,10 @@ pub struct CalibrationResult {
     /// prints each as `warning: ...`, and `--strict` makes any of them exit code 3.
     #[serde(default)]
     pub warnings: Vec<String>,
+    /// The integration-tolerance guard's checks, and its refit if it made one, when the CLI
+    /// ran it ([`super::tolerance`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance_guard: Option<super::tolerance::Guard>,
 }
 
 /// One experiment's RMS errors in `result.json`.
@@ -103,6 +107,29 @@ impl CalibrationResult {
     /// The optimum as a vector in the order of `names` (NaN for a name it lacks).
     pub fn x_opt_in(&self, names: &[String]) -> Vec<f64> {
         names.iter().map(|n| self.x_opt.get(n).copied().unwrap_or(f64::NAN)).collect()
+    }
+
+    /// This run followed by `next`, a run of the same job that started where this one ended
+    /// (the tolerance guard's refit): `next`'s optimum and termination, the counts and wall
+    /// times of both, and `next`'s history after this one's.
+    #[must_use]
+    pub fn followed_by(self, next: CalibrationResult) -> CalibrationResult {
+        let (evaluations, rounds) = (self.evaluations, self.rounds);
+        let mut history = self.history;
+        history.extend(next.history.into_iter().map(|h| HistoryPoint {
+            round: h.round + rounds,
+            evaluations: h.evaluations + evaluations,
+            ..h
+        }));
+        CalibrationResult {
+            iterations: self.iterations + next.iterations,
+            evaluations: evaluations + next.evaluations,
+            rounds: rounds + next.rounds,
+            failed_evaluations: self.failed_evaluations + next.failed_evaluations,
+            elapsed_s: self.elapsed_s + next.elapsed_s,
+            history,
+            ..next
+        }
     }
 }
 
@@ -164,6 +191,7 @@ mod tests {
             experiments: vec![],
             fmi_version: None,
             warnings: vec![],
+            tolerance_guard: None,
         };
         let json = serde_json::to_string(&result).unwrap();
         // The optimum and the best value so far keep their infinity (a job with no successful

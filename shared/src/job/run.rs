@@ -316,6 +316,7 @@ impl JobRun {
             experiments: vec![],
             fmi_version: None,
             warnings: vec![],
+            tolerance_guard: None,
         }
     }
 }

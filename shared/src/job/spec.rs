@@ -31,6 +31,7 @@
 //! start_time = 0.0
 //! stop_time = 40.0
 //! tolerance = 1e-6
+//! tolerance_guard = true     # calibrate: tighten the tolerance until its error is < 0.1 × noise
 //! solver = "bdf"
 //! set = { g = 9.81 }         # fixed values of other variables
 //! set_from = "stage1/result.json"  # fix the x_opt of an earlier calibration (two-stage fits)
@@ -254,6 +255,10 @@ pub struct SimulationSpec {
     pub stop_time: Option<f64>,
     /// Default: the FMU's DefaultExperiment tolerance, else 1e-6.
     pub tolerance: Option<f64>,
+    /// `fmucal calibrate` checks that the integration error is small against the noise, at
+    /// the start point and at the optimum, and tightens the tolerance (and refits) where it is
+    /// not ([`super::tolerance`]). Default: true.
+    pub tolerance_guard: Option<bool>,
     /// bdf (default), esdirk34, tr-bdf2 or tsit45.
     #[serde(default, with = "optional_text")]
     pub solver: Option<Solver>,
@@ -467,6 +472,26 @@ pub fn toml_error(e: &toml::de::Error, text: &str) -> String {
 }
 
 impl JobSpec {
+    /// This job with the start of every calibrated value named in `values` (`[[parameters]]`
+    /// by name, effect parameters as `effects[K].NAME`) set to that value, clamped into its
+    /// bounds: a job that starts at an earlier fit.
+    #[must_use]
+    pub fn with_starts(mut self, values: &std::collections::BTreeMap<String, f64>) -> JobSpec {
+        for p in &mut self.parameters {
+            if let Some(v) = values.get(&p.name).filter(|v| v.is_finite()) {
+                p.start = v.clamp(p.lower, p.upper);
+            }
+        }
+        for (k, e) in self.effects.iter_mut().enumerate() {
+            for (name, b) in e.parameters.iter_mut() {
+                if let Some(v) = values.get(&format!("effects[{k}].{name}")).filter(|v| v.is_finite()) {
+                    b.start = v.clamp(b.lower, b.upper);
+                }
+            }
+        }
+        self
+    }
+
     /// Parses TOML text; relative paths are resolved against `base_dir`.
     ///
     /// # Errors

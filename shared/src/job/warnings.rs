@@ -1,8 +1,9 @@
 //! The checks after every fit: answers that may be wrong although the run ended
 //! normally. Each check gives one sentence for `result.json`'s `warnings` (the CLI prints each
 //! as `warning: ...`): a parameter at a bound, a run ended by its budget, a validation error
-//! worse than at the start point, a correlation near ±1 and a defaulted start time that is not
-//! the model's own. The misfit check (the diagnosis's [`crate::diagnose::residuals::Misfit`])
+//! worse than at the start point, a correlation near ±1, a defaulted start time that is not
+//! the model's own, and an integration error the tolerance guard could not make small against
+//! the noise. The misfit check (the diagnosis's [`crate::diagnose::residuals::Misfit`])
 //! needs the fit's series and is added by the caller that has them.
 
 use super::result::CalibrationResult;
@@ -46,6 +47,17 @@ pub fn check(spec: &JobSpec, result: &CalibrationResult, model_start: f64, data_
                  and no standard error is given for it"
             ));
         }
+    }
+    if let Some(guard) = &result.tolerance_guard
+        && let Some(last) = guard.checks.last()
+        && !last.passed()
+    {
+        warnings.push(format!(
+            "even at rtol {:e}, the tightest tried, the integration error on {} may move an estimate by {:.2} \
+             standard errors ({:.3} × the noise): the integrator, not the data, may decide the estimate (a \
+             Co-Simulation FMU may ignore the tolerance: use Model Exchange if it has it)",
+            last.tolerance, last.output, last.shift, last.ratio
+        ));
     }
     if ended_on_budget(&result.termination) {
         warnings.push(format!(
@@ -143,6 +155,7 @@ mod tests {
             experiments: vec![],
             fmi_version: None,
             warnings: vec![],
+            tolerance_guard: None,
         }
     }
 

@@ -16,7 +16,6 @@ use fmucal_shared::diagnose::decision::{
 use fmucal_shared::diagnose::guess::SignalStats;
 use fmucal_shared::diagnose::jobs::{
     candidate_job, decision_f_tol, decision_optimizer, gauss_newton, noise_ssr, polish_step, same_place, stopped_early,
-    with_starts,
 };
 use fmucal_shared::diagnose::localise::localise;
 use fmucal_shared::diagnose::report::{
@@ -321,7 +320,7 @@ pub async fn diagnose(mut client: Client, ctx: &Context, mut base: JobSpec) -> R
         // The next round's base: this round's job (its own optimizer settings and parameters)
         // with the named effect, every start at the fitted value.
         base.effects.push(effect.effect.clone());
-        base = with_starts(base, &fit.x_opt);
+        base = base.with_starts(&fit.x_opt);
         named.push(effect);
     }
     let before = first_look.context("no round ran")?;
@@ -471,7 +470,7 @@ async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &Candida
     let (mut ssr, mut x, gain) = refined.context("the polish's first point failed")?;
     let mut termination = "Gauss–Newton polish";
     if gain > decision_f_tol(ssr, n_eff) {
-        let mut ls = with_starts(job.clone(), &names.iter().cloned().zip(x.iter().copied()).collect());
+        let mut ls = job.clone().with_starts(&names.iter().cloned().zip(x.iter().copied()).collect());
         ls.optimizer.algorithm = Algorithm::LeastSquares;
         ls.optimizer.initial_step = Some(polish_step(ls.optimizer.x_tol, ls.optimizer.initial_step));
         let r = gn.client.calibrate_with(&ls, std::slice::from_ref(&*ctx.data), &ctx.model, |_| {}).await?;
@@ -503,6 +502,7 @@ async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &Candida
         experiments: vec![],
         fmi_version: None,
         warnings: vec![],
+        tolerance_guard: None,
     };
     Ok(Fitted { job: job.clone(), result: Ok((result, id)), elapsed, simulations })
 }

@@ -173,7 +173,7 @@ pub fn run(args: Args) -> Result<()> {
     // initial step of one standard error so that the search stays near the optimum.
     let mut kept = original.with_absolute_paths();
     kept.effects.extend(report.named.iter().map(|n| n.effect.clone()));
-    let mut kept = fmucal_shared::diagnose::jobs::with_starts(kept, &report.fitted);
+    let mut kept = kept.with_starts(&report.fitted);
     // A held-out window becomes the job's validation window, so that the job is judged where
     // the diagnosis was.
     if report.windows.holdout {
