@@ -212,7 +212,13 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(e) = &result.errors {
         let v = e.validation.as_ref().map(|v| format!(", validation {}", ratio(v))).unwrap_or_default();
         println!("scaled RMS error (optimized / start): calibration {}{v}", ratio(&e.calibration));
-        print!("{}", output_table(&e.outputs));
+        if !e.outputs.is_empty() {
+            println!("{OUTPUT_TABLE_TITLE}:");
+        }
+        print!("{}", output_table(&e.outputs, "calibration"));
+    }
+    if result.experiments.iter().any(|x| !x.errors.outputs.is_empty()) {
+        println!("{OUTPUT_TABLE_TITLE}, per experiment:");
     }
     for x in &result.experiments {
         let e = &x.errors;
@@ -224,7 +230,7 @@ pub fn run(args: Args) -> Result<()> {
             x.role,
             ratio(&e.calibration)
         );
-        print!("{}", output_table(&e.outputs));
+        print!("{}", output_table(&e.outputs, if x.role == "fit" { "calibration" } else { "whole span" }));
     }
     if let Some(id) = &result.identifiability
         && let Some((a, b, c)) = largest_correlation(id)
@@ -271,9 +277,13 @@ fn ratio(w: &fmucal_shared::job::result::WindowError) -> String {
     }
 }
 
-/// Each output's errors as a table, one row per output and window: the RMS error of the start
-/// and the optimized model in the output's unit, and their fit %; empty without outputs.
-fn output_table(outputs: &[fmucal_shared::job::result::OutputErrors]) -> String {
+/// What [`output_table`]'s columns hold.
+const OUTPUT_TABLE_TITLE: &str = "per output (RMS error in the output's unit; fit % = 100·(1 − ‖y − ŷ‖/‖y − ȳ‖))";
+
+/// Each output's errors as a table, one row per output and window (the first called `first`,
+/// then `validation`): the RMS error of the start and the optimized model in the output's
+/// unit, and their fit %; empty without outputs.
+fn output_table(outputs: &[fmucal_shared::job::result::OutputErrors], first: &str) -> String {
     use std::fmt::Write;
     if outputs.is_empty() {
         return String::new();
@@ -283,14 +293,14 @@ fn output_table(outputs: &[fmucal_shared::job::result::OutputErrors]) -> String 
     let unit_w = outputs.iter().map(|o| unit(o).chars().count()).chain([4]).max().unwrap_or(4);
     let rms = |v: f64| if v.is_finite() { format!("{v:.3e}") } else { "n/a".into() };
     let fit = |v: f64| if v.is_finite() { format!("{v:.1}") } else { "n/a".into() };
-    let mut s = String::from("per output (RMS error in the output's unit; fit % = 100·(1 − ‖y − ŷ‖/‖y − ȳ‖)):\n");
+    let mut s = String::new();
     let _ = writeln!(
         s,
         "  {:<name_w$}  {:<unit_w$}  {:<11}  {:>10}  {:>13}  {:>11}  {:>15}",
         "output", "unit", "window", "RMS start", "RMS optimized", "fit % start", "fit % optimized"
     );
     for o in outputs {
-        let windows = [("calibration", Some(o.calibration)), ("validation", o.validation)];
+        let windows = [(first, Some(o.calibration)), ("validation", o.validation)];
         for (window, e) in windows.iter().filter_map(|(w, e)| e.map(|e| (w, e))) {
             let _ = writeln!(
                 s,
