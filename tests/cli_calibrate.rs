@@ -1,6 +1,8 @@
 //! `fmucal calibrate` through the real binary: a local run (in-process coordinator and worker
-//! processes) writes result.json, convergence.csv and fit.csv; `--coordinator URL` gives the
-//! same result on a separately started coordinator; a bad job is one clean error line.
+//! processes) writes result.json, convergence.csv and fit.csv; the summary and result.json hold
+//! each output's RMS error in its unit and its fit %, as recomputed from fit.csv; `--coordinator
+//! URL` gives the same result on a separately started coordinator; a bad job is one clean
+//! error line.
 
 mod common;
 
@@ -70,7 +72,7 @@ fn local_run_writes_result_convergence_and_fit() {
     let conv = std::fs::read_to_string(dir.path().join("out/convergence.csv")).unwrap();
     assert!(conv.starts_with("round,evaluations,best_f,batch_wall_s\n") && conv.lines().count() > 3);
     let fit = std::fs::read_to_string(dir.path().join("out/fit.csv")).unwrap();
-    assert!(fit.starts_with("time,x:measured,x:nominal,x:optimized\n"), "{}", &fit[..80]);
+    assert!(fit.starts_with("time,x:measured,x:start,x:optimized\n"), "{}", &fit[..80]);
     let plots = ["fit", "error", "convergence"];
     for name in plots {
         let png = std::fs::read(dir.path().join(format!("out/{name}.png"))).unwrap();
@@ -88,6 +90,112 @@ fn local_run_writes_result_convergence_and_fit() {
     let out = fmucal(&["plot", "no-such-folder"], dir.path());
     assert_eq!(out.status.code(), Some(1));
     assert_eq!(String::from_utf8_lossy(&out.stderr).lines().count(), 1);
+}
+
+/// RMS error and fit % (100·(1 − ‖y − ŷ‖/‖y − ȳ‖)) of columns `model` against `measured` of
+/// `fit.csv`'s rows with `lo < time <= hi` (the first row included when `lo` is -inf).
+fn from_fit_csv(fit: &str, measured: usize, model: usize, lo: f64, hi: f64) -> (f64, f64) {
+    let rows: Vec<Vec<f64>> = fit
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect::<Vec<f64>>())
+        .filter(|r| r[0] > lo && r[0] <= hi)
+        .collect();
+    let n = rows.len() as f64;
+    let mean = rows.iter().map(|r| r[measured]).sum::<f64>() / n;
+    let residual: f64 = rows.iter().map(|r| (r[model] - r[measured]).powi(2)).sum();
+    let spread: f64 = rows.iter().map(|r| (r[measured] - mean).powi(2)).sum();
+    ((residual / n).sqrt(), 100.0 * (1.0 - (residual / spread).sqrt()))
+}
+
+#[test]
+fn the_summary_has_each_outputs_rms_in_its_unit_and_fit_percent() {
+    // The spring-mass example (mass.x in m, mass.v in m/s) measured at k = 5, d = 0.5 over
+    // 10 s; k and d fitted from 4 and 0.3 on [0, 6] s and judged on (6, 10] s.
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = common::load_example("spring-mass", &dir.path().join("cache"));
+    let spec = fmucal_shared::sim::SimSpec {
+        parameters: vec![("k".into(), "5".into()), ("d".into(), "0.5".into())],
+        stop_time: Some(10.0),
+        tolerance: Some(1e-10),
+        ..Default::default()
+    };
+    let r = fmucal_shared::sim::simulate(&fmu, &spec).unwrap();
+    let mut csv = String::from("time,x,v\n");
+    let (x, v) = (r.column("mass.x").unwrap(), r.column("mass.v").unwrap());
+    for i in (0..r.time.len()).step_by(10) {
+        csv.push_str(&format!("{},{},{}\n", r.time[i], x[i], v[i]));
+    }
+    std::fs::write(dir.path().join("data.csv"), csv).unwrap();
+    let text = common::job_toml(
+        Path::new("example:spring-mass"),
+        Some(Path::new("data.csv")),
+        &[("mass.x", "x"), ("mass.v", "v")],
+        &[],
+        &[("k", 4.0, 1.0, 10.0), ("d", 0.3, 0.05, 2.0)],
+        "[simulation]\ntolerance = 1e-10\nstop_time = 6.0\nvalidation_stop_time = 10.0\n[optimizer]\nx_tol = 1e-8\nf_tol = 1e-14\n",
+    );
+    std::fs::write(dir.path().join("job.toml"), text).unwrap();
+    let out = fmucal(&["calibrate", "job.toml", "--workers", "2", "--out", "out"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+
+    // The table: a header, then one row per output and window, with the output's unit.
+    assert!(stdout.contains("per output (RMS error in the output's unit; fit % ="), "{stdout}");
+    let header = stdout.lines().find(|l| l.contains("RMS start")).expect("a table header");
+    for column in ["output", "unit", "window", "RMS start", "RMS optimized", "fit % start", "fit % optimized"] {
+        assert!(header.contains(column), "{header}");
+    }
+    let row = |variable: &str, window: &str| -> Vec<String> {
+        let line = stdout
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(variable) && l.contains(window))
+            .unwrap_or_else(|| panic!("no row for {variable} {window}: {stdout}"));
+        line.split_whitespace().map(str::to_owned).collect()
+    };
+    assert_eq!(row("mass.x", "calibration")[1], "m");
+    assert_eq!(row("mass.v", "validation")[1], "m/s");
+
+    // result.json: the same figures, which fit.csv's columns reproduce.
+    let r = result(&dir.path().join("out"));
+    let outputs = r["errors"]["outputs"].as_array().expect("errors.outputs in result.json");
+    assert_eq!(outputs.len(), 2, "{r}");
+    assert_eq!((outputs[0]["variable"].as_str(), outputs[0]["unit"].as_str()), (Some("mass.x"), Some("m")));
+    assert_eq!((outputs[1]["variable"].as_str(), outputs[1]["unit"].as_str()), (Some("mass.v"), Some("m/s")));
+    // "start" in the files, and the old name kept beside it.
+    let window = &r["errors"]["calibration"];
+    assert!(window["rms_start"].as_f64().is_some() && window["rms_nominal"] == window["rms_start"], "{r}");
+    let fit = std::fs::read_to_string(dir.path().join("out/fit.csv")).unwrap();
+    assert!(fit.starts_with("time,mass.x:measured,mass.x:start,mass.x:optimized,mass.v:measured,"), "{fit:.80}");
+    let close = |got: &serde_json::Value, want: f64| {
+        let got = got.as_f64().unwrap();
+        assert!((got - want).abs() <= 1e-9 * want.abs().max(1e-12), "{got} != {want}");
+    };
+    for (k, o) in outputs.iter().enumerate() {
+        let measured = 1 + 3 * k;
+        for (name, lo, hi) in [("calibration", f64::NEG_INFINITY, 6.0), ("validation", 6.0, 10.0)] {
+            let w = &o[name];
+            let (rms_start, fit_start) = from_fit_csv(&fit, measured, measured + 1, lo, hi);
+            let (rms_opt, fit_opt) = from_fit_csv(&fit, measured, measured + 2, lo, hi);
+            close(&w["rms_start"], rms_start);
+            close(&w["fit_percent_start"], fit_start);
+            close(&w["rms_optimized"], rms_opt);
+            close(&w["fit_percent_optimized"], fit_opt);
+            // The start point fits worse than the optimum, which fits all but exactly.
+            assert!(fit_start < 90.0 && fit_opt > 99.9, "{name} of {o}");
+            // The printed row says the same, to its digits.
+            let cells = row(o["variable"].as_str().unwrap(), name);
+            assert_eq!(
+                cells[3..7],
+                [
+                    format!("{rms_start:.3e}"),
+                    format!("{rms_opt:.3e}"),
+                    format!("{fit_start:.1}"),
+                    format!("{fit_opt:.1}")
+                ]
+            );
+        }
+    }
 }
 
 #[test]

@@ -1,7 +1,9 @@
 //! `fmucal calibrate JOB.toml`: checks the job locally, then either calibrates on a local
 //! cluster ([`super::local_cluster`]: an in-process coordinator and N worker processes) or
-//! submits to `--coordinator URL` ([`super::client`]). Then compares the nominal and optimized
-//! models with the measurements and writes `result.json`, `convergence.csv` and `fit.csv`
+//! submits to `--coordinator URL` ([`super::client`]). Then compares the start and optimized
+//! models with the measurements, prints a summary (the optimum, the weighted RMS errors per
+//! window, and a table of each output's RMS error in its unit with its fit %), and writes
+//! `result.json`, `convergence.csv` and `fit.csv`
 //! ([`super::outputs`]) and the plots (`fit`, `error`, `convergence`, as SVG and PNG) to `--out`.
 //! A job with `[[experiments]]` gets one folder `--out/NAME` per experiment for its `fit.csv`
 //! and plots, and its RMS errors per experiment in `result.json`. Ctrl-C (or SIGTERM) cancels
@@ -261,6 +263,13 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(e) = &result.errors {
         let v = e.validation.as_ref().map(|v| format!(", validation {}", ratio(v))).unwrap_or_default();
         println!("scaled RMS error (optimized / start): calibration {}{v}", ratio(&e.calibration));
+        if !e.outputs.is_empty() {
+            println!("{OUTPUT_TABLE_TITLE}:");
+        }
+        print!("{}", output_table(&e.outputs, "calibration"));
+    }
+    if result.experiments.iter().any(|x| !x.errors.outputs.is_empty()) {
+        println!("{OUTPUT_TABLE_TITLE}, per experiment:");
     }
     for x in &result.experiments {
         let e = &x.errors;
@@ -272,6 +281,7 @@ pub fn run(args: Args) -> Result<()> {
             x.role,
             ratio(&e.calibration)
         );
+        print!("{}", output_table(&e.outputs, if x.role == "fit" { "calibration" } else { "whole span" }));
     }
     if let Some(g) = &result.tolerance_guard {
         println!("{}", g.summary());
@@ -308,15 +318,55 @@ fn largest_correlation(id: &fmucal_shared::job::identifiability::Identifiability
 }
 
 /// A window's scaled RMS error for the summary, or why there is none: it is optimized / start
-/// (the job's start values, `rms_nominal` in `result.json`), which has no value when the start
+/// (the job's start values, `rms_start` in `result.json`), which has no value when the start
 /// error is zero or not a number (every weight 0, a start point that fits exactly, or errors
 /// that overflow).
 fn ratio(w: &fmucal_shared::job::result::WindowError) -> String {
     if w.scaled_rms.is_finite() {
         format!("{:.3}", w.scaled_rms)
-    } else if w.rms_nominal == 0.0 {
+    } else if w.rms_start == 0.0 {
         "n/a (the start error is 0: every weight is 0, or the start point fits exactly)".into()
     } else {
         "n/a (an RMS error is not a finite number)".into()
     }
+}
+
+/// What [`output_table`]'s columns hold.
+const OUTPUT_TABLE_TITLE: &str = "per output (RMS error in the output's unit; fit % = 100·(1 − ‖y − ŷ‖/‖y − ȳ‖))";
+
+/// Each output's errors as a table, one row per output and window (the first called `first`,
+/// then `validation`): the RMS error of the start and the optimized model in the output's
+/// unit, and their fit %; empty without outputs.
+fn output_table(outputs: &[fmucal_shared::job::result::OutputErrors], first: &str) -> String {
+    use std::fmt::Write;
+    if outputs.is_empty() {
+        return String::new();
+    }
+    let name_w = outputs.iter().map(|o| o.variable.chars().count()).chain([6]).max().unwrap_or(6);
+    let unit = |o: &fmucal_shared::job::result::OutputErrors| o.unit.clone().unwrap_or_else(|| "-".into());
+    let unit_w = outputs.iter().map(|o| unit(o).chars().count()).chain([4]).max().unwrap_or(4);
+    let rms = |v: f64| if v.is_finite() { format!("{v:.3e}") } else { "n/a".into() };
+    let fit = |v: f64| if v.is_finite() { format!("{v:.1}") } else { "n/a".into() };
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "  {:<name_w$}  {:<unit_w$}  {:<11}  {:>10}  {:>13}  {:>11}  {:>15}",
+        "output", "unit", "window", "RMS start", "RMS optimized", "fit % start", "fit % optimized"
+    );
+    for o in outputs {
+        let windows = [(first, Some(o.calibration)), ("validation", o.validation)];
+        for (window, e) in windows.iter().filter_map(|(w, e)| e.map(|e| (w, e))) {
+            let _ = writeln!(
+                s,
+                "  {:<name_w$}  {:<unit_w$}  {window:<11}  {:>10}  {:>13}  {:>11}  {:>15}",
+                o.variable,
+                unit(o),
+                rms(e.rms_start),
+                rms(e.rms_optimized),
+                fit(e.fit_percent_start),
+                fit(e.fit_percent_optimized)
+            );
+        }
+    }
+    s
 }

@@ -80,6 +80,11 @@ fn init_logs(format: LogFormat) -> anyhow::Result<()> {
 #[derive(Subcommand)]
 enum Command {
     /// Show an FMU's interfaces, default experiment and variables.
+    ///
+    /// The tables keep their columns: a name longer than 40 characters, a type longer than 12,
+    /// a start value longer than 16, a unit longer than 10 or a description longer than 80 is
+    /// cut with "…" (`--json` prints every value whole). Local variables are counted, and
+    /// listed with `--all`.
     Inspect(inspect::Args),
     /// Simulate an FMU and write the results as CSV.
     Simulate(simulate::Args),

@@ -1,7 +1,9 @@
 //! The files of a calibration folder (`fmucal calibrate --out`): `result.json` (the
 //! [`CalibrationResult`]), `convergence.csv` (its history) and `fit.csv` (the [`FitTable`]:
-//! time, then `NAME:measured`, `NAME:nominal`, `NAME:optimized` per output, empty where a
-//! value is missing). Written from the typed data, and read back for `fmucal plot`.
+//! time, then `NAME:measured`, `NAME:start`, `NAME:optimized` per output, empty where a
+//! value is missing; `start` is the model at the job's start values, and files written before
+//! that name, which say `NAME:nominal`, are still read). Written from the typed data, and
+//! read back for `fmucal plot`.
 
 use std::path::Path;
 
@@ -9,7 +11,10 @@ use anyhow::{Context, Result, bail};
 use fmucal_shared::job::report::FitColumns;
 use fmucal_shared::job::{CalibrationResult, FitTable};
 
-const KINDS: [&str; 3] = ["measured", "nominal", "optimized"];
+const KINDS: [&str; 3] = ["measured", "start", "optimized"];
+
+/// The old name of the `start` column, read for one release.
+const OLD_START: &str = "nominal";
 
 /// An output folder (`--out`) made for a run: if the run ends without writing anything into
 /// it, the folders it made are removed again, so a failed job leaves no empty folder behind
@@ -114,8 +119,9 @@ fn read_fit(path: &Path) -> Result<FitTable> {
     for group in columns.chunks(3) {
         let variable = group[0].strip_suffix(":measured").unwrap_or_default();
         let expected = KINDS.map(|kind| format!("{variable}:{kind}"));
-        if variable.is_empty() || group != expected {
-            bail!("{}: expected time, then NAME:measured,NAME:nominal,NAME:optimized per output", path.display());
+        let old = [&expected[0], &format!("{variable}:{OLD_START}"), &expected[2]];
+        if variable.is_empty() || (group != expected && group != old) {
+            bail!("{}: expected time, then NAME:measured,NAME:start,NAME:optimized per output", path.display());
         }
         outputs.push(FitColumns {
             variable: variable.to_owned(),
@@ -173,7 +179,7 @@ mod tests {
         std::fs::write(dir.path().join("fit.csv"), fit_csv(&fit)).unwrap();
         let text = std::fs::read_to_string(dir.path().join("fit.csv")).unwrap();
         assert!(text.starts_with(
-            "time,x:measured,x:nominal,x:optimized,der(y):measured,der(y):nominal,der(y):optimized\n0,1,2,,3,0,1\n0.5,,"
+            "time,x:measured,x:start,x:optimized,der(y):measured,der(y):start,der(y):optimized\n0,1,2,,3,0,1\n0.5,,"
         ));
         let back = read_fit(&dir.path().join("fit.csv")).unwrap();
         assert_eq!(back.time, fit.time);
@@ -185,11 +191,24 @@ mod tests {
     }
 
     #[test]
+    fn a_fit_csv_with_the_old_nominal_columns_is_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("fit.csv");
+        std::fs::write(&path, "time,x:measured,x:nominal,x:optimized\n0,1,2,3\n").unwrap();
+        let back = read_fit(&path).unwrap();
+        assert_eq!(
+            (back.outputs[0].nominal.as_slice(), back.outputs[0].optimized.as_slice()),
+            (&[Some(2.0)][..], &[Some(3.0)][..])
+        );
+    }
+
+    #[test]
     fn a_malformed_fit_csv_is_an_error() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("fit.csv");
         for text in [
-            "time,x:measured,x:nominal\n0,1,2\n",
+            "time,x:measured,x:start\n0,1,2\n",
+            "time,x:measured,x:nominl,x:optimized\n0,1,2,3\n",
             "t,x:measured,x:nominal,x:optimized\n",
             "time,x:measured,x:nominal,x:optimized\n0,1,two,3\n",
         ] {

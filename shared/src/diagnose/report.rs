@@ -205,12 +205,7 @@ impl Diagnosis {
             let tried: Vec<String> = places.iter().map(|(p, n)| format!("{p} {n}")).collect();
             let _ = writeln!(s, "round {}: tried {}", k + 1, tried.join(", "));
             let fitted = round.candidates.iter().filter(|c| c.fit.is_some()).count();
-            let _ = writeln!(
-                s,
-                "round {}: {} candidates screened; the {fitted} the screening predicts to help were fitted:",
-                k + 1,
-                round.candidates.len()
-            );
+            let _ = writeln!(s, "round {}: {}", k + 1, screened_and_fitted(round.candidates.len(), fitted));
             for (rank, c) in round.candidates.iter().enumerate().filter(|(_, c)| c.fit.is_some()) {
                 let fit = c.fit.as_ref().expect("filtered");
                 let verdict = match (&fit.verdict, &fit.error) {
@@ -263,7 +258,8 @@ impl Diagnosis {
                     let words: Vec<&str> = self.partial.iter().map(|p| p.words.as_str()).collect();
                     let _ = writeln!(
                         s,
-                        "the model misses something that none of the {tried} tried effects explains: the best, {}, passes every test but leaves the residual far from its noise ({})",
+                        "the model misses something that {}: the best, {}, passes every test but leaves the residual far from its noise ({})",
+                        none_of_tried(tried),
                         words.join("; "),
                         self.misfit_partial.as_ref().map_or_else(String::new, Misfit::evidence)
                     );
@@ -280,7 +276,8 @@ impl Diagnosis {
                 Conclusion::MissesSomething => {
                     let _ = writeln!(
                         s,
-                        "the model misses something that none of the {tried} tried effects explains ({why}); the evidence: {}",
+                        "the model misses something that {} ({why}); the evidence: {}",
+                        none_of_tried(tried),
                         self.misfit_before.evidence()
                     );
                 }
@@ -336,6 +333,35 @@ impl Diagnosis {
     }
 }
 
+/// "12 candidates" or "1 candidate".
+fn candidates(n: usize) -> String {
+    if n == 1 { "1 candidate".to_owned() } else { format!("{n} candidates") }
+}
+
+/// A round's screening in words: how many candidates it screened, and how many of them it
+/// predicts to help and so were fitted, e.g. "screened 12 candidates; fitted the 4 predicted to
+/// help:" (the fitted ones are listed after the colon).
+fn screened_and_fitted(screened: usize, fitted: usize) -> String {
+    let fitted = match fitted {
+        0 => "none is predicted to help, so none was fitted".to_owned(),
+        1 if screened == 1 => "it is predicted to help and was fitted:".to_owned(),
+        1 => "fitted the one predicted to help:".to_owned(),
+        n if n == screened => format!("all {n} are predicted to help and were fitted:"),
+        n => format!("fitted the {n} predicted to help:"),
+    };
+    format!("screened {}; {fitted}", candidates(screened))
+}
+
+/// That no tried effect explains the misfit: "none of the 8 tried effects explains", "the one
+/// tried effect does not explain".
+fn none_of_tried(tried: usize) -> String {
+    match tried {
+        0 => "no tried effect explains".to_owned(),
+        1 => "the one tried effect does not explain".to_owned(),
+        n => format!("none of the {n} tried effects explains"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -345,5 +371,16 @@ mod tests {
         assert_eq!(value_with_interval(0.012347, 0.00041), "0.01235 ± 0.00041");
         assert_eq!(value_with_interval(1.5, f64::NAN), "1.5000e0");
         assert_eq!(value_with_interval(2.5e-6, 1e-7), "2.500e-6 ± 1.0e-7");
+    }
+
+    #[test]
+    fn the_screening_sentence_reads_well_for_any_count() {
+        assert_eq!(screened_and_fitted(12, 4), "screened 12 candidates; fitted the 4 predicted to help:");
+        assert_eq!(screened_and_fitted(12, 1), "screened 12 candidates; fitted the one predicted to help:");
+        assert_eq!(screened_and_fitted(1, 1), "screened 1 candidate; it is predicted to help and was fitted:");
+        assert_eq!(screened_and_fitted(3, 3), "screened 3 candidates; all 3 are predicted to help and were fitted:");
+        assert_eq!(screened_and_fitted(5, 0), "screened 5 candidates; none is predicted to help, so none was fitted");
+        assert_eq!(none_of_tried(8), "none of the 8 tried effects explains");
+        assert_eq!(none_of_tried(1), "the one tried effect does not explain");
     }
 }

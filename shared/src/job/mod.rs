@@ -11,8 +11,8 @@
 //!   ([`run`]), the one ask/evaluate/tell loop ([`executor`]) and in-process calibration
 //!   ([`local`]);
 //! - standard errors and correlations at the optimum ([`identifiability`]), the result
-//!   ([`result`]) and what its report compares: measured against nominal and optimized outputs,
-//!   RMS errors per window ([`report`]);
+//!   ([`result`]) and what its report compares: measured against start and optimized outputs,
+//!   RMS errors per window and per output with its fit % ([`report`]);
 //! - the integration-tolerance guard: the integrator's error small against the noise
 //!   ([`tolerance`]).
 

@@ -1,7 +1,11 @@
-//! What a calibration report compares: the measured, nominal and optimized outputs at the
-//! measurement times ([`FitTable`], the CLI's `fit.csv`) and the two models' root-mean-square
-//! errors per time window ([`ErrorReport`], in `result.json`). [`compare`] simulates both
-//! models; [`FitTable::new`] and [`error_report`] are pure.
+//! What a calibration report compares: the measured outputs and those of the model at the
+//! job's start values ("start"; the `nominal` columns of [`FitColumns`]) and of the optimized
+//! model at the measurement times ([`FitTable`], the CLI's `fit.csv`), and the two models'
+//! errors per time window ([`ErrorReport`], in `result.json`): the objective's weighted RMS
+//! over all outputs, and each output's RMS error in its own unit with its normalised fit
+//! ([`Agreement`], the fit percentage of MATLAB System Identification Toolbox's `compare`).
+//! [`compare`] simulates both models; [`FitTable::new`], [`error_report`] and
+//! [`Agreement::of`] are pure.
 
 use std::sync::Arc;
 
@@ -10,7 +14,7 @@ use super::data::MeasurementTable;
 use super::evaluator::Evaluator;
 use super::objective::Objective;
 use super::prepared::PreparedJob;
-use super::result::{ErrorReport, WindowError};
+use super::result::{ErrorReport, OutputErrors, OutputWindowErrors, WindowError};
 use crate::fmu::Fmu;
 use crate::sim::SimResult;
 
@@ -20,7 +24,8 @@ pub struct FitColumns {
     pub variable: String,
     /// NaN where the measurement is missing.
     pub measured: Vec<f64>,
-    /// `None` where the nominal model has no value (its simulation failed or ended early).
+    /// The model at the job's start values; `None` where it has no value (its simulation
+    /// failed or ended early).
     pub nominal: Vec<Option<f64>>,
     /// `None` where the optimized model has no value.
     pub optimized: Vec<Option<f64>>,
@@ -57,10 +62,44 @@ impl FitTable {
     }
 }
 
-/// The RMS errors of the nominal and the optimized model, weighted as in the objective: the
+/// How well one output's simulated values agree with its measurements on one window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Agreement {
+    /// √(mean (ŷ − y)²), in the output's unit.
+    pub rms: f64,
+    /// 100·(1 − ‖y − ŷ‖/‖y − ȳ‖), ȳ the mean measurement: 100 fits exactly, 0 is no better
+    /// than ȳ, and it is negative when worse. NaN when the measurements are constant.
+    pub fit_percent: f64,
+}
+
+impl Agreement {
+    /// The agreement of `simulated` with `measured` (one entry per time each). Missing
+    /// measurements (NaN) are skipped; a missing simulated value where there is a measurement
+    /// makes both figures NaN. No measurement at all gives an RMS of 0 and a NaN fit.
+    pub fn of(measured: &[f64], simulated: &[Option<f64>]) -> Agreement {
+        let pairs: Vec<(f64, f64)> = measured
+            .iter()
+            .zip(simulated)
+            .filter(|(y, _)| !y.is_nan())
+            .map(|(y, s)| (*y, s.unwrap_or(f64::NAN)))
+            .collect();
+        if pairs.is_empty() {
+            return Agreement { rms: 0.0, fit_percent: f64::NAN };
+        }
+        let n = pairs.len() as f64;
+        let mean = pairs.iter().map(|p| p.0).sum::<f64>() / n;
+        let residual = pairs.iter().map(|(y, s)| (s - y).powi(2)).sum::<f64>();
+        let spread = pairs.iter().map(|(y, _)| (y - mean).powi(2)).sum::<f64>();
+        let fit_percent = if spread > 0.0 { 100.0 * (1.0 - (residual / spread).sqrt()) } else { f64::NAN };
+        Agreement { rms: (residual / n).sqrt(), fit_percent }
+    }
+}
+
+/// The RMS errors of the start and the optimized model, weighted as in the objective: the
 /// calibration window holds the times up to `calibration_stop`, the validation window the later
 /// ones (reported only if it has a measurement). Missing measurements are skipped; a missing
-/// simulated value makes its window's RMS NaN.
+/// simulated value makes its window's RMS NaN. Each output's [`Agreement`] is in its
+/// [`OutputErrors`], without a unit (the model description has it: [`compare`] adds it).
 pub fn error_report(
     objective: &Objective,
     calibration_stop: f64,
@@ -91,20 +130,54 @@ pub fn error_report(
     let window = |w: usize, start: f64, stop: f64| {
         let c = counts[w].max(1) as f64;
         let (n, o) = ((sums[w][0] / c).sqrt(), (sums[w][1] / c).sqrt());
-        WindowError { start_time: start, stop_time: stop, rms_nominal: n, rms_optimized: o, scaled_rms: o / n }
+        WindowError { start_time: start, stop_time: stop, rms_start: n, rms_optimized: o, scaled_rms: o / n }
     };
     let start = fit.time.first().copied().unwrap_or(0.0);
     let end = fit.time.last().copied().unwrap_or(calibration_stop);
+    let split = fit.time.iter().position(|t| *t > calibration_stop).unwrap_or(fit.time.len());
+    let outputs = fit
+        .outputs
+        .iter()
+        .map(|c| {
+            let window = |r: std::ops::Range<usize>| {
+                let (start, optimized) = (
+                    Agreement::of(&c.measured[r.clone()], &c.nominal[r.clone()]),
+                    Agreement::of(&c.measured[r.clone()], &c.optimized[r]),
+                );
+                OutputWindowErrors {
+                    rms_start: start.rms,
+                    rms_optimized: optimized.rms,
+                    fit_percent_start: start.fit_percent,
+                    fit_percent_optimized: optimized.fit_percent,
+                }
+            };
+            let measured_later = c.measured[split..].iter().any(|y| !y.is_nan());
+            OutputErrors {
+                variable: c.variable.clone(),
+                unit: None,
+                calibration: window(0..split),
+                validation: (counts[1] > 0 && measured_later).then(|| window(split..fit.time.len())),
+            }
+        })
+        .collect();
     ErrorReport {
         calibration: window(0, start, calibration_stop),
         validation: (counts[1] > 0).then(|| window(1, calibration_stop, end)),
+        outputs,
     }
+}
+
+/// The unit of the values of the variable `name` (its own `unit`, else its declared type's,
+/// else those of the variable an alias shares its value with); `None` if it has none.
+pub fn unit_of(md: &crate::fmu::schema::ModelDescription, name: &str) -> Option<String> {
+    let v = md.variable(name)?;
+    md.unit_of(v).or_else(|| md.unit_of(md.base_of(v))).map(str::to_owned)
 }
 
 /// The fit table and error report of experiment `experiment` of `job` calibrated to `x_opt`
 /// (in parameter order; `data` is the experiment's table): the optimized model at `x_opt` and
-/// the nominal model at the start values, both simulated up to the experiment's validation stop
-/// time if it has one. The nominal model leaves the parameters an earlier stage fixed at the
+/// the start model (at the job's start values), both simulated up to the experiment's validation stop
+/// time if it has one. The start model leaves the parameters an earlier stage fixed at the
 /// model's own values. A failed simulation leaves its cells empty.
 ///
 /// # Errors
@@ -120,7 +193,7 @@ pub fn compare(
     compare_with(fmu, job, experiment, data, x_opt, true)
 }
 
-/// As [`compare`] without the nominal model (its cells empty, its RMS NaN): one simulation,
+/// As [`compare`] without the start model (its cells empty, its RMS NaN): one simulation,
 /// for callers that judge only the optimized model.
 ///
 /// # Errors
@@ -174,7 +247,11 @@ fn compare_with(
     let calibration_stop = e.objective.times.last().copied().unwrap_or(f64::INFINITY);
     let objective = &reported.experiments[experiment].objective;
     let (nominal, optimized) = (nominal.as_ref(), optimized.as_ref());
-    Ok((FitTable::new(objective, nominal, optimized), error_report(objective, calibration_stop, nominal, optimized)))
+    let mut errors = error_report(objective, calibration_stop, nominal, optimized);
+    for o in &mut errors.outputs {
+        o.unit = unit_of(md, &o.variable);
+    }
+    Ok((FitTable::new(objective, nominal, optimized), errors))
 }
 
 #[cfg(test)]
@@ -217,14 +294,14 @@ mod tests {
         //   nominal: 1·(2−1)² + 4·(1−0)² + 4·(1−1)² = 5; optimized: 0.
         let cal = &r.calibration;
         assert_eq!((cal.start_time, cal.stop_time), (0.0, 1.0));
-        assert_close(cal.rms_nominal, (5.0f64 / 3.0).sqrt());
+        assert_close(cal.rms_start, (5.0f64 / 3.0).sqrt());
         assert_eq!(cal.rms_optimized, 0.0);
         assert_eq!(cal.scaled_rms, 0.0);
         // Validation (t = 2, 3; b(3) missing): 3 measurements.
         //   nominal: 1·(2−3)² + 4·(1−1)² + 1·(2−5)² = 10; optimized: 0 + 4·0.5² + 1·(4−5)² = 2.
         let val = r.validation.as_ref().expect("measurements after t = 1");
         assert_eq!((val.start_time, val.stop_time), (1.0, 3.0));
-        assert_close(val.rms_nominal, (10.0f64 / 3.0).sqrt());
+        assert_close(val.rms_start, (10.0f64 / 3.0).sqrt());
         assert_close(val.rms_optimized, (2.0f64 / 3.0).sqrt());
         assert_close(val.scaled_rms, 0.2f64.sqrt());
         assert_eq!(r.validation_split(), Some(1.0));
@@ -237,7 +314,7 @@ mod tests {
         assert_eq!(r.validation, None);
         assert_eq!((r.calibration.start_time, r.calibration.stop_time), (0.0, 3.0));
         // 6 measurements; a: 0 + 4 + 16 = 20, b: 4·(1 + 0 + 0) = 4; √(24 / 6) = 2.
-        assert_close(r.calibration.rms_nominal, 4.0f64.sqrt());
+        assert_close(r.calibration.rms_start, 4.0f64.sqrt());
         assert_eq!(r.calibration.scaled_rms, 1.0);
     }
 
@@ -269,16 +346,70 @@ mod tests {
         assert_eq!(fit.outputs[0].optimized, [Some(1.0), Some(0.0), None, None]);
         assert_eq!(fit.outputs[1].optimized, [None; 4]);
         let r = error_report(&objective(), 1.0, Some(&nominal), Some(&short));
-        assert_close(r.calibration.rms_nominal, (5.0f64 / 3.0).sqrt());
+        assert_close(r.calibration.rms_start, (5.0f64 / 3.0).sqrt());
         assert!(r.calibration.rms_optimized.is_nan() && r.calibration.scaled_rms.is_nan());
         let r = error_report(&objective(), 1.0, None, None);
-        assert!(r.calibration.rms_nominal.is_nan() && r.validation.is_some_and(|v| v.rms_optimized.is_nan()));
+        assert!(r.calibration.rms_start.is_nan() && r.validation.is_some_and(|v| v.rms_optimized.is_nan()));
     }
 
     #[test]
     fn an_empty_objective_reports_zero_counts_without_dividing_by_zero() {
         let r = error_report(&Objective { times: vec![], targets: vec![] }, f64::INFINITY, None, None);
-        assert_eq!((r.calibration.rms_nominal, r.calibration.rms_optimized), (0.0, 0.0));
+        assert_eq!((r.calibration.rms_start, r.calibration.rms_optimized), (0.0, 0.0));
         assert_eq!(r.validation, None);
+    }
+
+    #[test]
+    fn agreement_of_a_constant_offset_on_a_sine_matches_the_closed_form() {
+        // y = sin t on 200 points over two full periods: mean 0 and Σ y² = N/2 exactly, so
+        // with ŷ = y + c, ‖y − ŷ‖ = c√N and ‖y − ȳ‖ = √(N/2): RMS = c, fit = 100·(1 − c√2).
+        let n = 200;
+        let y: Vec<f64> = (0..n).map(|i| (4.0 * std::f64::consts::PI * i as f64 / n as f64).sin()).collect();
+        let c = 0.1;
+        let a = Agreement::of(&y, &y.iter().map(|v| Some(v + c)).collect::<Vec<_>>());
+        assert!((a.rms - c).abs() < 1e-15, "{a:?}");
+        assert!((a.fit_percent - 100.0 * (1.0 - c * 2f64.sqrt())).abs() < 1e-12, "{a:?}");
+        // An exact model fits 100 %, the measurements' mean 0 %, and a worse one below 0.
+        assert_eq!(Agreement::of(&y, &y.iter().map(|v| Some(*v)).collect::<Vec<_>>()).fit_percent, 100.0);
+        assert!(Agreement::of(&y, &vec![Some(0.0); n]).fit_percent.abs() < 1e-12);
+        let minus = Agreement::of(&y, &y.iter().map(|v| Some(-v)).collect::<Vec<_>>());
+        assert!((minus.fit_percent + 100.0).abs() < 1e-12 && (minus.rms - 2f64.sqrt()).abs() < 1e-14, "{minus:?}");
+    }
+
+    #[test]
+    fn agreement_skips_missing_measurements_and_has_no_fit_on_constant_data() {
+        let a = Agreement::of(&[1.0, f64::NAN, 3.0], &[Some(2.0), None, Some(3.0)]);
+        // Two measurements: RMS √(1/2); ‖y − ȳ‖ = √2, ‖y − ŷ‖ = 1.
+        assert_close(a.rms, 0.5f64.sqrt());
+        assert_close(a.fit_percent, 100.0 * (1.0 - 0.5f64.sqrt()));
+        let gap = Agreement::of(&[1.0, 3.0], &[Some(1.0), None]);
+        assert!(gap.rms.is_nan() && gap.fit_percent.is_nan());
+        let flat = Agreement::of(&[2.0, 2.0], &[Some(2.5), Some(2.5)]);
+        assert_eq!(flat.rms, 0.5);
+        assert!(flat.fit_percent.is_nan());
+    }
+
+    #[test]
+    fn error_report_has_each_outputs_unweighted_errors_per_window() {
+        let nominal = sim(&[2.0, 2.0, 2.0, 2.0], &[1.0, 1.0, 1.0, 1.0]);
+        let optimized = sim(&[1.0, 0.0, 3.0, 4.0], &[0.0, 1.0, 1.5, 0.0]);
+        let r = error_report(&objective(), 1.0, Some(&nominal), Some(&optimized));
+        let (a, b) = (&r.outputs[0], &r.outputs[1]);
+        assert_eq!((a.variable.as_str(), b.variable.as_str(), a.unit.as_deref()), ("a", "b", None));
+        // a on the calibration window: one measurement (1; a(1) missing), start 2, optimized 1.
+        assert_eq!((a.calibration.rms_start, a.calibration.rms_optimized), (1.0, 0.0));
+        assert!(a.calibration.fit_percent_start.is_nan());
+        // b, weight 4 in the objective but not here: measured 0, 1; start 1, 1; optimized 0, 1.
+        assert_close(b.calibration.rms_start, 0.5f64.sqrt());
+        assert_close(b.calibration.fit_percent_start, 100.0 * (1.0 - 2f64.sqrt()));
+        assert_eq!(b.calibration.fit_percent_optimized, 100.0);
+        // a on the validation window: measured 3, 5; optimized 3, 4.
+        let av = a.validation.expect("a is measured after t = 1");
+        assert_close(av.rms_optimized, 0.5f64.sqrt());
+        assert_close(av.fit_percent_optimized, 100.0 * (1.0 - 0.5f64.sqrt()));
+        // b on the validation window: measured 1 (b(3) missing); optimized 1.5.
+        assert_eq!(b.validation.expect("b is measured at t = 2").rms_optimized, 0.5);
+        let r = error_report(&objective(), 3.0, Some(&nominal), Some(&optimized));
+        assert!(r.outputs.iter().all(|o| o.validation.is_none()));
     }
 }

@@ -1,5 +1,9 @@
 //! The result of a calibration, as written to `result.json`. `serde_json` writes a NaN or
 //! infinite number as `null`; the numbers of this module read such a `null` back as NaN.
+//!
+//! The model at the job's start values is called "start" (`rms_start`); files written before
+//! that name say `rms_nominal`, which is read as `rms_start` and still written beside it for
+//! one release, so scripts reading the old name keep working.
 
 use std::collections::BTreeMap;
 
@@ -133,13 +137,19 @@ impl CalibrationResult {
     }
 }
 
-/// RMS errors of the nominal and the optimized model on the calibration window and, if the job
-/// has one, the validation window; "scaled" divides by the nominal model's RMS on that window.
+/// RMS errors of the start and the optimized model on the calibration window and, if the job
+/// has one, the validation window; "scaled" divides by the start model's RMS on that window.
+/// The window errors weigh and pool every output as the objective does; `outputs` has each
+/// output's own errors, in its unit.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ErrorReport {
     pub calibration: WindowError,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub validation: Option<WindowError>,
+    /// Each output's errors, in the order of the job's outputs (empty in files written before
+    /// they were reported).
+    #[serde(default)]
+    pub outputs: Vec<OutputErrors>,
 }
 
 impl ErrorReport {
@@ -151,19 +161,93 @@ impl ErrorReport {
 
 /// RMS errors on one time window (computed by [`super::report::error_report`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(from = "WindowErrorFile", into = "WindowErrorFile")]
 pub struct WindowError {
-    #[serde(deserialize_with = "null_as_nan")]
     pub start_time: f64,
-    #[serde(deserialize_with = "null_as_nan")]
     pub stop_time: f64,
-    /// NaN where the model's simulation failed.
+    /// The model at the job's start values; NaN where its simulation failed.
+    pub rms_start: f64,
+    pub rms_optimized: f64,
+    /// rms_optimized / rms_start (1.0 before calibration).
+    pub scaled_rms: f64,
+}
+
+/// [`WindowError`] as `result.json` holds it: `rms_start`, or `rms_nominal` in older files,
+/// and `rms_nominal` written as a copy of `rms_start` for one release.
+#[derive(Serialize, Deserialize)]
+struct WindowErrorFile {
     #[serde(deserialize_with = "null_as_nan")]
-    pub rms_nominal: f64,
+    start_time: f64,
+    #[serde(deserialize_with = "null_as_nan")]
+    stop_time: f64,
+    #[serde(default)]
+    rms_start: Option<f64>,
+    /// The old name of `rms_start`.
+    #[serde(default)]
+    rms_nominal: Option<f64>,
+    #[serde(deserialize_with = "null_as_nan")]
+    rms_optimized: f64,
+    #[serde(deserialize_with = "null_as_nan")]
+    scaled_rms: f64,
+}
+
+impl From<WindowErrorFile> for WindowError {
+    fn from(f: WindowErrorFile) -> Self {
+        WindowError {
+            start_time: f.start_time,
+            stop_time: f.stop_time,
+            rms_start: f.rms_start.or(f.rms_nominal).unwrap_or(f64::NAN),
+            rms_optimized: f.rms_optimized,
+            scaled_rms: f.scaled_rms,
+        }
+    }
+}
+
+impl From<WindowError> for WindowErrorFile {
+    fn from(w: WindowError) -> Self {
+        WindowErrorFile {
+            start_time: w.start_time,
+            stop_time: w.stop_time,
+            rms_start: Some(w.rms_start),
+            rms_nominal: Some(w.rms_start),
+            rms_optimized: w.rms_optimized,
+            scaled_rms: w.scaled_rms,
+        }
+    }
+}
+
+/// One output's errors against its measurements, in the output's own unit, unweighted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OutputErrors {
+    /// The model variable.
+    pub variable: String,
+    /// The unit of its values in the model description (its own `unit`, else its declared
+    /// type's), which is also the unit of the measurements compared with it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unit: Option<String>,
+    pub calibration: OutputWindowErrors,
+    /// On the validation window, when the job has one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub validation: Option<OutputWindowErrors>,
+}
+
+/// One output's agreement with its measurements on one window, for the start and the optimized
+/// model (computed by [`super::report::Agreement::of`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OutputWindowErrors {
+    /// RMS error of the start model, in the output's unit.
+    #[serde(deserialize_with = "null_as_nan")]
+    pub rms_start: f64,
+    /// RMS error of the optimized model, in the output's unit.
     #[serde(deserialize_with = "null_as_nan")]
     pub rms_optimized: f64,
-    /// rms_optimized / rms_nominal (1.0 before calibration).
+    /// The start model's normalised fit in percent, 100·(1 − ‖y − ŷ‖/‖y − ȳ‖): 100 fits
+    /// exactly, 0 is no better than the measurements' mean, and it is negative when worse.
     #[serde(deserialize_with = "null_as_nan")]
-    pub scaled_rms: f64,
+    pub fit_percent_start: f64,
+    /// The optimized model's normalised fit in percent.
+    #[serde(deserialize_with = "null_as_nan")]
+    pub fit_percent_optimized: f64,
 }
 
 #[cfg(test)]
@@ -173,8 +257,12 @@ mod tests {
     #[test]
     fn non_finite_numbers_survive_json() {
         let w =
-            WindowError { start_time: 0.0, stop_time: 2.0, rms_nominal: 0.0, rms_optimized: 0.0, scaled_rms: f64::NAN };
-        let report = ErrorReport { calibration: w.clone(), validation: Some(WindowError { start_time: 2.0, ..w }) };
+            WindowError { start_time: 0.0, stop_time: 2.0, rms_start: 0.0, rms_optimized: 0.0, scaled_rms: f64::NAN };
+        let report = ErrorReport {
+            calibration: w.clone(),
+            validation: Some(WindowError { start_time: 2.0, ..w }),
+            outputs: vec![],
+        };
         let result = CalibrationResult {
             x_opt: BTreeMap::from([("k".to_owned(), 1.5)]),
             f_opt: f64::INFINITY,
@@ -202,7 +290,7 @@ mod tests {
         assert_eq!(back.history[0].batch_wall_s, 0.25);
         let errors = back.errors.as_ref().unwrap();
         assert!(errors.calibration.scaled_rms.is_nan());
-        assert_eq!(errors.calibration.rms_nominal, 0.0);
+        assert_eq!(errors.calibration.rms_start, 0.0);
         assert_eq!(errors.validation_split(), Some(2.0));
         assert_eq!(back.x_opt_in(&["k".into(), "c".into()])[0], 1.5);
         assert!(back.x_opt_in(&["c".into()])[0].is_nan());
@@ -210,7 +298,49 @@ mod tests {
 
     #[test]
     fn no_validation_window_no_split() {
-        let w = WindowError { start_time: 0.0, stop_time: 2.0, rms_nominal: 1.0, rms_optimized: 0.5, scaled_rms: 0.5 };
-        assert_eq!(ErrorReport { calibration: w, validation: None }.validation_split(), None);
+        let w = WindowError { start_time: 0.0, stop_time: 2.0, rms_start: 1.0, rms_optimized: 0.5, scaled_rms: 0.5 };
+        assert_eq!(ErrorReport { calibration: w, validation: None, outputs: vec![] }.validation_split(), None);
+    }
+
+    #[test]
+    fn old_files_say_rms_nominal_and_new_files_say_both_names() {
+        // A result.json of the release before: `rms_nominal`, no per-output errors.
+        let old =
+            r#"{"calibration":{"start_time":0,"stop_time":2,"rms_nominal":0.5,"rms_optimized":0.25,"scaled_rms":0.5}}"#;
+        let report: ErrorReport = serde_json::from_str(old).unwrap();
+        assert_eq!(report.calibration.rms_start, 0.5);
+        assert!(report.outputs.is_empty());
+        let json = serde_json::to_value(&report).unwrap();
+        assert_eq!(
+            (json["calibration"]["rms_start"].as_f64(), json["calibration"]["rms_nominal"].as_f64()),
+            (Some(0.5), Some(0.5))
+        );
+        assert_eq!(serde_json::from_value::<ErrorReport>(json).unwrap(), report);
+    }
+
+    #[test]
+    fn per_output_errors_survive_json_with_nan_as_null() {
+        let w = WindowError { start_time: 0.0, stop_time: 2.0, rms_start: 1.0, rms_optimized: 0.5, scaled_rms: 0.5 };
+        let o = OutputWindowErrors {
+            rms_start: 2.0,
+            rms_optimized: 0.1,
+            fit_percent_start: -3.0,
+            fit_percent_optimized: f64::NAN,
+        };
+        let report = ErrorReport {
+            calibration: w,
+            validation: None,
+            outputs: vec![OutputErrors {
+                variable: "h".into(),
+                unit: Some("m".into()),
+                calibration: o,
+                validation: Some(o),
+            }],
+        };
+        let json = serde_json::to_string(&report).unwrap();
+        assert!(json.contains(r#""unit":"m""#) && json.contains(r#""fit_percent_optimized":null"#), "{json}");
+        let back: ErrorReport = serde_json::from_str(&json).unwrap();
+        assert_eq!(back.outputs[0].calibration.fit_percent_start, -3.0);
+        assert!(back.outputs[0].validation.unwrap().fit_percent_optimized.is_nan());
     }
 }

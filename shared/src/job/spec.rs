@@ -272,7 +272,7 @@ pub struct SimulationSpec {
     /// the validation window (stop_time, validation_stop_time]: reports and diagnoses judge on it,
     /// calibrations never fit it.
     pub validation_stop_time: Option<f64>,
-    /// Names `set_from` fixed (not part of the file format): the nominal model of the error
+    /// Names `set_from` fixed (not part of the file format): the start model of the error
     /// report leaves them at the model's own values.
     #[serde(skip)]
     pub fixed_from_earlier_stage: Vec<String>,
