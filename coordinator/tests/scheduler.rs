@@ -1,7 +1,7 @@
 //! The scheduler on tokio's paused clock, driven through its command channel: the test plays
 //! the workers (Register, Heartbeat, Poll with results it computes itself), so no process,
 //! network or simulation is involved and each test runs in milliseconds. Covered: worker
-//! expiry, the evaluation timeout, the "failed on 2 workers or 3 tries" rule, fair-share polls,
+//! expiry (a dead worker's points come back one at a time), the evaluation timeout, the "failed on 2 workers or 3 tries" rule, fair-share polls,
 //! cancel, and resuming a job from the store after the scheduler died mid-batch.
 
 use std::collections::{BTreeMap, HashSet};
@@ -260,16 +260,21 @@ async fn a_silent_worker_expires_and_its_points_go_to_another() {
     s.answer(&b, resp.assignments.iter().map(ok).collect()).await;
     assert!(s.take(&b, 4).await.is_empty(), "a's points were re-sent before a expired");
 
-    // Past the expiry a is dropped and b gets a's points.
+    // Past the expiry a is dropped and b gets a's points: one at a time, since a died holding
+    // both and either may have killed it.
     s.pass(2 * HEARTBEAT, &[&b]).await;
-    let resent = s.take(&b, 4).await;
-    assert_eq!(resent.len(), 2);
-    assert_eq!(by_id(&resent), by_id(&held_by_a));
+    let first = s.take(&b, 4).await;
+    assert_eq!(first.len(), 1, "{first:?}");
     let late = s.poll(&a, held_by_a.iter().map(ok).collect(), 4).await;
     assert!(!late.known && late.assignments.is_empty(), "{late:?}");
     assert!(!s.heartbeat(&a).await);
+    assert!(s.take(&b, 4).await.is_empty(), "a suspect point was leased beside another");
+    let resp = s.poll(&b, first.iter().map(ok).collect(), 4).await;
+    assert_eq!(resp.assignments.len(), 1, "{resp:?}");
+    let resent: Vec<_> = first.into_iter().chain(resp.assignments).collect();
+    assert_eq!(by_id(&resent), by_id(&held_by_a));
 
-    s.answer(&b, resent.iter().map(ok).collect()).await;
+    s.answer(&b, resent[1..].iter().map(ok).collect()).await;
     let (r, _) = s.drive(&job, &[&b], |_, p| ok(p)).await;
     assert_eq!(r.status, SUCCEEDED, "{r:?}");
     let res = result(&r);
@@ -844,4 +849,26 @@ async fn running_jobs_named_as_orphans_are_cancelled_at_start() {
     let s = Sched { tx, task: tokio::spawn(scheduler.run(rx)), models };
     assert_eq!(s.get(&orphan).await.status, CANCELLED);
     assert_eq!(s.get(&kept).await.status, RUNNING);
+}
+
+/// A result carries the warnings the result alone allows, for every client: a run ended by its
+/// budget, and an optimum at a bound.
+#[tokio::test(start_paused = true)]
+async fn a_result_says_when_a_budget_ended_it_or_it_sits_at_a_bound() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let w = s.register("w", 4).await;
+    let budget = s.submit(de_job(dir.path(), 4, 2)).await;
+    let (r, _) = s.drive(&budget, &[&w], |_, p| ok(p)).await;
+    let warnings = result(&r).warnings;
+    assert!(warnings.iter().any(|w| w.contains("ended on its budget")), "{warnings:?}");
+
+    // The workers' objective is least at k = 1.7, above this upper bound.
+    let mut at_bound = job(dir.path(), "x_tol = 1e-9\nf_tol = 0.0");
+    at_bound.parameters[0].upper = 1.5;
+    let at_bound = s.submit(at_bound).await;
+    let (r, _) = s.drive(&at_bound, &[&w], |_, p| ok(p)).await;
+    assert_eq!(r.status, SUCCEEDED, "{r:?}");
+    let warnings = result(&r).warnings;
+    assert!(warnings.iter().any(|w| w.starts_with("k = ") && w.contains("upper bound")), "{warnings:?}");
 }

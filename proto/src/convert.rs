@@ -368,6 +368,7 @@ pub fn result_to_proto(r: &CalibrationResult, names: &[String]) -> pb::JobResult
         termination: r.termination.clone(),
         failed_evaluations: r.failed_evaluations,
         rounds: r.rounds,
+        warnings: r.warnings.clone(),
         evaluated: r
             .evaluated
             .iter()
@@ -408,7 +409,7 @@ pub fn result_from_proto(r: pb::JobResult, history: Vec<HistoryPoint>) -> Calibr
         identifiability: None,
         experiments: vec![],
         fmi_version: None,
-        warnings: vec![],
+        warnings: r.warnings,
         tolerance_guard: None,
     }
 }

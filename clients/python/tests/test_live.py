@@ -7,6 +7,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 import subprocess
 import time
 import tomllib
@@ -37,8 +38,21 @@ def furuta_dict() -> dict[str, Any]:
 def test_python_gives_the_cli_result_bit_for_bit(
     job: str, client: Client, coordinator_url: str, token: str, fmucal_bin: Path, tmp_path: Path
 ) -> None:
+    # The CLI's tolerance guard may refit at a tighter tolerance (it simulates locally; a job
+    # from Python runs at the job's tolerance): compare the runs without it, on a copy of the
+    # example's folder.
+    copy = tmp_path / "job"
+    shutil.copytree((REPO / job).parent, copy)
+    unguarded = copy / Path(job).name
+    text = unguarded.read_text()
+    if "[simulation]" in text:
+        text = text.replace("[simulation]", "[simulation]\ntolerance_guard = false", 1)
+    else:
+        text += "\n[simulation]\ntolerance_guard = false\n"
+    unguarded.write_text(text)
+    out = tmp_path / "out"
     cli = subprocess.run(
-        [str(fmucal_bin), "calibrate", str(REPO / job), "--coordinator", coordinator_url, "--out", str(tmp_path)],
+        [str(fmucal_bin), "calibrate", str(unguarded), "--coordinator", coordinator_url, "--out", str(out)],
         env={**os.environ, "FMUCAL_TOKEN": token},
         capture_output=True,
         text=True,
@@ -46,7 +60,7 @@ def test_python_gives_the_cli_result_bit_for_bit(
         check=False,
     )
     assert cli.returncode == 0, cli.stderr
-    expected = json.loads((tmp_path / "result.json").read_text())
+    expected = json.loads((out / "result.json").read_text())
 
     result = client.calibrate(REPO / job)
     assert result.status == "succeeded"
@@ -61,6 +75,18 @@ def test_python_gives_the_cli_result_bit_for_bit(
     )
     assert {"armFriction", "pendulumFriction"} <= set(result.x_opt)
     assert abs(result.x_opt["armFriction"] - 0.010) < 2e-4
+    # The warnings the result alone allows come back too, as the CLI wrote them.
+    assert all(w in expected["warnings"] for w in result.warnings)
+
+
+def test_a_result_at_a_bound_comes_back_with_its_warning(client: Client) -> None:
+    job = furuta_dict()
+    # The truth (0.010) lies above this upper bound.
+    job["parameters"][0]["upper"] = 0.008
+    job["parameters"][0]["start"] = 0.005
+    result = client.calibrate(job, base_dir=FURUTA.parent)
+    assert result.status == "succeeded"
+    assert any("armFriction" in w and "upper bound" in w for w in result.warnings), result.warnings
 
 
 def test_progress_events_arrive_in_order_and_end_with_the_final_state(client: Client) -> None:

@@ -300,7 +300,7 @@ impl JobRun {
             (None, Status::Done(t)) => t.to_string(),
             (None, Status::Running) => "stopped".into(),
         };
-        CalibrationResult {
+        let mut result = CalibrationResult {
             x_opt: names.into_iter().zip(x).collect(),
             f_opt: f,
             iterations: self.optimizer.iterations(),
@@ -317,7 +317,13 @@ impl JobRun {
             fmi_version: None,
             warnings: vec![],
             tolerance_guard: None,
+        };
+        // The checks the result alone allows (bounds, budget), for every client; the CLI
+        // adds those that need simulations.
+        if job.kind == super::choices::JobKind::Calibration {
+            result.warnings = super::warnings::check(job, &result, 0.0, None);
         }
+        result
     }
 }
 

@@ -235,7 +235,8 @@ def parse_job(table: Mapping[str, Any], base_dir: Path) -> JobSpec:
 
 
 PARAMETER_FIELDS = ("name", "start", "lower", "upper", "per_experiment", "scale")
-SIMULATION_FIELDS = ("start_time", "stop_time", "tolerance", "solver", "set", "set_from", "validation_stop_time")
+SIMULATION_FIELDS = ("start_time", "stop_time", "tolerance", "tolerance_guard", "solver", "set", "set_from",
+                     "validation_stop_time")
 OPTIMIZER_FIELDS = ("algorithm", "parallel", "x_tol", "f_tol", "max_iters", "max_fevals", "max_time", "seed", "initial_step",
                     "population", "restarts", "weight", "crossover", "bits", "crossover_rate", "mutation_rate",
                     "elitism")
@@ -333,6 +334,9 @@ def _simulation(t: Table | None, base_dir: Path) -> Simulation:
     if t is None:
         return Simulation()
     values = _set_values(t, "set")
+    # The tolerance guard runs in `fmucal calibrate` (it simulates the model locally); a job
+    # sent from Python runs at the job's tolerance. The value is still checked.
+    t.flag("tolerance_guard", True)
     set_from = t.text("set_from")
     if set_from is not None:
         for name, value in _earlier_optimum(base_dir / set_from, t.field("set_from")).items():

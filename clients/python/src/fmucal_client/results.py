@@ -73,6 +73,9 @@ class JobResult:
     elapsed_s: float
     error: str = ""
     evaluated: list[EvaluatedPoint] = field(default_factory=list)
+    #: The checks the result alone allows, one sentence each: a parameter at a bound, a run
+    #: ended by its budget rather than a tolerance (``fmucal calibrate`` adds more).
+    warnings: list[str] = field(default_factory=list)
 
     @classmethod
     def from_message(cls, m: pb.GetJobResponse) -> JobResult:
@@ -91,4 +94,5 @@ class JobResult:
             elapsed_s=r.elapsed_s,
             error=m.error,
             evaluated=[EvaluatedPoint(tuple(p.x), p.ok, p.value, tuple(p.residuals), p.message) for p in r.evaluated],
+            warnings=list(r.warnings),
         )
