@@ -406,6 +406,8 @@ pub fn result_from_proto(r: pb::JobResult, history: Vec<HistoryPoint>) -> Calibr
         experiments: vec![],
         fmi_version: None,
         warnings: vec![],
+        parameters: vec![],
+        units: Default::default(),
     }
 }
 

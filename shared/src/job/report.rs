@@ -1,7 +1,8 @@
 //! What a calibration report compares: the measured, nominal and optimized outputs at the
 //! measurement times ([`FitTable`], the CLI's `fit.csv`) and the two models' root-mean-square
 //! errors per time window ([`ErrorReport`], in `result.json`). [`compare`] simulates both
-//! models; [`FitTable::new`] and [`error_report`] are pure.
+//! models and labels each output with its unit from the model description; [`FitTable::new`]
+//! and [`error_report`] are pure.
 
 use std::sync::Arc;
 
@@ -11,13 +12,16 @@ use super::evaluator::Evaluator;
 use super::objective::Objective;
 use super::prepared::PreparedJob;
 use super::result::{ErrorReport, WindowError};
-use crate::fmu::Fmu;
+use crate::fmu::{Fmu, ModelDescription};
 use crate::sim::SimResult;
 
 /// One output's columns of a [`FitTable`], each with one entry per time.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FitColumns {
     pub variable: String,
+    /// The variable's unit in the model description (its own or its declared type's), in
+    /// which all three columns are; `None` where the description gives none.
+    pub unit: Option<String>,
     /// NaN where the measurement is missing.
     pub measured: Vec<f64>,
     /// `None` where the nominal model has no value (its simulation failed or ended early).
@@ -48,12 +52,20 @@ impl FitTable {
             .iter()
             .map(|t| FitColumns {
                 variable: t.variable.clone(),
+                unit: None,
                 measured: (0..n).map(|i| t.values.get(i).copied().unwrap_or(f64::NAN)).collect(),
                 nominal: at(nominal, &t.variable),
                 optimized: at(optimized, &t.variable),
             })
             .collect();
         FitTable { time: objective.times.clone(), outputs }
+    }
+
+    /// Sets each output's unit from the model description `md`.
+    pub fn set_units(&mut self, md: &ModelDescription) {
+        for o in &mut self.outputs {
+            o.unit = md.variable(&o.variable).and_then(|v| md.unit_of(v)).map(str::to_owned);
+        }
     }
 }
 
@@ -174,7 +186,9 @@ fn compare_with(
     let calibration_stop = e.objective.times.last().copied().unwrap_or(f64::INFINITY);
     let objective = &reported.experiments[experiment].objective;
     let (nominal, optimized) = (nominal.as_ref(), optimized.as_ref());
-    Ok((FitTable::new(objective, nominal, optimized), error_report(objective, calibration_stop, nominal, optimized)))
+    let mut fit = FitTable::new(objective, nominal, optimized);
+    fit.set_units(md);
+    Ok((fit, error_report(objective, calibration_stop, nominal, optimized)))
 }
 
 #[cfg(test)]

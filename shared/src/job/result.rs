@@ -22,6 +22,18 @@ pub struct HistoryPoint {
     /// Wall time of the round's batch.
     #[serde(deserialize_with = "null_as_nan")]
     pub batch_wall_s: f64,
+    /// The best point after the round (user units, in the order of the job's calibrated
+    /// parameters; empty before a point succeeded, and in files written before it was kept).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub best_x: Vec<f64>,
+}
+
+/// A calibrated parameter's name and bounds (user units).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ParameterRange {
+    pub name: String,
+    pub lower: f64,
+    pub upper: f64,
 }
 
 /// One point of a job that evaluates given points.
@@ -88,6 +100,14 @@ pub struct CalibrationResult {
     /// prints each as `warning: ...`, and `--strict` makes any of them exit code 3.
     #[serde(default)]
     pub warnings: Vec<String>,
+    /// The calibrated parameters in the order of each history point's `best_x`, with their
+    /// bounds, when the CLI wrote them (the convergence plot's parameter paths).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parameters: Vec<ParameterRange>,
+    /// Each output's unit from the model description (output → unit), when the CLI wrote it
+    /// (the fit plot's axis labels).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub units: BTreeMap<String, String>,
 }
 
 /// One experiment's RMS errors in `result.json`.
@@ -157,13 +177,21 @@ mod tests {
             failed_evaluations: 4,
             termination: "max_evals".into(),
             elapsed_s: 0.25,
-            history: vec![HistoryPoint { round: 1, evaluations: 4, best_f: f64::INFINITY, batch_wall_s: 0.25 }],
+            history: vec![HistoryPoint {
+                round: 1,
+                evaluations: 4,
+                best_f: f64::INFINITY,
+                batch_wall_s: 0.25,
+                best_x: vec![],
+            }],
             evaluated: vec![],
             errors: Some(report),
             identifiability: None,
             experiments: vec![],
             fmi_version: None,
             warnings: vec![],
+            parameters: vec![],
+            units: Default::default(),
         };
         let json = serde_json::to_string(&result).unwrap();
         // The optimum and the best value so far keep their infinity (a job with no successful

@@ -230,6 +230,7 @@ impl JobRun {
             evaluations: self.optimizer.evaluations(),
             best_f: self.best_f(),
             batch_wall_s: round_wall_s,
+            best_x: self.best().map(|b| b.0).unwrap_or_default(),
         };
         self.history.push(round.clone());
         Ok(Some(round))
@@ -316,6 +317,8 @@ impl JobRun {
             experiments: vec![],
             fmi_version: None,
             warnings: vec![],
+            parameters: vec![],
+            units: Default::default(),
         }
     }
 }

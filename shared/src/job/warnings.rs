@@ -143,6 +143,8 @@ mod tests {
             experiments: vec![],
             fmi_version: None,
             warnings: vec![],
+            parameters: vec![],
+            units: Default::default(),
         }
     }
 
