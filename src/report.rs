@@ -42,6 +42,9 @@ struct Series {
 /// One parameter's best value after each batch, placed in its bounds.
 struct Path01 {
     name: String,
+    /// The bounds the path is placed in (0 at `lower`, 1 at `upper`).
+    lower: f64,
+    upper: f64,
     points: Vec<(f64, f64)>,
 }
 
@@ -57,7 +60,10 @@ pub const DRAW_TIME_LIMIT: std::time::Duration = std::time::Duration::from_secs(
 pub const MAX_MARKERS: usize = 400;
 
 /// Width in pixels of the column right of each data area that holds its legend.
-pub const LEGEND_WIDTH: u32 = 210;
+pub const LEGEND_WIDTH: u32 = 230;
+
+/// Most characters of a legend entry that fit its column; longer ones are cut with "…".
+const LEGEND_CHARS: usize = 28;
 
 /// The time axis' label (FMI time is in seconds).
 const TIME_LABEL: &str = "time [s]";
@@ -119,7 +125,7 @@ fn parameter_paths(history: &[HistoryPoint], parameters: &[ParameterRange]) -> V
             if hi > lo { (lo, hi) } else { (lo - 1.0, lo + 1.0) }
         };
         let points = values.iter().map(|(e, x)| (*e, (x - lo) / (hi - lo))).filter(|p| plottable(p.1)).collect();
-        paths.push(Path01 { name: p.name.clone(), points });
+        paths.push(Path01 { name: p.name.clone(), lower: lo, upper: hi, points });
     }
     paths
 }
@@ -222,9 +228,28 @@ where
             Key::Dot(style) => area.draw(&Circle::new((x0 + 19, y), 3, style))?,
             Key::Shade(style) => area.draw(&Rectangle::new([(x0 + 8, y - 6), (x0 + 30, y + 6)], style))?,
         }
-        area.draw(&Text::new(label.clone(), (x0 + 38, y - 7), font.clone()))?;
+        let label = match label.char_indices().nth(LEGEND_CHARS - 1) {
+            Some((cut, _)) if label.chars().count() > LEGEND_CHARS => format!("{}…", &label[..cut]),
+            _ => label.clone(),
+        };
+        area.draw(&Text::new(label, (x0 + 38, y - 7), font.clone()))?;
     }
     Ok(())
+}
+
+/// A tick label on an axis spanning `span`: to the digits the span needs, in E notation for
+/// very large or small spans, never "-0".
+fn tick(v: f64, span: f64) -> String {
+    let magnitude = span.abs().log10().floor();
+    let text = if !(-3.0..=5.0).contains(&magnitude) {
+        format!("{v:.1e}")
+    } else {
+        format!("{v:.*}", (2.0 - magnitude).clamp(0.0, 6.0) as usize)
+    };
+    match text.strip_prefix('-') {
+        Some(rest) if rest.chars().all(|c| c == '0' || c == '.') => rest.to_owned(),
+        _ => text,
+    }
 }
 
 /// An axis label: `name [unit]`, or `name` alone when the unit is unknown.
@@ -282,6 +307,7 @@ where
             .configure_mesh()
             .x_desc(TIME_LABEL)
             .y_desc(axis_label(&s.name, s.unit.as_deref()))
+            .y_label_formatter(&|v| tick(*v, y1 - y0))
             .label_style(("sans-serif", 12))
             .axis_desc_style(("sans-serif", 14))
             .draw()?;
@@ -292,8 +318,8 @@ where
         }
         // Measurements first, thinned and light, so the fitted line on top stays visible.
         let every = s.measured.len().div_ceil(MAX_MARKERS).max(1);
-        let dot = MEASURED.mix(0.45).filled();
-        chart.draw_series(s.measured.iter().step_by(every).map(|p| Circle::new(*p, 2, dot)))?;
+        let dot = MEASURED.mix(0.35).filled();
+        chart.draw_series(s.measured.iter().step_by(every).map(|p| Circle::new(*p, 3, dot)))?;
         let nominal = NOMINAL.stroke_width(1);
         let optimized = OPTIMIZED.stroke_width(2);
         chart.draw_series(LineSeries::new(s.nominal.iter().copied(), nominal))?;
@@ -359,6 +385,12 @@ where
     }
     root.present()?;
     Ok(())
+}
+
+/// `v` in at most about 8 characters: as Rust prints it if that is short, else in E notation.
+fn short(v: f64) -> String {
+    let plain = format!("{v}");
+    if plain.len() <= 8 { plain } else { format!("{v:.2e}") }
 }
 
 /// The colour of parameter `k`'s path.
@@ -436,7 +468,7 @@ where
             let style = path_colour(k).stroke_width(2);
             chart.draw_series(LineSeries::new(p.points.iter().copied(), style))?;
             chart.draw_series(p.points.iter().map(|q| Circle::new(*q, 2, style.filled())))?;
-            keys.push((p.name.clone(), Key::Line(style)));
+            keys.push((format!("{} [{}, {}]", p.name, short(p.lower), short(p.upper)), Key::Line(style)));
         }
         draw_key(&legend, &chart, &keys)?;
     }
@@ -651,6 +683,11 @@ mod tests {
         assert_eq!(text_x(&fit, "y [rad]").len(), 1);
         assert_eq!(text_x(&error, "|measured − simulated| [rad]").len(), 1);
         assert_eq!(axis_label("y", None), "y");
+        // Tick labels carry the digits their axis needs, and no minus zero.
+        assert_eq!(
+            [tick(-0.0001, 2.2), tick(0.4, 2.2), tick(15.0, 20.0), tick(2e-5, 4e-5)],
+            ["0.00", "0.40", "15.0", "2.0e-5"]
+        );
     }
 
     #[test]
@@ -668,7 +705,7 @@ mod tests {
         for (file, labels) in [
             ("fit.svg", &["optimized", "nominal", "measured (1 in 10)", "validation window"][..]),
             ("error.svg", &["optimized", "nominal", "validation window"][..]),
-            ("convergence.svg", &["best f after a batch", "a"][..]),
+            ("convergence.svg", &["best f after a batch", "a [0, 4]"][..]),
         ] {
             let svg = read(&dir, file);
             let right = data_right(&svg);
@@ -714,8 +751,8 @@ mod tests {
         let dots = svg.matches("<circle ").count();
         assert!((100..=MAX_MARKERS + 1).contains(&dots), "{dots} markers for 4,000 samples");
         // The fitted line is drawn after (over) the last measured point (the legend's dot,
-        // larger and opaque, comes later).
-        let last_dot = svg.rfind(r#" r="2" opacity="0.45""#).unwrap();
+        // opaque, comes later).
+        let last_dot = svg.rfind(r#" r="3" opacity="0.35""#).unwrap();
         let trace = optimized_trace(&svg);
         let trace_at = svg.find(&format!("points=\"{},{}", trace[0].0, trace[0].1)).unwrap();
         assert!(trace_at > last_dot, "the optimized line is drawn under the measurements");
@@ -743,7 +780,7 @@ mod tests {
         let svg = read(&draw_sine(&history, &parameters), "convergence.svg");
         assert_eq!(text_x(&svg, "parameters: best point after each batch").len(), 1);
         assert_eq!(text_x(&svg, "place in bounds (0 lower, 1 upper)").len(), 1);
-        assert!(!text_x(&svg, "k").is_empty() && !text_x(&svg, "d").is_empty());
+        assert!(!text_x(&svg, "k [0, 10]").is_empty() && !text_x(&svg, "d [-1, 1]").is_empty());
         // A result written before the history kept its best points: f alone.
         let old: Vec<HistoryPoint> = history.iter().map(|h| HistoryPoint { best_x: vec![], ..h.clone() }).collect();
         assert!(parameter_paths(&old, &parameters).is_empty());

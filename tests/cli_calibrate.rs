@@ -120,7 +120,9 @@ fn plots_show_units_the_validation_split_and_parameter_paths_and_plot_redraws_th
         let error = std::fs::read_to_string(out.join("error.svg")).unwrap();
         assert!(error.contains("[rad]\n</text>"), "{when}: error.svg has no unit");
         let conv = std::fs::read_to_string(out.join("convergence.svg")).unwrap();
-        for label in ["armFriction", "pendulumFriction", "parameters: best point after each batch"] {
+        for label in
+            ["armFriction [0, 0.022]", "pendulumFriction [0, 0.012]", "parameters: best point after each batch"]
+        {
             assert!(conv.contains(&format!(">\n{label}\n</text>")), "{when}: convergence.svg lacks {label}");
         }
     };

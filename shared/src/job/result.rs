@@ -209,6 +209,24 @@ mod tests {
     }
 
     #[test]
+    fn a_result_written_before_the_plot_fields_still_reads() {
+        let json = r#"{"x_opt":{"k":1.5},"f_opt":0.5,"iterations":1,"evaluations":4,"rounds":1,
+            "failed_evaluations":0,"termination":"f_tol reached","elapsed_s":0.25,
+            "history":[{"round":1,"evaluations":4,"best_f":0.5,"batch_wall_s":0.25}]}"#;
+        let r: CalibrationResult = serde_json::from_str(json).unwrap();
+        assert!(r.history[0].best_x.is_empty() && r.parameters.is_empty() && r.units.is_empty());
+        // And the new fields survive a round trip.
+        let r = CalibrationResult {
+            parameters: vec![ParameterRange { name: "k".into(), lower: 0.0, upper: 2.0 }],
+            units: BTreeMap::from([("y".to_owned(), "rad".to_owned())]),
+            history: vec![HistoryPoint { best_x: vec![1.5], ..r.history[0].clone() }],
+            ..r
+        };
+        let back: CalibrationResult = serde_json::from_str(&serde_json::to_string(&r).unwrap()).unwrap();
+        assert_eq!(back, r);
+    }
+
+    #[test]
     fn no_validation_window_no_split() {
         let w = WindowError { start_time: 0.0, stop_time: 2.0, rms_nominal: 1.0, rms_optimized: 0.5, scaled_rms: 0.5 };
         assert_eq!(ErrorReport { calibration: w, validation: None }.validation_split(), None);
