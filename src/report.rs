@@ -244,7 +244,7 @@ fn tick(v: f64, span: f64) -> String {
     let text = if !(-3.0..=5.0).contains(&magnitude) {
         format!("{v:.1e}")
     } else {
-        format!("{v:.*}", (2.0 - magnitude).clamp(0.0, 6.0) as usize)
+        format!("{v:.*}", (1.0 - magnitude).clamp(0.0, 6.0) as usize)
     };
     match text.strip_prefix('-') {
         Some(rest) if rest.chars().all(|c| c == '0' || c == '.') => rest.to_owned(),
@@ -421,28 +421,43 @@ where
     let e0 = e0.max(0.0);
     let panels = root.split_evenly((if paths.is_empty() { 1 } else { 2 }, 1));
     let [area, legend] = with_legend_column(&panels[0]);
-    let fs = points.iter().map(|p| p.1).filter(|v| plottable(*v) && *v > 0.0);
-    let (lo, hi) = fs.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
-    let (lo, hi) = if lo.is_finite() { (lo * 0.5, hi * 2.0) } else { (1e-6, 1.0) };
-    let mut chart = ChartBuilder::on(&area)
-        .caption("convergence: best f after each batch", ("sans-serif", 18))
-        .margin(8)
-        .x_label_area_size(40)
-        .y_label_area_size(75)
-        .build_cartesian_2d(e0..e1, (lo..hi).log_scale())?;
-    chart
-        .configure_mesh()
-        .x_desc("evaluations")
-        .x_label_formatter(&|v| format!("{v:.0}"))
-        .y_desc("best f")
-        .y_label_formatter(&|v| format!("{v:.0e}"))
-        .label_style(("sans-serif", 12))
-        .axis_desc_style(("sans-serif", 14))
-        .draw()?;
     let positive: Vec<(f64, f64)> = points.iter().copied().filter(|p| p.1 > 0.0 && plottable(p.1)).collect();
-    chart.draw_series(LineSeries::new(positive.iter().copied(), OPTIMIZED.stroke_width(1)))?;
-    chart.draw_series(positive.iter().map(|p| Circle::new(*p, 3, OPTIMIZED.filled())))?;
-    draw_key(&legend, &chart, &[("best f after a batch".to_owned(), Key::Dot(OPTIMIZED.filled()))])?;
+    let (lo, hi) = positive.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    // A log axis shows f falling over decades; over less than one it would show no tick, so
+    // f gets a linear axis then.
+    let builder = || {
+        let mut b = ChartBuilder::on(&area);
+        b.caption("convergence: best f after each batch", ("sans-serif", 18))
+            .margin(8)
+            .x_label_area_size(40)
+            .y_label_area_size(75);
+        b
+    };
+    macro_rules! best_f_panel {
+        ($y:expr, $format:expr) => {{
+            let mut chart = builder().build_cartesian_2d(e0..e1, $y)?;
+            chart
+                .configure_mesh()
+                .x_desc("evaluations")
+                .x_label_formatter(&|v| format!("{v:.0}"))
+                .y_desc("best f")
+                .y_label_formatter($format)
+                .label_style(("sans-serif", 12))
+                .axis_desc_style(("sans-serif", 14))
+                .draw()?;
+            chart.draw_series(LineSeries::new(positive.iter().copied(), OPTIMIZED.stroke_width(1)))?;
+            chart.draw_series(positive.iter().map(|p| Circle::new(*p, 3, OPTIMIZED.filled())))?;
+            draw_key(&legend, &chart, &[("best f after a batch".to_owned(), Key::Dot(OPTIMIZED.filled()))])?;
+        }};
+    }
+    if !lo.is_finite() {
+        best_f_panel!((1e-6..1.0).log_scale(), &|v| format!("{v:.0e}"));
+    } else if hi / lo >= 10.0 {
+        best_f_panel!((lo * 0.5..hi * 2.0).log_scale(), &|v| format!("{v:.0e}"));
+    } else {
+        let (y0, y1) = range(positive.iter().map(|p| p.1));
+        best_f_panel!(y0..y1, &|v| tick(*v, y1 - y0));
+    }
     if let Some(panel) = panels.get(1) {
         let [area, legend] = with_legend_column(panel);
         let mut chart = ChartBuilder::on(&area)
@@ -686,7 +701,7 @@ mod tests {
         // Tick labels carry the digits their axis needs, and no minus zero.
         assert_eq!(
             [tick(-0.0001, 2.2), tick(0.4, 2.2), tick(15.0, 20.0), tick(2e-5, 4e-5)],
-            ["0.00", "0.40", "15.0", "2.0e-5"]
+            ["0.0", "0.4", "15", "2.0e-5"]
         );
     }
 
