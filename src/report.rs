@@ -228,11 +228,7 @@ where
             Key::Dot(style) => area.draw(&Circle::new((x0 + 19, y), 3, style))?,
             Key::Shade(style) => area.draw(&Rectangle::new([(x0 + 8, y - 6), (x0 + 30, y + 6)], style))?,
         }
-        let label = match label.char_indices().nth(LEGEND_CHARS - 1) {
-            Some((cut, _)) if label.chars().count() > LEGEND_CHARS => format!("{}…", &label[..cut]),
-            _ => label.clone(),
-        };
-        area.draw(&Text::new(label, (x0 + 38, y - 7), font.clone()))?;
+        area.draw(&Text::new(cut(label, LEGEND_CHARS), (x0 + 38, y - 7), font.clone()))?;
     }
     Ok(())
 }
@@ -250,6 +246,19 @@ fn tick(v: f64, span: f64) -> String {
         Some(rest) if rest.chars().all(|c| c == '0' || c == '.') => rest.to_owned(),
         _ => text,
     }
+}
+
+/// `label` in at most `n` characters: if longer, its start and its end joined by "…" (the
+/// end tells `k@sine` from `k@steps`).
+fn cut(label: &str, n: usize) -> String {
+    let chars: Vec<char> = label.chars().collect();
+    if chars.len() <= n {
+        return label.to_owned();
+    }
+    let head = n.saturating_sub(1) / 2;
+    let tail = n.saturating_sub(1) - head;
+    let (start, end): (String, String) = (chars[..head].iter().collect(), chars[chars.len() - tail..].iter().collect());
+    format!("{start}…{end}")
 }
 
 /// An axis label: `name [unit]`, or `name` alone when the unit is unknown.
@@ -483,7 +492,10 @@ where
             let style = path_colour(k).stroke_width(2);
             chart.draw_series(LineSeries::new(p.points.iter().copied(), style))?;
             chart.draw_series(p.points.iter().map(|q| Circle::new(*q, 2, style.filled())))?;
-            keys.push((format!("{} [{}, {}]", p.name, short(p.lower), short(p.upper)), Key::Line(style)));
+            // The bounds stay whole; a long name is cut to leave them room.
+            let bounds = format!(" [{}, {}]", short(p.lower), short(p.upper));
+            let name = cut(&p.name, LEGEND_CHARS.saturating_sub(bounds.chars().count()).max(4));
+            keys.push((name + &bounds, Key::Line(style)));
         }
         draw_key(&legend, &chart, &keys)?;
     }
@@ -698,6 +710,7 @@ mod tests {
         assert_eq!(text_x(&fit, "y [rad]").len(), 1);
         assert_eq!(text_x(&error, "|measured − simulated| [rad]").len(), 1);
         assert_eq!(axis_label("y", None), "y");
+        assert_eq!([cut("pendulumJoint.phi", 8), cut("phi", 8)], ["pen….phi", "phi"]);
         // Tick labels carry the digits their axis needs, and no minus zero.
         assert_eq!(
             [tick(-0.0001, 2.2), tick(0.4, 2.2), tick(15.0, 20.0), tick(2e-5, 4e-5)],
