@@ -196,6 +196,50 @@ fn the_summary_has_each_outputs_rms_in_its_unit_and_fit_percent() {
             );
         }
     }
+/// The Furuta example with a validation window after 30 s, calibrated into `dir/out`.
+fn calibrate_furuta_with_validation(dir: &Path) {
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta");
+    std::fs::copy(example.join("FurutaData.mat"), dir.join("FurutaData.mat")).unwrap();
+    let job = std::fs::read_to_string(example.join("job.toml")).unwrap();
+    let job = job.replace("stop_time = 40.0", "stop_time = 30.0\nvalidation_stop_time = 40.0");
+    assert!(job.contains("validation_stop_time"), "{job}");
+    std::fs::write(dir.join("job.toml"), job).unwrap();
+    let out = fmucal(&["calibrate", "job.toml", "--out", "out"], dir);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
+fn plots_show_units_the_validation_split_and_parameter_paths_and_plot_redraws_them() {
+    let dir = tempfile::tempdir().unwrap();
+    calibrate_furuta_with_validation(dir.path());
+    let out = dir.path().join("out");
+    let r = result(&out);
+    assert_eq!(r["units"]["armJoint.phi"], "rad", "{r}");
+    assert_eq!(r["parameters"][1]["name"], "pendulumFriction", "{r}");
+    let history = r["history"].as_array().unwrap();
+    assert_eq!(history.last().unwrap()["best_x"].as_array().map(Vec::len), Some(2), "{r}");
+    let check = |when: &str| {
+        let fit = std::fs::read_to_string(out.join("fit.svg")).unwrap();
+        for label in ["armJoint.phi [rad]", "pendulumJoint.phi [rad]", "time [s]", "validation →"] {
+            assert!(fit.contains(&format!(">\n{label}\n</text>")), "{when}: fit.svg lacks {label}");
+        }
+        let error = std::fs::read_to_string(out.join("error.svg")).unwrap();
+        assert!(error.contains("[rad]\n</text>"), "{when}: error.svg has no unit");
+        let conv = std::fs::read_to_string(out.join("convergence.svg")).unwrap();
+        for label in
+            ["armFriction [0, 0.022]", "pendulumFriction [0, 0.012]", "parameters: best point after each batch"]
+        {
+            assert!(conv.contains(&format!(">\n{label}\n</text>")), "{when}: convergence.svg lacks {label}");
+        }
+    };
+    check("calibrate");
+    // `fmucal plot` redraws them from result.json and fit.csv, units and paths included.
+    for name in ["fit", "error", "convergence"] {
+        std::fs::remove_file(out.join(format!("{name}.svg"))).unwrap();
+    }
+    let plot = fmucal(&["plot", "out"], dir.path());
+    assert!(plot.status.success(), "{}", String::from_utf8_lossy(&plot.stderr));
+    check("plot");
 }
 
 #[test]

@@ -411,6 +411,8 @@ pub fn result_from_proto(r: pb::JobResult, history: Vec<HistoryPoint>) -> Calibr
         fmi_version: None,
         warnings: r.warnings,
         tolerance_guard: None,
+        parameters: vec![],
+        units: Default::default(),
     }
 }
 

@@ -15,7 +15,7 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use fmucal_shared::fmu::Fmu;
-use fmucal_shared::job::{ExperimentErrors, JobSpec, PreparedJob, report, tolerance};
+use fmucal_shared::job::{ExperimentErrors, JobSpec, ParameterRange, PreparedJob, report, tolerance};
 use fmucal_shared::quote::quote_user_text;
 
 use super::client::Client;
@@ -198,6 +198,14 @@ pub fn run(args: Args) -> Result<()> {
     for (k, table) in data.iter().enumerate() {
         fits.push(report::compare(&fmu, &prepared, k, table, &x_opt)?);
     }
+    // What `fmucal plot` needs to label a redrawn plot: the order and bounds of each history
+    // point's best x, and the outputs' units.
+    let (names, _, lower, upper) = spec.parameter_vectors();
+    result.parameters = (names.into_iter().zip(lower).zip(upper))
+        .map(|((name, lower), upper)| ParameterRange { name, lower, upper })
+        .collect();
+    let outputs = fits.iter().flat_map(|(fit, _)| &fit.outputs);
+    result.units = outputs.filter_map(|o| Some((o.variable.clone(), o.unit.clone()?))).collect();
     let model_start = fmu.description.default_experiment.as_ref().and_then(|d| d.start_time).unwrap_or(0.0);
     let data_start = data.first().and_then(|d| d.time.first().copied());
     if !(result.elapsed_s > 0.0) {
@@ -220,13 +228,13 @@ pub fn run(args: Args) -> Result<()> {
         result.warnings = fmucal_shared::job::warnings::check(&spec, &result, model_start, data_start);
         result.warnings.extend(misfit_warning);
         super::outputs::write(&args.out, &result, &fit)?;
-        crate::report::draw_all(&args.out, &fit, &result.history, result.errors.as_ref())?;
+        crate::report::draw_all(&args.out, &fit, &result.history, &result.parameters, result.errors.as_ref())?;
     } else {
         for (e, (fit, errors)) in prepared.experiments.iter().zip(&fits) {
             let dir = args.out.join(&e.name);
             std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
             super::outputs::write_fit(&dir, fit)?;
-            crate::report::draw_all(&dir, fit, &result.history, Some(errors))?;
+            crate::report::draw_all(&dir, fit, &result.history, &result.parameters, Some(errors))?;
             result.experiments.push(ExperimentErrors {
                 name: e.name.clone(),
                 role: e.role.to_string(),

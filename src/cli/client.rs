@@ -116,6 +116,7 @@ impl Client {
                         evaluations: ev.evaluations,
                         best_f: ev.best_f,
                         batch_wall_s: ev.batch_wall_s,
+                        best_x: ev.best_x.clone(),
                     });
                 }
             })

@@ -150,7 +150,7 @@ pub fn main() -> ExitCode {
         Command::Plot { dir } => outputs::read(&dir).and_then(|(result, fits)| {
             for (k, (folder, fit)) in fits.iter().enumerate() {
                 let errors = result.experiments.get(k).map(|e| &e.errors).or(result.errors.as_ref());
-                crate::report::draw_all(folder, fit, &result.history, errors)?;
+                crate::report::draw_all(folder, fit, &result.history, &result.parameters, errors)?;
                 eprintln!("wrote the plots to {}", folder.display());
             }
             Ok(())

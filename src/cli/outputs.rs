@@ -73,7 +73,8 @@ pub fn write_result(dir: &Path, result: &CalibrationResult) -> Result<()> {
 }
 
 /// Reads `result.json` and the `fit.csv` files from a folder [`write`] wrote: its own, or one
-/// per experiment (in `DIR/NAME`) for a job with several.
+/// per experiment (in `DIR/NAME`) for a job with several. The outputs' units come from
+/// `result.json` (`fit.csv` keeps plain variable names in its header).
 pub fn read(dir: &Path) -> Result<(CalibrationResult, Vec<(std::path::PathBuf, FitTable)>)> {
     let path = dir.join("result.json");
     let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
@@ -84,7 +85,11 @@ pub fn read(dir: &Path) -> Result<(CalibrationResult, Vec<(std::path::PathBuf, F
     } else {
         result.experiments.iter().map(|e| dir.join(&e.name)).collect()
     };
-    let fits = dirs.into_iter().map(|d| Ok((d.clone(), read_fit(&d.join("fit.csv"))?))).collect::<Result<_>>()?;
+    let mut fits: Vec<(std::path::PathBuf, FitTable)> =
+        dirs.into_iter().map(|d| Ok((d.clone(), read_fit(&d.join("fit.csv"))?))).collect::<Result<_>>()?;
+    for o in fits.iter_mut().flat_map(|(_, fit)| &mut fit.outputs) {
+        o.unit = result.units.get(&o.variable).cloned();
+    }
     Ok((result, fits))
 }
 
@@ -125,6 +130,7 @@ fn read_fit(path: &Path) -> Result<FitTable> {
         }
         outputs.push(FitColumns {
             variable: variable.to_owned(),
+            unit: None,
             measured: vec![],
             nominal: vec![],
             optimized: vec![],
@@ -163,12 +169,14 @@ mod tests {
             outputs: vec![
                 FitColumns {
                     variable: "x".into(),
+                    unit: None,
                     measured: vec![1.0, f64::NAN, 0.1 + 0.2],
                     nominal: vec![Some(2.0), Some(-1e-300), None],
                     optimized: vec![None, Some(1.5), Some(2.0)],
                 },
                 FitColumns {
                     variable: "der(y)".into(),
+                    unit: None,
                     measured: vec![3.0, 4.0, 5.0],
                     nominal: vec![Some(0.0); 3],
                     optimized: vec![Some(1.0); 3],

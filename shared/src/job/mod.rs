@@ -45,7 +45,7 @@ pub use evaluator::{Evaluation, Evaluator};
 pub use objective::Objective;
 pub use prepared::{PreparedExperiment, PreparedJob};
 pub use report::FitTable;
-pub use result::{CalibrationResult, ErrorReport, EvaluatedPoint, ExperimentErrors, HistoryPoint};
+pub use result::{CalibrationResult, ErrorReport, EvaluatedPoint, ExperimentErrors, HistoryPoint, ParameterRange};
 pub use run::JobRun;
 pub use spec::JobSpec;
 

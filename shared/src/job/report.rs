@@ -4,8 +4,8 @@
 //! errors per time window ([`ErrorReport`], in `result.json`): the objective's weighted RMS
 //! over all outputs, and each output's RMS error in its own unit with its normalised fit
 //! ([`Agreement`], the fit percentage of MATLAB System Identification Toolbox's `compare`).
-//! [`compare`] simulates both models; [`FitTable::new`], [`error_report`] and
-//! [`Agreement::of`] are pure.
+//! [`compare`] simulates both models and labels each output with its unit from the model
+//! description; [`FitTable::new`], [`error_report`] and [`Agreement::of`] are pure.
 
 use std::sync::Arc;
 
@@ -15,13 +15,16 @@ use super::evaluator::Evaluator;
 use super::objective::Objective;
 use super::prepared::PreparedJob;
 use super::result::{ErrorReport, OutputErrors, OutputWindowErrors, WindowError};
-use crate::fmu::Fmu;
+use crate::fmu::{Fmu, ModelDescription};
 use crate::sim::SimResult;
 
 /// One output's columns of a [`FitTable`], each with one entry per time.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FitColumns {
     pub variable: String,
+    /// The variable's unit in the model description (its own or its declared type's), in
+    /// which all three columns are; `None` where the description gives none.
+    pub unit: Option<String>,
     /// NaN where the measurement is missing.
     pub measured: Vec<f64>,
     /// The model at the job's start values; `None` where it has no value (its simulation
@@ -53,12 +56,20 @@ impl FitTable {
             .iter()
             .map(|t| FitColumns {
                 variable: t.variable.clone(),
+                unit: None,
                 measured: (0..n).map(|i| t.values.get(i).copied().unwrap_or(f64::NAN)).collect(),
                 nominal: at(nominal, &t.variable),
                 optimized: at(optimized, &t.variable),
             })
             .collect();
         FitTable { time: objective.times.clone(), outputs }
+    }
+
+    /// Sets each output's unit from the model description `md`.
+    pub fn set_units(&mut self, md: &ModelDescription) {
+        for o in &mut self.outputs {
+            o.unit = md.variable(&o.variable).and_then(|v| md.unit_of(v)).map(str::to_owned);
+        }
     }
 }
 
@@ -251,7 +262,9 @@ fn compare_with(
     for o in &mut errors.outputs {
         o.unit = unit_of(md, &o.variable);
     }
-    Ok((FitTable::new(objective, nominal, optimized), errors))
+    let mut fit = FitTable::new(objective, nominal, optimized);
+    fit.set_units(md);
+    Ok((fit, errors))
 }
 
 #[cfg(test)]

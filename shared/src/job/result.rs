@@ -26,6 +26,18 @@ pub struct HistoryPoint {
     /// Wall time of the round's batch.
     #[serde(deserialize_with = "null_as_nan")]
     pub batch_wall_s: f64,
+    /// The best point after the round (user units, in the order of the job's calibrated
+    /// parameters; empty before a point succeeded, and in files written before it was kept).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub best_x: Vec<f64>,
+}
+
+/// A calibrated parameter's name and bounds (user units).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ParameterRange {
+    pub name: String,
+    pub lower: f64,
+    pub upper: f64,
 }
 
 /// One point of a job that evaluates given points.
@@ -96,6 +108,14 @@ pub struct CalibrationResult {
     /// ran it ([`super::tolerance`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance_guard: Option<super::tolerance::Guard>,
+    /// The calibrated parameters in the order of each history point's `best_x`, with their
+    /// bounds, when the CLI wrote them (the convergence plot's parameter paths).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parameters: Vec<ParameterRange>,
+    /// Each output's unit from the model description (output → unit), when the CLI wrote it
+    /// (the fit plot's axis labels).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub units: BTreeMap<String, String>,
 }
 
 /// One experiment's RMS errors in `result.json`.
@@ -272,7 +292,13 @@ mod tests {
             failed_evaluations: 4,
             termination: "max_evals".into(),
             elapsed_s: 0.25,
-            history: vec![HistoryPoint { round: 1, evaluations: 4, best_f: f64::INFINITY, batch_wall_s: 0.25 }],
+            history: vec![HistoryPoint {
+                round: 1,
+                evaluations: 4,
+                best_f: f64::INFINITY,
+                batch_wall_s: 0.25,
+                best_x: vec![],
+            }],
             evaluated: vec![],
             errors: Some(report),
             identifiability: None,
@@ -280,6 +306,8 @@ mod tests {
             fmi_version: None,
             warnings: vec![],
             tolerance_guard: None,
+            parameters: vec![],
+            units: Default::default(),
         };
         let json = serde_json::to_string(&result).unwrap();
         // The optimum and the best value so far keep their infinity (a job with no successful
@@ -294,6 +322,24 @@ mod tests {
         assert_eq!(errors.validation_split(), Some(2.0));
         assert_eq!(back.x_opt_in(&["k".into(), "c".into()])[0], 1.5);
         assert!(back.x_opt_in(&["c".into()])[0].is_nan());
+    }
+
+    #[test]
+    fn a_result_written_before_the_plot_fields_still_reads() {
+        let json = r#"{"x_opt":{"k":1.5},"f_opt":0.5,"iterations":1,"evaluations":4,"rounds":1,
+            "failed_evaluations":0,"termination":"f_tol reached","elapsed_s":0.25,
+            "history":[{"round":1,"evaluations":4,"best_f":0.5,"batch_wall_s":0.25}]}"#;
+        let r: CalibrationResult = serde_json::from_str(json).unwrap();
+        assert!(r.history[0].best_x.is_empty() && r.parameters.is_empty() && r.units.is_empty());
+        // And the new fields survive a round trip.
+        let r = CalibrationResult {
+            parameters: vec![ParameterRange { name: "k".into(), lower: 0.0, upper: 2.0 }],
+            units: BTreeMap::from([("y".to_owned(), "rad".to_owned())]),
+            history: vec![HistoryPoint { best_x: vec![1.5], ..r.history[0].clone() }],
+            ..r
+        };
+        let back: CalibrationResult = serde_json::from_str(&serde_json::to_string(&r).unwrap()).unwrap();
+        assert_eq!(back, r);
     }
 
     #[test]

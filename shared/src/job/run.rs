@@ -230,6 +230,7 @@ impl JobRun {
             evaluations: self.optimizer.evaluations(),
             best_f: self.best_f(),
             batch_wall_s: round_wall_s,
+            best_x: self.best().map(|b| b.0).unwrap_or_default(),
         };
         self.history.push(round.clone());
         Ok(Some(round))
@@ -317,6 +318,8 @@ impl JobRun {
             fmi_version: None,
             warnings: vec![],
             tolerance_guard: None,
+            parameters: vec![],
+            units: Default::default(),
         };
         // The checks the result alone allows (bounds, budget), for every client; the CLI
         // adds those that need simulations.

@@ -156,6 +156,8 @@ mod tests {
             fmi_version: None,
             warnings: vec![],
             tolerance_guard: None,
+            parameters: vec![],
+            units: Default::default(),
         }
     }
 

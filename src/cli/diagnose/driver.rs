@@ -503,6 +503,8 @@ async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &Candida
         fmi_version: None,
         warnings: vec![],
         tolerance_guard: None,
+        parameters: vec![],
+        units: Default::default(),
     };
     Ok(Fitted { job: job.clone(), result: Ok((result, id)), elapsed, simulations })
 }
