@@ -1,8 +1,8 @@
 //! Plots of a calibration, drawn from its typed results (the [`FitTable`], the history and
 //! the [`ErrorReport`]), as SVG and PNG with an embedded font (DejaVu Sans; no system fonts):
-//! - `fit`: measured, nominal and optimized trajectories of each output (the paper's Figures 6
-//!   and 9), the measurements thinned to at most [`MAX_MARKERS`] light dots under the lines;
-//! - `error`: absolute error on a log scale, nominal against optimized (Figures 7 and 10);
+//! - `fit`: measured, start (the model at the job's start values) and optimized trajectories
+//!   of each output (the paper's Figures 6 and 9), the measurements thinned to at most [`MAX_MARKERS`] light dots under the lines;
+//! - `error`: absolute error on a log scale, start against optimized (Figures 7 and 10);
 //! - `convergence`: best f against evaluations, one marker per completed batch, and below it
 //!   each parameter's best value placed in its bounds (0 = lower, 1 = upper).
 //!
@@ -68,7 +68,7 @@ const LEGEND_CHARS: usize = 28;
 /// The time axis' label (FMI time is in seconds).
 const TIME_LABEL: &str = "time [s]";
 
-/// Colours: measurements, the nominal and the optimized model, the validation window.
+/// Colours: measurements, the model at the start values and optimized, the validation window.
 const MEASURED: RGBColor = RGBColor(90, 90, 90);
 const NOMINAL: RGBColor = RGBColor(40, 90, 220);
 const OPTIMIZED: RGBColor = RGBColor(220, 20, 20);
@@ -339,7 +339,7 @@ where
         };
         keys.extend([
             (measured, Key::Dot(MEASURED.filled())),
-            ("nominal".to_owned(), Key::Line(nominal)),
+            ("start".to_owned(), Key::Line(nominal)),
             ("optimized".to_owned(), Key::Line(optimized)),
         ]);
         draw_key(&legend, &chart, &keys)?;
@@ -389,7 +389,7 @@ where
         let (n_style, o_style) = (NOMINAL.stroke_width(1), OPTIMIZED.stroke_width(1));
         chart.draw_series(LineSeries::new(nominal, n_style))?;
         chart.draw_series(LineSeries::new(optimized, o_style))?;
-        keys.extend([("nominal".to_owned(), Key::Line(n_style)), ("optimized".to_owned(), Key::Line(o_style))]);
+        keys.extend([("start".to_owned(), Key::Line(n_style)), ("optimized".to_owned(), Key::Line(o_style))]);
         draw_key(&legend, &chart, &keys)?;
     }
     root.present()?;
@@ -682,11 +682,11 @@ mod tests {
         let window = |start, stop| fmucal_shared::job::result::WindowError {
             start_time: start,
             stop_time: stop,
-            rms_nominal: 1.0,
+            rms_start: 1.0,
             rms_optimized: 0.1,
             scaled_rms: 0.1,
         };
-        (fit, ErrorReport { calibration: window(0.0, 6.0), validation: Some(window(6.0, 10.0)) })
+        (fit, ErrorReport { calibration: window(0.0, 6.0), validation: Some(window(6.0, 10.0)), outputs: vec![] })
     }
 
     fn draw_sine(history: &[HistoryPoint], parameters: &[ParameterRange]) -> tempfile::TempDir {
@@ -731,8 +731,8 @@ mod tests {
             .collect();
         let dir = draw_sine(&history, &[ParameterRange { name: "a".into(), lower: 0.0, upper: 4.0 }]);
         for (file, labels) in [
-            ("fit.svg", &["optimized", "nominal", "measured (1 in 10)", "validation window"][..]),
-            ("error.svg", &["optimized", "nominal", "validation window"][..]),
+            ("fit.svg", &["optimized", "start", "measured (1 in 10)", "validation window"][..]),
+            ("error.svg", &["optimized", "start", "validation window"][..]),
             ("convergence.svg", &["best f after a batch", "a [0, 4]"][..]),
         ] {
             let svg = read(&dir, file);

@@ -196,6 +196,8 @@ fn the_summary_has_each_outputs_rms_in_its_unit_and_fit_percent() {
             );
         }
     }
+}
+
 /// The Furuta example with a validation window after 30 s, calibrated into `dir/out`.
 fn calibrate_furuta_with_validation(dir: &Path) {
     let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta");
