@@ -87,10 +87,16 @@ pub fn run(args: Args) -> Result<()> {
     // The tolerance guard, before the calibration: tighten until the start point's integration
     // error is small against the noise.
     let guarded = spec.simulation.tolerance_guard.unwrap_or(true);
+    // A start point that does not simulate is the calibration's to report, as it always has.
     let (prepared, start_checks) = if guarded {
         let (_, x0, _, _) = prepared.spec.parameter_vectors();
-        let t = tolerance::tighten(&fmu, prepared, &data, &x0, "start")?;
-        (t.job, t.checks)
+        match tolerance::tighten(&fmu, prepared.clone(), &data, &x0, "start") {
+            Ok(t) => (t.job, t.checks),
+            Err(e) => {
+                tracing::debug!("no tolerance check at the start point: {e}");
+                (prepared, vec![])
+            }
+        }
     } else {
         (prepared, vec![])
     };
@@ -128,10 +134,13 @@ pub fn run(args: Args) -> Result<()> {
         let mut refit = None;
         if guarded && result.termination != "max_time reached" {
             let x = result.x_opt_in(&job.parameter_names);
-            let t = tokio::task::block_in_place(|| tolerance::tighten(&fmu, job.clone(), &data, &x, "optimum"))?;
-            let tightened = t.tightened(&job.spec);
-            checks = t.checks.clone();
-            if tightened {
+            let t = tokio::task::block_in_place(|| tolerance::tighten(&fmu, job.clone(), &data, &x, "optimum"))
+                .map_err(|e| tracing::warn!("no tolerance check at the optimum: {e}"))
+                .ok();
+            if let Some(t) = &t {
+                checks = t.checks.clone();
+            }
+            if let Some(t) = t.filter(|t| t.tightened(&job.spec)) {
                 // From the optimum, a local search; the report still compares with the job's
                 // own starts (`t.job`).
                 let mut from_optimum = t.spec.clone().with_starts(&result.x_opt);
