@@ -67,8 +67,8 @@ impl EvaluatedPoint {
     }
 }
 
-/// `result.json`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// `result.json`. Its `Default` is an empty result, for filling in the fields a caller has.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct CalibrationResult {
     /// Parameter name → optimal value.
     pub x_opt: BTreeMap<String, f64>,

@@ -312,14 +312,7 @@ impl JobRun {
             elapsed_s,
             history: self.history.clone(),
             evaluated: std::mem::take(&mut self.evaluated).into_values().collect(),
-            errors: None,
-            identifiability: None,
-            experiments: vec![],
-            fmi_version: None,
-            warnings: vec![],
-            tolerance_guard: None,
-            parameters: vec![],
-            units: Default::default(),
+            ..Default::default()
         };
         // The checks the result alone allows (bounds, budget), for every client; the CLI
         // adds those that need simulations.

@@ -149,15 +149,7 @@ mod tests {
             termination: termination.into(),
             elapsed_s: 1.0,
             history: vec![],
-            evaluated: vec![],
-            errors: None,
-            identifiability: None,
-            experiments: vec![],
-            fmi_version: None,
-            warnings: vec![],
-            tolerance_guard: None,
-            parameters: vec![],
-            units: Default::default(),
+            ..Default::default()
         }
     }
 

@@ -496,15 +496,7 @@ async fn polish(client: &mut Client, ctx: &Context, job: &JobSpec, fit: &Candida
         termination: termination.into(),
         elapsed_s: elapsed.as_secs_f64(),
         history: vec![],
-        evaluated: vec![],
-        errors: None,
-        identifiability: None,
-        experiments: vec![],
-        fmi_version: None,
-        warnings: vec![],
-        tolerance_guard: None,
-        parameters: vec![],
-        units: Default::default(),
+        ..Default::default()
     };
     Ok(Fitted { job: job.clone(), result: Ok((result, id)), elapsed, simulations })
 }
