@@ -259,7 +259,7 @@ pub fn run(args: Args) -> Result<()> {
         ""
     };
     println!(
-        "termination: {}{budget}; f_opt = {:.6e} after {} evaluations in {:.1} s",
+        "termination: {}{budget}; f_opt = {:.6e} after {} evaluations in {:.2} s",
         result.termination, result.f_opt, result.evaluations, wall_s
     );
     let (names, _, lower, upper) = spec.parameter_vectors();
