@@ -68,7 +68,7 @@ impl FitTable {
     /// Sets each output's unit from the model description `md`.
     pub fn set_units(&mut self, md: &ModelDescription) {
         for o in &mut self.outputs {
-            o.unit = md.variable(&o.variable).and_then(|v| md.unit_of(v)).map(str::to_owned);
+            o.unit = unit_of(md, &o.variable);
         }
     }
 }
@@ -180,7 +180,7 @@ pub fn error_report(
 
 /// The unit of the values of the variable `name` (its own `unit`, else its declared type's,
 /// else those of the variable an alias shares its value with); `None` if it has none.
-pub fn unit_of(md: &crate::fmu::schema::ModelDescription, name: &str) -> Option<String> {
+pub fn unit_of(md: &ModelDescription, name: &str) -> Option<String> {
     let v = md.variable(name)?;
     md.unit_of(v).or_else(|| md.unit_of(md.base_of(v))).map(str::to_owned)
 }
