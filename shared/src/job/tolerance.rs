@@ -114,19 +114,20 @@ impl Guard {
         (self.checks.iter().map(|c| c.simulations).sum(), self.checks.iter().map(|c| c.seconds).sum())
     }
 
-    /// One line for the summary.
+    /// One line for the summary (SE: the estimates' standard errors; the summary says
+    /// "standard error" only of a parameter's own).
     pub fn summary(&self) -> String {
         let (simulations, seconds) = self.cost();
         let last = self.checks.last();
         let verdict = match last {
             Some(c) if c.passed() => format!(
                 "at rtol {:e} the integration error is {:.3} × the noise and moves no estimate by more than \
-                 {:.2} standard errors ({})",
+                 {:.2} SE ({})",
                 self.tolerance, c.ratio, c.shift, c.output
             ),
             Some(c) => format!(
                 "even at rtol {:e}, the tightest tried, the integration error is {:.3} × the noise and may move \
-                 an estimate by {:.2} standard errors ({})",
+                 an estimate by {:.2} SE ({})",
                 c.tolerance, c.ratio, c.shift, c.output
             ),
             None => format!("rtol {:e}", self.tolerance),
