@@ -3,8 +3,9 @@
 # worker token of its own, and no worker: the binary starts one for its last case). Each line it
 # prints, `CASE<TAB>PASS|FAIL<TAB>DETAIL`, is reported as a case of this script.
 
+# The build's JSON lists every artifact it used (the fmucal binary too): take the bench's.
 grpc_bin="$(cd "$ROOT" && cargo build --release --locked --bench probe_grpc --message-format=json 2>/dev/null |
-    sed -n 's/.*"executable":"\([^"]*\)".*/\1/p' | tail -n 1)"
+    grep '"name":"probe_grpc"' | sed -n 's/.*"executable":"\([^"]*\)".*/\1/p' | tail -n 1)"
 if [ -z "$grpc_bin" ] || [ ! -x "$grpc_bin" ]; then
     report "grpc cases" FAIL "cannot build bench/probe_grpc.rs (cargo build --release --bench probe_grpc)"
 else
