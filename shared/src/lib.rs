@@ -11,6 +11,7 @@ pub use fmucal_fmi as fmu;
 pub use fmucal_optim as optim;
 
 pub mod diagnose;
+pub mod export;
 pub mod job;
 pub use fmucal_fmi::quote;
 pub mod series;

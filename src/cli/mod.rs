@@ -5,6 +5,7 @@
 mod calibrate;
 mod client;
 mod diagnose;
+mod export;
 mod health;
 mod inspect;
 mod local_cluster;
@@ -95,6 +96,9 @@ enum Command {
     /// Find what the model lacks: calibrate, screen candidate effects, fit the best on the
     /// workers, and name the one that wins on held-out data (or none).
     Diagnose(diagnose::Args),
+    /// Write the calibrated model, with the job's effects inside, as an FMI 2.0 FMU that any
+    /// FMI tool runs (x86_64 Linux).
+    Export(export::Args),
     /// Run a coordinator server.
     Coordinator(servers::CoordinatorArgs),
     /// Run a worker that evaluates points for a coordinator.
@@ -143,6 +147,7 @@ pub fn main() -> ExitCode {
         Command::Simulate(args) => simulate::run(args),
         Command::Calibrate(args) => calibrate::run(args),
         Command::Diagnose(args) => diagnose::run(args),
+        Command::Export(args) => export::run(args),
         Command::Coordinator(args) => servers::coordinator(args),
         Command::Worker(args) => servers::worker(args),
         Command::Certs(args) => tls::certs(args),

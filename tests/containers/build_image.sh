@@ -13,10 +13,16 @@ base="$(bash "$here/base_image.sh")"
 context="$(mktemp -d)"
 trap 'rm -rf "$context"' EXIT
 cp "$bin" "$context/fmucal"
+# The FMU runtime of `fmucal export`, which cargo leaves in deps/ beside the binary.
+lib="$(dirname "$bin")/deps/libfmucal_fmu.so"
+[ -f "$lib" ] || lib="$(dirname "$bin")/libfmucal_fmu.so"
+[ -f "$lib" ] || { echo "containers: no libfmucal_fmu.so beside $bin (cargo build --release)" >&2; exit 1; }
+cp "$lib" "$context/libfmucal_fmu.so"
 # The last stage of the published Dockerfile, with its base and its binary's source replaced.
 awk '/^FROM /{ stage = "" } { stage = stage $0 "\n" } END { printf "%s", stage }' "$repo/deploy/Dockerfile" \
   | sed -e "s|^FROM debian:bookworm-slim.*|FROM $base|" \
-        -e "s|^COPY --from=build /src/target/release/fmucal |COPY fmucal |" >"$context/Dockerfile"
+        -e "s|^COPY --from=build /src/target/release/fmucal |COPY fmucal |" \
+        -e "s|^COPY --from=build /src/target/release/deps/libfmucal_fmu.so |COPY libfmucal_fmu.so |" >"$context/Dockerfile"
 grep -q "^FROM $base" "$context/Dockerfile" && grep -q "^COPY fmucal " "$context/Dockerfile" \
   || { echo "containers: deploy/Dockerfile's runtime stage no longer has the lines this script replaces" >&2; exit 1; }
 DOCKER_BUILDKIT=0 docker build -q -t "$image" "$context" >/dev/null

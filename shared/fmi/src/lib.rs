@@ -141,6 +141,17 @@ impl Fmu {
     /// exists, [`FmuError::Ffi`] when the binary cannot be loaded or misses a function.
     pub fn load_with(path: &Path, opts: &LoadOptions) -> Result<Self, FmuError> {
         let unpacked = archive::unpack(path, &opts.cache_dir, &opts.limits)?;
+        Self::open_unpacked(&unpacked.dir, unpacked.sha256)
+    }
+
+    /// Opens an FMU already unpacked into `dir` (as an importing tool unpacks the FMU that
+    /// `fmucal export` writes, with the original inside): parses its model description and
+    /// loads the binaries of every interface it declares. `sha256` identifies it in logs.
+    ///
+    /// # Errors
+    /// As [`Fmu::load_with`], but for the archive.
+    pub fn open_unpacked(dir: &Path, sha256: String) -> Result<Self, FmuError> {
+        let unpacked = archive::Unpacked { dir: dir.to_path_buf(), sha256 };
         let md_path = unpacked.dir.join("modelDescription.xml");
         let xml =
             std::fs::read(&md_path).map_err(|e| FmuError::Read { path: md_path.clone(), message: e.to_string() })?;

@@ -73,6 +73,27 @@ pub trait Kind: Sync {
     fn parameters(&self) -> &'static [&'static str];
 }
 
+/// What a parameter of an effect is measured in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scale {
+    /// The unit of what the term is added to: a port's load, a state's derivative, a sensor's
+    /// output or an actuator's input (a force, a strength, an offset).
+    Load,
+    /// The unit of the signal the term reads (a rest position, a velocity, a temperature).
+    Signal,
+    /// Its own unit (a ratio, a time, a coefficient between the two).
+    Other,
+}
+
+/// The scale of parameter `name` of any kind (the names are shared across kinds).
+pub fn parameter_scale(name: &str) -> Scale {
+    match name {
+        "force" | "coulomb" | "static" | "load" | "q" | "rate" | "offset" | "lower" | "upper" => Scale::Load,
+        "x0" | "width" | "t_ambient" | "stribeck_velocity" => Scale::Signal,
+        _ => Scale::Other,
+    }
+}
+
 /// A term added to an injection port, from one signal's value.
 pub trait PortEffect: Kind + Guesses {
     /// The term at signal value `s` with parameter values `p`.

@@ -183,46 +183,77 @@ struct Progress {
 
 pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimError> {
     initialize(inst, plan)?;
-    let md = inst.description();
-    let nx = md.states().len();
-    let fmu_nz = md.number_of_event_indicators;
-    let nz = fmu_nz + plan.term_indicator_count();
-    let step_event_check = !md.model_exchange.as_ref().is_some_and(|m| m.completed_integrator_step_not_needed);
     let mut rec = Recorder::new(plan);
-    let model = Model {
-        inst: RefCell::new(inst),
-        plan,
-        error: RefCell::new(None),
-        rhs_evaluations: Cell::new(0),
-        segment_end: Cell::new(f64::INFINITY),
-        nx,
-        fmu_nz,
-        nz,
-    };
+    let model = Model::new(inst, plan);
+    let (mut run, mut p) = start(&model, &mut rec, plan.start)?;
+    let terminated = advance(&model, &mut rec, &mut p, &mut run, plan.stop)?;
+    let evals = model.rhs_evaluations.get();
+    Ok(rec.finish(p.steps, evals, terminated))
+}
 
-    let mut info = event_iteration(&model, plan.start)?;
-    let mut p = Progress { t: plan.start, x: vec![0.0; nx], next_output: 0, steps: 0 };
+impl<'a> Model<'a> {
+    fn new(inst: &'a mut Instance, plan: &'a Plan) -> Self {
+        let md = inst.description();
+        let nx = md.states().len();
+        let fmu_nz = md.number_of_event_indicators;
+        Model {
+            nx,
+            fmu_nz,
+            nz: fmu_nz + plan.term_indicator_count(),
+            inst: RefCell::new(inst),
+            plan,
+            error: RefCell::new(None),
+            rhs_evaluations: Cell::new(0),
+            segment_end: Cell::new(f64::INFINITY),
+        }
+    }
+}
+
+/// What carries over from one stretch of integration to the next: the last event update and
+/// the states' nominal values.
+struct Carry {
+    info: EventInfo,
+    nominals: Vec<f64>,
+    step_event_check: bool,
+}
+
+/// After initialisation at `t0`: the first event update, Continuous-Time Mode, the states and
+/// their nominals, and the outputs due at `t0`.
+fn start(model: &Model, rec: &mut Recorder, t0: f64) -> Result<(Carry, Progress), SimError> {
+    let nx = model.nx;
+    let info = event_iteration(model, t0)?;
+    let mut p = Progress { t: t0, x: vec![0.0; nx], next_output: 0, steps: 0 };
     let mut nominals = vec![1.0; nx];
+    let step_event_check;
     {
         let mut inst = model.inst.borrow_mut();
+        step_event_check =
+            !inst.description().model_exchange.as_ref().is_some_and(|m| m.completed_integrator_step_not_needed);
         inst.call("fmi2EnterContinuousTimeMode", |c| c.enter_continuous_time_mode())?;
         if nx > 0 {
             inst.call("fmi2GetContinuousStates", |c| c.get_continuous_states(&mut p.x))?;
             inst.call("fmi2GetNominalsOfContinuousStates", |c| c.get_nominals_of_continuous_states(&mut nominals))?;
         }
     }
-    check_finite(&model, &p.x, p.t)?;
-    record_due(&model, &mut rec, &mut p, plan.start, None)?;
+    check_finite(model, &p.x, p.t)?;
+    record_due(model, rec, &mut p, t0, None)?;
+    Ok((Carry { info, nominals, step_event_check }, p))
+}
 
+/// Integrates from `p.t` to `until` through every event on the way, recording the outputs due.
+/// Returns whether the FMU asked to terminate before `until`.
+fn advance(model: &Model, rec: &mut Recorder, p: &mut Progress, run: &mut Carry, until: f64) -> Result<bool, SimError> {
+    let plan = model.plan;
+    let (nx, nz) = (model.nx, model.nz);
     let held = plan.held_columns();
     let mut terminated = false;
-    while p.t < plan.stop && info.terminate_simulation == 0 {
+    while p.t < until && run.info.terminate_simulation == 0 {
         // Events count against the step budget too: a model that only jumps from event to event
         // (or a period driven towards zero) must still stop.
         plan.check_budget(p.steps + rec.event_times.len() as u64, p.t)?;
-        let mut stop = plan.stop;
-        if info.next_event_time_defined != 0 && info.next_event_time > p.t {
-            stop = stop.min(info.next_event_time);
+        let mut stop = until;
+        if run.info.next_event_time_defined != 0 && run.info.next_event_time > p.t {
+            stop = stop.min(run.info.next_event_time);
         }
         if let Some(table) = &plan.inputs
             && let Some(b) = table.next_breakpoint(p.t, &held)
@@ -233,17 +264,17 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
         // Without states and event indicators nothing happens between events; without states
         // but with indicators the integrator still runs, on a stand-in state, to find roots.
         let end = if (nx == 0 && nz == 0) || same_instant(p.t, stop) {
-            jump_without_states(&model, &mut rec, &mut p, stop)?
+            jump_without_states(model, rec, p, stop)?
         } else {
-            integrate(&model, &mut rec, &mut p, stop, &nominals, step_event_check)?
+            integrate(model, rec, p, stop, &run.nominals, run.step_event_check)?
         };
         model.take_error()?;
         match end {
             SegmentEnd::Terminate => {
-                terminated = p.t < plan.stop && !same_instant(p.t, plan.stop);
+                terminated = p.t < until && !same_instant(p.t, until);
                 break;
             }
-            SegmentEnd::Stop if p.t >= plan.stop => break,
+            SegmentEnd::Stop if p.t >= until => break,
             SegmentEnd::Stop | SegmentEnd::Event => {}
         }
         // Event at p.t: left-limit outputs already recorded; now update the discrete state.
@@ -255,23 +286,81 @@ pub(super) fn run(inst: &mut Instance, plan: &Plan) -> Result<SimResult, SimErro
             plan.apply_port_terms(&mut inst, p.t, Side::Right)?;
         }
         rec.event_times.push(p.t);
-        info = event_iteration(&model, p.t)?;
+        run.info = event_iteration(model, p.t)?;
         let mut inst = model.inst.borrow_mut();
         inst.call("fmi2EnterContinuousTimeMode", |c| c.enter_continuous_time_mode())?;
-        if nx > 0 && info.values_of_continuous_states_changed != 0 {
+        if nx > 0 && run.info.values_of_continuous_states_changed != 0 {
             inst.call("fmi2GetContinuousStates", |c| c.get_continuous_states(&mut p.x))?;
         }
-        if nx > 0 && info.nominals_of_continuous_states_changed != 0 {
-            inst.call("fmi2GetNominalsOfContinuousStates", |c| c.get_nominals_of_continuous_states(&mut nominals))?;
+        if nx > 0 && run.info.nominals_of_continuous_states_changed != 0 {
+            inst.call("fmi2GetNominalsOfContinuousStates", |c| {
+                c.get_nominals_of_continuous_states(&mut run.nominals)
+            })?;
         }
         drop(inst);
-        check_finite(&model, &p.x, p.t)?;
+        check_finite(model, &p.x, p.t)?;
     }
-    if info.terminate_simulation != 0 && p.t < plan.stop {
+    if run.info.terminate_simulation != 0 && p.t < until {
         terminated = true;
     }
-    let evals = model.rhs_evaluations.get();
-    Ok(rec.finish(p.steps, evals, terminated))
+    Ok(terminated)
+}
+
+/// Model Exchange integration in stretches, for a Co-Simulation interface over a Model
+/// Exchange FMU (`fmucal export`): [`Stepper::start`] once the instance is initialised, then
+/// [`Stepper::advance`] to each communication point, with the inputs the caller set on the
+/// instance held in between. Between calls the instance stands at the reached time and states,
+/// with the port terms applied, so its outputs can be read.
+pub struct Stepper {
+    carry: Carry,
+    progress: Progress,
+    terminated: bool,
+}
+
+impl Stepper {
+    /// Starts at `plan.start` on an instance that has just left Initialization Mode.
+    ///
+    /// # Errors
+    /// The FMU's or the event iteration's failure.
+    pub fn start(inst: &mut Instance, plan: &Plan) -> Result<Stepper, SimError> {
+        let mut rec = Recorder::new(plan);
+        let model = Model::new(inst, plan);
+        let (carry, progress) = start(&model, &mut rec, plan.start)?;
+        Ok(Stepper { carry, progress, terminated: false })
+    }
+
+    /// The time reached.
+    pub fn time(&self) -> f64 {
+        self.progress.t
+    }
+
+    /// Whether the FMU asked to terminate.
+    pub fn terminated(&self) -> bool {
+        self.terminated || self.carry.info.terminate_simulation != 0
+    }
+
+    /// Integrates to `until` (`plan` must have no output grid left), then leaves the instance
+    /// at the reached point.
+    ///
+    /// # Errors
+    /// As a simulation: the FMU, the integrator or the step budget.
+    pub fn advance(&mut self, inst: &mut Instance, plan: &Plan, until: f64) -> Result<(), SimError> {
+        let mut rec = Recorder::new(plan);
+        rec_skip_grid(&mut self.progress, plan);
+        let model = Model::new(inst, plan);
+        if advance(&model, &mut rec, &mut self.progress, &mut self.carry, until)? {
+            self.terminated = true;
+        }
+        let mut inst = model.inst.borrow_mut();
+        model.segment_end.set(f64::INFINITY);
+        model.set_point(&mut inst, self.progress.t, &self.progress.x)?;
+        Ok(())
+    }
+}
+
+/// A stepper records nothing: its outputs are read by the caller.
+fn rec_skip_grid(p: &mut Progress, plan: &Plan) {
+    p.next_output = plan.grid.len();
 }
 
 /// Fails naming the first state that is not finite.

@@ -11,6 +11,8 @@ pub mod plan;
 pub mod spec;
 
 pub use inputs::InputTable;
+#[cfg(feature = "integrators")]
+pub use me::Stepper;
 pub use spec::{OutputTimes, PortTerm, SimError, SimResult, SimSpec, SimStats, Solver, StateTerm};
 
 use crate::fmu::{Fmu, FmuError, Instance, Interface};

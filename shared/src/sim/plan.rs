@@ -694,7 +694,7 @@ fn recordable(v: &ScalarVariable) -> bool {
 }
 
 /// Parses `text` for variable `name` and checks that it may be set and lies within min/max.
-fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, SimError> {
+pub fn setting(md: &ModelDescription, name: &str, text: &str) -> Result<Setting, SimError> {
     let v = md.variable(name).ok_or_else(|| invalid(format!("unknown variable {}", quote_user_text(name))))?;
     // An alias may be set where its base may (tools often write an alias of a parameter as a
     // calculated local).

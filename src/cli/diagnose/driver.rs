@@ -13,6 +13,7 @@ use fmucal_shared::diagnose::candidates::{Candidate, Screening, Sizes, generate,
 use fmucal_shared::diagnose::decision::{
     Baseline, Evidence, ParameterEvidence, Rule, choose, equally_supported, judge,
 };
+use fmucal_shared::diagnose::effects;
 use fmucal_shared::diagnose::guess::SignalStats;
 use fmucal_shared::diagnose::jobs::{
     candidate_job, decision_f_tol, decision_optimizer, gauss_newton, noise_ssr, polish_step, same_place, stopped_early,
@@ -635,14 +636,15 @@ fn name(ctx: &Context, candidate: &Candidate, fit: &CandidateFit, job: &JobSpec)
     let names = candidate.parameter_names();
     let fitted: Vec<f64> =
         names.iter().map(|n| fit.x_opt.get(&format!("effects[{k}].{n}")).copied().unwrap_or(f64::NAN)).collect();
-    let load_like = ["force", "coulomb", "static", "load", "q", "rate"];
     let values: Vec<String> = names
         .iter()
         .zip(&fitted)
         .enumerate()
         .map(|(j, (n, v))| {
             let w = fit.verdict.as_ref().and_then(|v| v.half_widths.get(j).copied()).unwrap_or(f64::NAN);
-            let u = if load_like.contains(n) { unit.as_str() } else { "" };
+            // Only the loads (a force, a strength): the port's or the derivative's unit.
+            let load = effects::parameter_scale(n) == effects::Scale::Load && !matches!(*n, "offset" | "lower" | "upper");
+            let u = if load { unit.as_str() } else { "" };
             format!("{n} {}{u}", value_with_interval(*v, w))
         })
         .collect();

@@ -4,7 +4,8 @@
 //! promising ones concurrently on the workers, names the one that passes all three tests of
 //! [`fmucal_shared::diagnose::decision`] (or none), and writes to `--out` (default
 //! `diagnosis/`): `report.json`, `job.toml` (the job with the named effects added, ready for
-//! `fmucal calibrate`) and the residual plots. Locally (an in-process coordinator and worker
+//! `fmucal calibrate`), `corrected.fmu` (that job's model as an FMU, when an effect is named,
+//! as `fmucal export` writes it) and the residual plots. Locally (an in-process coordinator and worker
 //! processes, as `calibrate` runs) or on `--coordinator URL`.
 //!
 //! - [`checks`]: everything checked before any model code runs;
@@ -189,5 +190,13 @@ pub fn run(args: Args) -> Result<()> {
     plots::draw(&args.out, &outcome)?;
     print!("{}", report.summary());
     eprintln!("wrote {} and {}", args.out.join("report.json").display(), args.out.join("job.toml").display());
+    // The corrected model itself, whenever an effect was named: the written job at its fit.
+    if !report.named.is_empty() {
+        let fmu = args.out.join("corrected.fmu");
+        match super::export::export(&kept, super::export::Values::Starts, None, &fmu) {
+            Ok(line) => eprintln!("{line}"),
+            Err(e) => eprintln!("no corrected.fmu: {e:#}"),
+        }
+    }
     Ok(())
 }

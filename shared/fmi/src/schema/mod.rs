@@ -9,6 +9,7 @@
 
 mod fmi1;
 mod fmi3;
+mod write;
 
 use quick_xml::Reader;
 use quick_xml::events::{BytesStart, Event};
