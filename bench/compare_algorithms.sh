@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates the README's algorithm comparison table (see compare_algorithms.py).
+# Regenerates the algorithm comparison table of docs/src/benchmarks/calibration.md (see compare_algorithms.py).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 py="$(bash tests/fmpy/ensure_venv.sh)"

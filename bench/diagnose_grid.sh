@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The full discrepancy-discovery grid of issue 10 (tests/diagnosis_grid.rs, `full_grid`): every
+# The full discrepancy-discovery grid (tests/diagnosis_grid.rs, `full_grid`): every
 # hidden effect and the null set × noise 0.5, 1 and 2 % of each output's range × input profiles,
 # plus each effect at 10 % noise. Each case writes seeded noisy data from a fixture FMU whose C
 # code holds the effect, runs `fmucal diagnose --workers 2` with the base FMU, and reads its

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # fmucal (2 workers) against FMPy + scipy.optimize.minimize on the same Furuta calibration:
-# wall-time ratio and both evaluation counts (issue 5, section 5).
+# wall-time ratio and both evaluation counts.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 py="$(bash tests/fmpy/ensure_venv.sh)"

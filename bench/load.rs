@@ -1,11 +1,11 @@
-//! Load test of issue 11, run with `cargo bench --bench load` (or `bash bench/load.sh`): a
+//! Load test, run with `cargo bench --bench load` (or `bash bench/load.sh`): a
 //! `fmucal coordinator` process and `fmucal worker` processes (1 slot each) on loopback, one
 //! uploaded Decay model, one reference run of a job submitted alone, then the same job submitted
 //! 300 times at once from one client. Every one of the 300 must succeed with the reference's
 //! result: `x_opt` and `f_opt` bitwise equal, the same evaluations (and iterations, rounds,
 //! termination); any difference panics. Prints the wall time of the 300 (first submit to last
 //! end), jobs/s, evaluations/s, the coordinator's peak RSS (VmHWM) and its RSS after the run,
-//! and a Markdown table for the README.
+//! and a Markdown table for docs/src/benchmarks/service.md.
 //!
 //! The job: k of Decay (start 1.0 in [0.1, 5]) fitted to x = exp(-1.7 t) on 0..2 s (201 points),
 //! differential evolution with a fixed seed and x_tol = f_tol = 0, so it always runs its whole

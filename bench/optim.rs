@@ -1,4 +1,4 @@
-//! Optimizer benchmark (issue #3), the fmucal side of `bench/optim.sh`: on the
+//! Optimizer benchmark, the fmucal side of `bench/optim.sh`: on the
 //! Moré–Garbow–Hillstrom problems, the evaluations sequential Nelder–Mead needs and the rounds
 //! (batches) parallel Nelder–Mead needs to reach f ≤ f* + 1e-6·(1 + |f*|) from the standard
 //! start, unbounded; and differential evolution's best value after a fixed budget in each

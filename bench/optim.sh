@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Optimizer benchmark of issue #3: fmucal's Nelder–Mead (sequential and parallel) and
+# Optimizer benchmark: fmucal's Nelder–Mead (sequential and parallel) and
 # differential evolution against SciPy on the Moré–Garbow–Hillstrom problems. Prints a
 # Markdown table. Usage: bash bench/optim.sh   (creates target/pyenv with SciPy on first use)
 set -euo pipefail

@@ -1,4 +1,4 @@
-//! FMU runtime benchmarks (issue #2). Run with `cargo bench --bench runtime -- [--json FILE]`;
+//! FMU runtime benchmarks. Run with `cargo bench --bench runtime -- [--json FILE]`;
 //! `bench/runtime.sh` runs this and FMPy on the same FMUs and grids and prints the ratios.
 //!
 //! Measures (median of repeated runs, wall time):

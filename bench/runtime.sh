@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Runtime benchmarks of issue #2: fmucal against FMPy on the same FMUs and grids (FMI 2.0, and
-# FMI 3.0 for Furuta: issue #9), warm reset against a fresh instance, and RSS growth over 10,000
+# Runtime benchmarks: fmucal against FMPy on the same FMUs and grids (FMI 2.0, and
+# FMI 3.0 for Furuta), warm reset against a fresh instance, and RSS growth over 10,000
 # reset-and-simulate cycles.
 # Usage: bash bench/runtime.sh   (creates target/pyenv with FMPy on first use)
 set -euo pipefail

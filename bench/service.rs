@@ -1,4 +1,4 @@
-//! Service benchmarks (issue #4), run with `cargo bench --bench service`: an in-process
+//! Service benchmarks, run with `cargo bench --bench service`: an in-process
 //! coordinator and real `fmucal worker` processes on loopback.
 //!
 //! - **Overhead per evaluation**: Decay over 0.01 s (a near-zero-cost FMU) through one worker,

@@ -1,4 +1,4 @@
-//! Solver benchmark of issue 12, run with `cargo bench --bench solvers` (or `bash
+//! Solver benchmark, run with `cargo bench --bench solvers` (or `bash
 //! bench/solvers.sh`): on the Furuta job, exhaust stage 1 and exhaust all-four
 //! (`examples/`), how many simulations, batch rounds and how much wall time each optimizer needs
 //! to come within 1 % of the objective Nelder–Mead ends at with the example's own settings.

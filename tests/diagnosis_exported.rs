@@ -623,7 +623,7 @@ fn conclusion_word(c: Conclusion) -> &'static str {
 }
 
 /// The whole grid, as `bench/diagnose_exported.sh` runs it: one table row per case, then the
-/// issue's targets.
+/// targets it is held to.
 #[test]
 #[ignore = "the full grid takes long; run bench/diagnose_exported.sh"]
 fn full_grid() {

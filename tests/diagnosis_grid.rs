@@ -1,4 +1,4 @@
-//! Discrepancy discovery on data with a hidden effect (issue 10). The effect in the data comes
+//! Discrepancy discovery on data with a hidden effect. The effect in the data comes
 //! from the model's own C code (fixture FMUs whose descriptions are the base model's); fmucal
 //! diagnoses with the base FMU through the real CLI (`fmucal diagnose`, an in-process
 //! coordinator and worker processes) and must name the true effect — or, on data from the base
@@ -561,7 +561,7 @@ fn grid() -> Vec<Case> {
 }
 
 /// The whole grid, as `bench/diagnose_grid.sh` runs it: one table row per case, then the
-/// issue's targets.
+/// targets it is held to.
 #[test]
 #[ignore = "the full grid takes minutes; run bench/diagnose_grid.sh"]
 fn full_grid() {

@@ -1,4 +1,4 @@
-//! Effects added to injection ports (issue 10): on the Furuta pendulum, whose joints have
+//! Effects added to injection ports: on the Furuta pendulum, whose joints have
 //! viscous friction in the model's own equations and external-torque inputs, viscous damping
 //! injected through the inputs must reproduce the model's own friction — exactly in Model
 //! Exchange, where the term is evaluated inside every derivative evaluation, and to first

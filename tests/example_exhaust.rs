@@ -1,4 +1,4 @@
-//! The paper's second example end to end (issue 5, section 2), on the committed data
+//! The paper's second example end to end (section 6.2), on the committed data
 //! (`examples/exhaust/generate.sh`, fixed seed): the two-stage calibration (right volume, then
 //! left volume with the right one fixed) on the first third of the data reaches a scaled RMS
 //! error ≤ 0.3 and validates below 1 on the rest; fitting all four parameters at once shows

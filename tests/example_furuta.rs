@@ -1,4 +1,4 @@
-//! The paper's first example end to end (issue 5, section 1): `fmucal calibrate
+//! The paper's first example end to end (section 6.1): `fmucal calibrate
 //! examples/furuta/job.toml` recovers the friction coefficients that generated the committed
 //! measurements (`examples/furuta/generate.sh`, fixed seed) within 5 %.
 

@@ -1,4 +1,4 @@
-//! The multi-experiment example end to end (issue 12): `fmucal calibrate
+//! The multi-experiment example end to end: `fmucal calibrate
 //! examples/furuta_experiments/job.toml` fits one pair of frictions and one initial pendulum
 //! angle per fitted experiment to two experiments, reports the held-out third, and gives the
 //! same result with 1 and 3 worker processes. The data were generated with frictions 0.010 and

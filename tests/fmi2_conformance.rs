@@ -1,4 +1,4 @@
-//! FMI 2.0 conformance on fixture FMUs that behave as tool-exported ones do (issue #8), one
+//! FMI 2.0 conformance on fixture FMUs that behave as tool-exported ones do, one
 //! test per defect found on real exports. Each failed before its fix:
 //! - `derivative` attributes on variables that are not states were refused;
 //! - a stick-slip breakaway driven by a continuous input was missed by an over-long step, and

@@ -1,4 +1,4 @@
-//! FMI 1.0 and 3.0 import (issue 9): the FMI 1.0 (ME and CS) and 3.0 builds of the example
+//! FMI 1.0 and 3.0 import: the FMI 1.0 (ME and CS) and 3.0 builds of the example
 //! models, from the same C sources as their FMI 2.0 builds (`models/c`, `-DFMUCAL_FMI1`,
 //! `-DFMUCAL_FMI3`), simulate to the 2.0 results; the Furuta calibration recovers the same
 //! frictions whichever version the job names; one element of an array parameter is calibrated

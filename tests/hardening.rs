@@ -1,4 +1,4 @@
-//! Requests a hostile or careless client or worker may send (issue 11), against an in-process
+//! Requests a hostile or careless client or worker may send, against an in-process
 //! coordinator on 127.0.0.1: sizes past the caps are refused before anything is allocated and
 //! the coordinator keeps serving; a job whose evaluations all fail, or whose start point fails,
 //! fails with the first error; a worker may answer only the points leased to it; workers and

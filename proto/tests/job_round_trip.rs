@@ -1,4 +1,4 @@
-//! Property: any valid job survives TOML → protocol → job unchanged (issue #14). A job crosses
+//! Property: any valid job survives TOML → protocol → job unchanged. A job crosses
 //! the protocol on every run, local ones too, so a default slipped in at the join (an output
 //! weight of 0 became 1) changes results. Fields the protocol does not carry by design (file
 //! paths, `set_from`, the local worker count) are left at their

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The container test (issue 13): deploy/compose.yaml run for real, with TLS and the two tokens,
+# The container test: deploy/compose.yaml run for real, with TLS and the two tokens,
 # on an image built here (tests/containers/build_image.sh: the Dockerfile's runtime stage on a
 # locally made Debian root filesystem, as no registry can be reached). It checks that
 #   1. a calibration submitted from the host gives exactly the local result;
