@@ -209,7 +209,8 @@ fn a_co_simulation_only_original_exports_co_simulation_with_its_port_effect() {
         &[("armJoint.phi", "phi")],
         &[("u", "u")],
         &[("armFriction", 0.02, 0.0, 0.1)],
-        "[[effects]]\nkind = \"viscous_damping\"\nport = \"pendulumJoint.tauExt\"\nsignal = \"pendulumJoint.w\"\nparameters = { c = { start = 0.01, lower = 0.0, upper = 1.0 } }\n",
+        "[[effects]]\nkind = \"viscous_damping\"\nport = \"pendulumJoint.tauExt\"\nsignal = \"pendulumJoint.w\"\nparameters = { c = { start = 0.01, lower = 0.0, upper = 1.0 } }\n\
+         [[effects]]\nkind = \"sensor_gain\"\noutput = \"armJoint.phi\"\nparameters = { gain = { start = 1.25, lower = 0.5, upper = 2.0 } }\n",
     );
     let fmu = export(dir.path(), &job, "corrected.fmu");
     let exported = common::load(&fmu, &dir.path().join("cache"));
@@ -226,11 +227,15 @@ fn a_co_simulation_only_original_exports_co_simulation_with_its_port_effect() {
         parameters: vec![0.01],
     }];
     let want = simulate(&original, &s).unwrap();
-    let got = simulate(&exported, &SimSpec { port_terms: vec![], parameters: vec![], ..s.clone() }).unwrap();
+    let mut plain = SimSpec { port_terms: vec![], parameters: vec![], ..s.clone() };
+    plain.outputs.push("effects[1].output".into());
+    let got = simulate(&exported, &plain).unwrap();
     for name in outputs {
         let d = common::rel_max_diff(column(&got, name), column(&want, name));
         assert!(d < 1e-9, "{name}: {d:e}");
     }
+    let gained: Vec<f64> = column(&want, "armJoint.phi").iter().map(|x| 1.25 * x).collect();
+    assert!(common::rel_max_diff(column(&got, "effects[1].output"), &gained) < 1e-12);
 }
 
 #[test]
@@ -240,6 +245,14 @@ fn fmpy_validates_and_runs_the_exported_fmu_as_fmucal_does() {
     let fmu = export(dir.path(), &job, "corrected.fmu");
     // The same job with another friction: FMPy's start value must give its trajectory.
     let stronger = export(dir.path(), &job.replace("start = 0.05", "start = 0.2"), "stronger.fmu");
+    // Two more shapes for validate_fmu: an original with an input, a port, a sensor and an
+    // actuator effect; an FMI 1.0 Co-Simulation original.
+    let (ports, _) = spring_mass_job(dir.path());
+    let ports = export(dir.path(), &ports, "ports.fmu");
+    let data = dir.path().join("phi.csv");
+    common::write_input_csv(&common::table(vec![0.0, 1.0], vec![("phi", vec![0.0, 0.0])]), &data);
+    let fmi1 = common::job_toml(&Fixture::FurutaFmi1Cs.path(), Some(&data), &[("armJoint.phi", "phi")], &[], &[("armFriction", 0.02, 0.0, 0.1)], "");
+    let fmi1 = export(dir.path(), &fmi1, "fmi1.fmu");
     let exported = common::load(&fmu, &dir.path().join("cache"));
     let outputs = ["mass.x", "mass.v"];
     let mut refs = vec![];
@@ -256,7 +269,7 @@ fn fmpy_validates_and_runs_the_exported_fmu_as_fmucal_does() {
     let script = Path::new(REPO).join("tests/fmpy/exported.py");
     let o = Command::new(common::fmpy_python())
         .arg(&script)
-        .args([&fmu, &stronger, &refs[0], &refs[1]])
+        .args([&fmu, &stronger, &refs[0], &refs[1], &ports, &fmi1])
         .output()
         .unwrap();
     let out = String::from_utf8_lossy(&o.stdout);

@@ -1,8 +1,8 @@
 """FMPy on an FMU written by `fmucal export` (run by tests/export.rs).
 
-Usage: exported.py CORRECTED.fmu STRONGER.fmu FMUCAL_ME.csv FMUCAL_CS.csv
+Usage: exported.py CORRECTED.fmu STRONGER.fmu FMUCAL_ME.csv FMUCAL_CS.csv [OTHER.fmu ...]
 
-- validate_fmu finds no problem in the description;
+- validate_fmu finds no problem in the description of CORRECTED.fmu and of each OTHER.fmu;
 - FMPy simulates it in Model Exchange and in Co-Simulation (rtol 1e-8, output every 0.01 s,
   no inputs) and matches fmucal's CSVs within 1e-4 of each output's range;
 - setting the effect parameter `effects[0].force` to 0.2 through start_values gives the
@@ -16,9 +16,10 @@ from fmpy.validation import validate_fmu
 
 corrected, stronger, me_csv, cs_csv = sys.argv[1:5]
 
-problems = validate_fmu(corrected)
-if problems:
-    sys.exit("validate_fmu: " + "; ".join(str(p) for p in problems))
+for path in [corrected] + sys.argv[5:]:
+    problems = validate_fmu(path)
+    if problems:
+        sys.exit(f"validate_fmu {path}: " + "; ".join(str(p) for p in problems))
 print("valid: no problem")
 
 settings = dict(start_time=0.0, stop_time=10.0, output_interval=0.01, relative_tolerance=1e-8,

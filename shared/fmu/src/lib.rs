@@ -461,14 +461,15 @@ pub unsafe extern "C" fn fmi2GetIntegerStatus(c: *mut c_void, kind: c_int, _valu
 /// FMI 2.0's contract.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn fmi2GetBooleanStatus(c: *mut c_void, kind: c_int, value: *mut c_int) -> Status {
-    with(c, "fmi2GetBooleanStatus", |_| {
+    with(c, "fmi2GetBooleanStatus", |comp| {
         // fmi2Terminated (3): the model asked to stop in its last step.
         if kind != 3 {
             return Err(format!("status kind {kind} has no Boolean value"));
         }
+        let terminated = comp.model.terminated();
         if !value.is_null() {
             // SAFETY: the importer's out-argument.
-            unsafe { *value = 0 };
+            unsafe { *value = c_int::from(terminated) };
         }
         Ok(OK)
     })

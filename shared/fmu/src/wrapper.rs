@@ -600,6 +600,14 @@ impl Corrected {
         Ok(())
     }
 
+    /// Whether the model asked to end the simulation in its last step (`fmi2Terminated`).
+    pub fn terminated(&mut self) -> bool {
+        match &self.stepper {
+            Some(s) => s.terminated(),
+            None => self.inst.component().ok().and_then(|c| c.terminated()).unwrap_or(false),
+        }
+    }
+
     /// The time the model stands at.
     pub fn time(&self) -> f64 {
         self.stepper.as_ref().map_or_else(|| self.inst.time(), Stepper::time)

@@ -127,6 +127,52 @@ fn interface(out: &mut String, tag: &str, i: &InterfaceInfo, cs: bool) {
     out.push_str("/>\n");
 }
 
+/// The `initial` attribute written for `v` and the start value that goes with it: a start
+/// goes with initial exact or approx (an input's needs none); a start on a variable whose
+/// default initial is calculated (FMI 1.0 writes such starts) becomes approx.
+fn written_initial(v: &ScalarVariable) -> (Option<Initial>, Option<&Value>) {
+    let calculated = v.effective_initial() == Some(Initial::Calculated);
+    let start = v.start.as_ref().filter(|_| !(calculated && v.initial.is_some()));
+    let init = match (v.initial, start) {
+        (Some(i), _) => Some(i),
+        (None, Some(_)) if calculated => Some(Initial::Approx),
+        _ => None,
+    };
+    let init = init.filter(|_| !matches!(v.causality, Causality::Input | Causality::Independent));
+    (init, start)
+}
+
+/// `initial` as an importer reads the written variable: the attribute, else FMI 2.0's default.
+fn read_initial(v: &ScalarVariable) -> Option<Initial> {
+    written_initial(v).0.or_else(|| ScalarVariable { initial: None, ..v.clone() }.effective_initial())
+}
+
+/// The unknowns FMI 2.0 (section 2.2.8) requires in `InitialUnknowns`, as 1-based indices in
+/// ascending order: outputs and states and derivatives with initial approx or calculated, and
+/// calculated parameters.
+fn required_initial_unknowns(md: &ModelDescription) -> Vec<usize> {
+    let open = |v: &ScalarVariable| matches!(read_initial(v), Some(Initial::Approx | Initial::Calculated));
+    let mut set: Vec<usize> = md
+        .variables
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| (v.causality == Causality::Output && open(v)) || v.causality == Causality::CalculatedParameter)
+        .map(|(i, _)| i + 1)
+        .collect();
+    for u in &md.model_structure.derivatives {
+        let der = u.index;
+        let state = md.variables.get(der - 1).and_then(|d| d.derivative);
+        for i in [Some(der), state].into_iter().flatten() {
+            if md.variables.get(i - 1).is_some_and(open) {
+                set.push(i);
+            }
+        }
+    }
+    set.sort_unstable();
+    set.dedup();
+    set
+}
+
 fn variable(out: &mut String, v: &ScalarVariable) -> Result<(), SchemaError> {
     if v.negated {
         return Err(unwritable(v, "it is a negated alias, which FMI 2.0 has no way to say"));
@@ -145,18 +191,8 @@ fn variable(out: &mut String, v: &ScalarVariable) -> Result<(), SchemaError> {
     opt_attr(out, "description", v.description.as_deref());
     attr(out, "causality", causality(v.causality));
     attr(out, "variability", variability(v.variability));
-    // A start value goes with initial exact or approx (an input's needs none); a start on a
-    // variable whose default initial is calculated (FMI 1.0 writes such starts) becomes approx.
-    let calculated = v.effective_initial() == Some(Initial::Calculated);
-    let start = v.start.as_ref().filter(|_| !(calculated && v.initial.is_some()));
-    let init = match (v.initial, start) {
-        (Some(i), _) => Some(i),
-        (None, Some(_)) if calculated => Some(Initial::Approx),
-        _ => None,
-    };
-    if let Some(i) = init
-        && !(v.causality == Causality::Input || v.causality == Causality::Independent)
-    {
+    let (init, start) = written_initial(v);
+    if let Some(i) = init {
         attr(out, "initial", initial(i));
     }
     out.push_str(">\n      <");
@@ -314,7 +350,23 @@ impl ModelDescription {
         let ms = &self.model_structure;
         unknowns(&mut out, "Outputs", &ms.outputs);
         unknowns(&mut out, "Derivatives", &ms.derivatives);
-        unknowns(&mut out, "InitialUnknowns", &ms.initial_unknowns);
+        // The description's own list where it is the one FMI 2.0 requires (it carries the
+        // dependencies), else the required one (an FMI 1.0 original has none).
+        let required = required_initial_unknowns(self);
+        let mut own: Vec<usize> = ms.initial_unknowns.iter().map(|u| u.index).collect();
+        own.sort_unstable();
+        if own == required {
+            unknowns(&mut out, "InitialUnknowns", &ms.initial_unknowns);
+        } else {
+            let list: Vec<Unknown> = required
+                .iter()
+                .map(|&index| Unknown {
+                    index,
+                    dependencies: ms.initial_unknowns.iter().find(|u| u.index == index).and_then(|u| u.dependencies.clone()),
+                })
+                .collect();
+            unknowns(&mut out, "InitialUnknowns", &list);
+        }
         out.push_str("  </ModelStructure>\n</fmiModelDescription>\n");
         Ok(out)
     }
