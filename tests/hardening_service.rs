@@ -606,3 +606,18 @@ async fn a_worker_stopped_after_its_jobs_leaves_no_warning_about_results() {
     let text = std::fs::read_to_string(&log).unwrap();
     assert!(!text.contains("never leased"), "{text}");
 }
+
+/// `fmucal health --timeout T` against a server that never answers (a listener that accepts
+/// nothing) gives up after T, not before and not much after: it once went on for 2 s more,
+/// looking for a TLS server behind a silent port.
+#[test]
+fn health_gives_up_on_a_silent_server_after_its_timeout() {
+    let silent = TcpListener::bind("127.0.0.1:0").unwrap();
+    let url = format!("http://{}", silent.local_addr().unwrap());
+    let started = Instant::now();
+    let line = refused(&mut fmucal(&["health", &url, "--timeout", "2"]), "a silent server");
+    let took = started.elapsed();
+    assert!(line.contains("did not answer within 2 s"), "{line}");
+    assert!(took >= Duration::from_secs(2) && took < Duration::from_millis(3500), "gave up after {took:?}: {line}");
+    drop(silent);
+}
