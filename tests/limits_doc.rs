@@ -64,8 +64,14 @@ fn constants() -> Vec<(&'static str, f64)> {
             "fmucal_coordinator::connections::DEFAULT_MAX_CONNECTIONS",
             n(fmucal_coordinator::connections::DEFAULT_MAX_CONNECTIONS),
         ),
-        ("fmucal_coordinator::connections::DEFAULT_IDLE_TIMEOUT", secs(fmucal_coordinator::connections::DEFAULT_IDLE_TIMEOUT)),
-        ("fmucal_coordinator::connections::DEFAULT_AUTH_TIMEOUT", secs(fmucal_coordinator::connections::DEFAULT_AUTH_TIMEOUT)),
+        (
+            "fmucal_coordinator::connections::DEFAULT_IDLE_TIMEOUT",
+            secs(fmucal_coordinator::connections::DEFAULT_IDLE_TIMEOUT),
+        ),
+        (
+            "fmucal_coordinator::connections::DEFAULT_AUTH_TIMEOUT",
+            secs(fmucal_coordinator::connections::DEFAULT_AUTH_TIMEOUT),
+        ),
         ("fmucal_coordinator::Timing::default().worker_expiry", secs(timing.worker_expiry)),
         ("fmucal_coordinator::Timing::default().heartbeat_interval", secs(timing.heartbeat_interval)),
         ("fmucal_coordinator::Timing::default().evaluation_timeout", secs(timing.evaluation_timeout)),
@@ -107,7 +113,10 @@ fn the_limits_page_gives_the_caps_of_the_code() {
         let code = code.trim_matches('`');
         // A constant (or a default) the page names must be one this test reads.
         let names_a_constant = code.rsplit("::").next().is_some_and(|last| {
-            last.starts_with("MAX_") || last.starts_with("MIN_") || last.starts_with("DEFAULT_") || last.contains("default()")
+            last.starts_with("MAX_")
+                || last.starts_with("MIN_")
+                || last.starts_with("DEFAULT_")
+                || last.contains("default()")
         });
         let Some((_, value)) = constants.iter().find(|(name, _)| *name == code) else {
             assert!(!names_a_constant, "{what}: {code} is not checked by this test");
