@@ -17,7 +17,7 @@
 # At the end it checks that no process it started is left running and that nothing was
 # written outside $WORK (fmucal's cache and temporary folders point into it; the repository's
 # files must be unchanged), prints `N passed, N failed`, and exits non-zero on any failure.
-#   bash bench/probe.sh            (about 2 minutes; PROBE_TIMEOUT=60 s per case)
+#   bash bench/probe.sh            (about a minute; PROBE_TIMEOUT=60 s per case)
 set -uo pipefail
 cd "$(dirname "$0")/.."
 ROOT="$(pwd -P)"

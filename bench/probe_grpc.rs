@@ -18,6 +18,7 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use fmucal_coordinator::services::MAX_MODEL_BYTES;
 use fmucal_proto::auth::AttachToken;
 use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::v1 as pb;
@@ -29,6 +30,13 @@ use tonic::transport::Channel;
 
 type Client = CalibrationClient<InterceptedService<Channel, AttachToken>>;
 type Pool = WorkerPoolClient<InterceptedService<Channel, AttachToken>>;
+
+/// The coordinator's peak resident memory (`VmHWM`), MB.
+fn peak_rss_mb(pid: &str) -> Option<f64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    line.split_whitespace().nth(1)?.parse::<f64>().ok().map(|kb| kb / 1024.0)
+}
 
 /// The longest error message a refusal may carry, whatever it quotes.
 const MAX_MESSAGE: usize = 1500;
@@ -63,7 +71,11 @@ async fn channel(url: &str) -> Channel {
 }
 
 async fn client(url: &str, token: Option<&str>) -> Client {
-    CalibrationClient::with_interceptor(channel(url).await, AttachToken::new(token).expect("a token"))
+    client_on(channel(url).await, token)
+}
+
+fn client_on(channel: Channel, token: Option<&str>) -> Client {
+    CalibrationClient::with_interceptor(channel, AttachToken::new(token).expect("a token"))
         .max_encoding_message_size(256 << 20)
         .max_decoding_message_size(256 << 20)
 }
@@ -75,9 +87,15 @@ async fn pool(url: &str, token: &str) -> Pool {
 
 /// Decay's `k` (start 1.0 in [0.5, 3]) on x = exp(−1.7 t), 0..2 s, with `extra` tables, as sent.
 fn decay_job(model_id: &str, extra: &str) -> pb::JobSpec {
+    decay_job_with(model_id, "[simulation]\n", extra)
+}
+
+/// [`decay_job`] with `simulation` lines (a `[simulation]` header and more) before its stop
+/// time.
+fn decay_job_with(model_id: &str, simulation: &str, extra: &str) -> pb::JobSpec {
     let toml = format!(
         "[model]\npath = \"{}\"\n[data]\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n[[parameters]]\nname = \"k\"\n\
-         start = 1.0\nlower = 0.5\nupper = 3.0\n[simulation]\nstop_time = 2.0\n{extra}",
+         start = 1.0\nlower = 0.5\nupper = 3.0\n{simulation}stop_time = 2.0\n{extra}",
         fmucal_models::example("decay").expect("the decay example").display()
     );
     let spec = JobSpec::from_toml(&toml, Path::new(".")).expect("the probe's job is valid");
@@ -229,6 +247,62 @@ async fn client_cases(url: &str, c: &mut Client, model: &str) {
         }
         other => refused("grpc: a 20 MB upload that is not an FMU", other, InvalidArgument, "zip"),
     }
+    // Past the per-model cap: 1 GiB and 1 MiB of garbage, made chunk by chunk as it is sent
+    // (never held whole by either side), refused at the cap.
+    let start = Instant::now();
+    let mib = (MAX_MODEL_BYTES >> 20) + 1;
+    let chunks = (0..mib).map(|i| pb::UploadModelRequest { chunk: vec![(i % 251) as u8; 1 << 20] });
+    let case = format!("grpc: a {mib} MiB upload (past the {} MiB cap)", MAX_MODEL_BYTES >> 20);
+    match c.upload_model(tokio_stream::iter(chunks)).await {
+        Err(s) if s.message().contains(".upload-") || s.message().contains('/') => {
+            report(&case, false, &format!("names a server path: {}", s.message()))
+        }
+        Err(s) if s.code() == InvalidArgument && s.message().contains("exceeds") => {
+            let peak = std::env::var("FMUCAL_PROBE_COORDINATOR_PID").ok().and_then(|pid| peak_rss_mb(&pid));
+            let peak = peak.map_or_else(|| "unknown".into(), |mb| format!("{mb:.0} MB"));
+            report(
+                &case,
+                true,
+                &format!(
+                    "{}: {} (in {} ms; coordinator peak RSS {peak})",
+                    s.code(),
+                    s.message(),
+                    start.elapsed().as_millis()
+                ),
+            );
+        }
+        other => refused(&case, other, InvalidArgument, "exceeds"),
+    }
+    // The decay FMU with its model description cut short and 64 MiB more (2 MB zipped): the
+    // unpacking check refuses it, naming the description.
+    match broken_archive() {
+        Ok(bytes) => {
+            let chunks: Vec<_> = bytes.chunks(1 << 20).map(|c| pb::UploadModelRequest { chunk: c.to_vec() }).collect();
+            let case = format!("grpc: a {} kB archive with a broken description", bytes.len() >> 10);
+            refused(&case, c.upload_model(tokio_stream::iter(chunks)).await, InvalidArgument, "modelDescription.xml");
+        }
+        Err(e) => report("grpc: an archive with a broken description", false, &format!("cannot make it: {e}")),
+    }
+    // What the refused uploads left in the store: nothing, archive or unpacked.
+    if let Ok(dir) = std::env::var("FMUCAL_PROBE_DATA_DIR") {
+        let list = |sub: &str| -> Vec<String> {
+            std::fs::read_dir(Path::new(&dir).join(sub))
+                .map(|d| d.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect())
+                .unwrap_or_default()
+        };
+        let (models, unpacked) = (list("models"), list("unpacked"));
+        let stray: Vec<&String> = models.iter().chain(&unpacked).filter(|n| !n.starts_with(model)).collect();
+        report(
+            "grpc: refused uploads leave no file",
+            stray.is_empty(),
+            &format!(
+                "{} file(s) in models/, {} in unpacked/; {:?} not the accepted model's",
+                models.len(),
+                unpacked.len(),
+                stray
+            ),
+        );
+    }
     // Credentials: none, and the worker's.
     let mut anonymous = client(url, None).await;
     refused("grpc: no token", anonymous.list_jobs(pb::ListJobsRequest {}).await, tonic::Code::Unauthenticated, "token");
@@ -239,6 +313,30 @@ async fn client_cases(url: &str, c: &mut Client, model: &str) {
         tonic::Code::Unauthenticated,
         "token",
     );
+}
+
+/// The decay example's archive with `modelDescription.xml` cut in half and a 64 MiB entry
+/// of one repeated byte added.
+fn broken_archive() -> Result<Vec<u8>, Box<dyn std::error::Error>> {
+    use std::io::{Read, Write};
+    let path = fmucal_models::example("decay").ok_or("no decay example")?;
+    let mut zip = zip::ZipArchive::new(std::fs::File::open(path)?)?;
+    let mut out = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    let opts = zip::write::SimpleFileOptions::default();
+    for i in 0..zip.len() {
+        let mut f = zip.by_index(i)?;
+        let name = f.name()?.into_owned();
+        let mut bytes = vec![];
+        f.read_to_end(&mut bytes)?;
+        if name == "modelDescription.xml" {
+            bytes.truncate(bytes.len() / 2);
+        }
+        out.start_file(name.as_str(), opts)?;
+        out.write_all(&bytes)?;
+    }
+    out.start_file("resources/padding.bin", opts)?;
+    out.write_all(&vec![7u8; 64 << 20])?;
+    Ok(out.finish()?.into_inner())
 }
 
 fn population(base: &pb::JobSpec, algorithm: &str, population: u64) -> pb::SubmitJobRequest {
@@ -354,8 +452,34 @@ async fn worker_cases(url: &str, c: &mut Client, model: &str) {
     let _ = c.cancel_job(pb::CancelJobRequest { job_id: job }).await;
 }
 
+#[path = "probe_processes.rs"]
+mod processes;
+
+/// `probe_grpc` replays the request cases against $FMUCAL_PROBE_URL; `probe_grpc processes
+/// DIR` the process-level cases, in the scratch folder DIR; `probe_grpc full-disk DIR` the
+/// full-disk case, DIR being a small disk of its own (arguments starting with `-`, such as
+/// cargo's `--bench`, are ignored).
 #[tokio::main]
 async fn main() {
+    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
+    match args.iter().map(String::as_str).collect::<Vec<_>>()[..] {
+        [] => requests().await,
+        ["processes", dir] => {
+            let sub = |name: &str| {
+                let d = Path::new(dir).join(name);
+                let _ = std::fs::create_dir_all(&d);
+                d
+            };
+            processes::model_gone(&sub("model-gone")).await;
+            processes::hung_model(&sub("hung")).await;
+            processes::killed_diagnosis(&sub("diagnosis")).await;
+        }
+        ["full-disk", dir] => processes::full_disk(Path::new(dir)).await,
+        _ => panic!("usage: probe_grpc [processes DIR | full-disk DIR] (see bench/probe_grpc.rs)"),
+    }
+}
+
+async fn requests() {
     let url = env("FMUCAL_PROBE_URL");
     let mut c = client(&url, Some(&env("FMUCAL_TOKEN"))).await;
     let bytes = std::fs::read(fmucal_models::example("decay").expect("the decay example")).expect("decay.fmu");
@@ -394,6 +518,33 @@ async fn main() {
         }
         Some(r) => report("grpc: a good job after all that", false, &format!("status {} {}", r.status, r.error)),
         None => report("grpc: a good job after all that", false, "still running after 60 s"),
+    }
+    // Jobs whose evaluations all fail, or whose start point fails, fail with the first error
+    // (crashMode = "error" at 0.5 s, within the 2 s simulated: every simulation fails).
+    let failing = "[simulation]\nset = { crashMode = \"error\", crashTime = 0.5 }\n";
+    for (case, optimizer, says) in [
+        ("grpc: a job whose start point fails", "", "the start point failed"),
+        (
+            "grpc: a job whose every evaluation fails",
+            "[optimizer]\nalgorithm = \"genetic\"\npopulation = 4\nbits = 7\nelitism = 1\nmax_iters = 2\n",
+            "no evaluation succeeded",
+        ),
+    ] {
+        let spec = decay_job_with(&model, failing, optimizer);
+        let done = match c.submit_job(submit(spec)).await {
+            Ok(r) => wait_end(&mut c, &r.into_inner().job_id, Duration::from_secs(60)).await,
+            Err(e) => {
+                report(case, false, &format!("refused: {}", e.message()));
+                continue;
+            }
+        };
+        match done {
+            Some(r) if r.status == pb::JobStatus::Failed as i32 && r.error.contains(says) => {
+                report(case, true, &format!("FAILED: {}", r.error))
+            }
+            Some(r) => report(case, false, &format!("status {} (not FAILED naming '{says}'): {}", r.status, r.error)),
+            None => report(case, false, "still running after 60 s"),
+        }
     }
     let _ = worker.kill();
     let _ = worker.wait();

@@ -564,3 +564,60 @@ fn stopping_the_test_servers_stops_every_process_whatever_the_first_did() {
         assert!(!alive(pid), "process {pid} outlived Servers::stop");
     }
 }
+
+/// Ordinary jobs leave no warning about results in the coordinator's log. A worker stopped
+/// (SIGTERM) while the coordinator holds its poll, the one that carried its last results,
+/// sends those results again, not knowing whether they arrived: the coordinator counts the
+/// repeat as late, at debug, instead of warning of a result for a point never leased (it did,
+/// each time a probe stopped its worker after a job).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_worker_stopped_after_its_jobs_leaves_no_warning_about_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = free_port();
+    let log = dir.path().join("coord.log");
+    let coord = coordinator(&dir.path().join("coord"), port, &[], &log);
+    let url = format!("http://127.0.0.1:{port}");
+    let mut c = client(&url).await;
+    let model = upload(&mut c, "decay").await;
+    let (spec, data) = decay_spec(dir.path(), "", &[("k", 1.0, 0.5, 3.0)]);
+    for round in 0..3 {
+        let worker = Proc(
+            fmucal(&["worker", "--coordinator", &url, "--cache-dir"])
+                .arg(dir.path().join("wcache"))
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .unwrap(),
+        );
+        let points = spec.evaluating_points(vec![vec![1.2], vec![1.7], vec![2.2]]);
+        let job = job_to_proto(&points, std::slice::from_ref(&data), &model);
+        let id = c.submit_job(pb::SubmitJobRequest { spec: Some(job) }).await.unwrap().into_inner().job_id;
+        let end = Instant::now() + Duration::from_secs(60);
+        while status_of(&mut c, &id).await == RUNNING {
+            assert!(Instant::now() < end, "round {round}: the job did not end");
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+        assert_eq!(status_of(&mut c, &id).await, pb::JobStatus::Succeeded as i32, "round {round}");
+        // The worker's poll that carried the results waits for more work (2 s): stop the
+        // worker during it.
+        stop(worker);
+    }
+    stop(coord);
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(!text.contains("never leased"), "{text}");
+}
+
+/// `fmucal health --timeout T` against a server that never answers (a listener that accepts
+/// nothing) gives up after T, not before and not much after: it once went on for 2 s more,
+/// looking for a TLS server behind a silent port.
+#[test]
+fn health_gives_up_on_a_silent_server_after_its_timeout() {
+    let silent = TcpListener::bind("127.0.0.1:0").unwrap();
+    let url = format!("http://{}", silent.local_addr().unwrap());
+    let started = Instant::now();
+    let line = refused(&mut fmucal(&["health", &url, "--timeout", "2"]), "a silent server");
+    let took = started.elapsed();
+    assert!(line.contains("did not answer within 2 s"), "{line}");
+    assert!(took >= Duration::from_secs(2) && took < Duration::from_millis(3500), "gave up after {took:?}: {line}");
+    drop(silent);
+}

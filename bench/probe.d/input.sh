@@ -121,3 +121,11 @@ probe_case parameter-twice 'parameters[1].name' -- "${in_calibrate[@]}" "$j"
 awk -F, 'NR == 3 { print $1 ",inf," $3 "," $4; next } { print }' "$in_dir/diagnose_data.csv" > "$in_dir/inf.csv"
 j=$(in_job data-inf diagnose 's/path = "diagnose_data.csv"/path = "inf.csv"/')
 probe_case data-inf-cell 'data.columns[phi]' -- "${in_calibrate[@]}" "$j"
+
+# A refused or failed local job leaves no --out folder behind (every case above wrote to these).
+left_out="$(ls -d "$in_dir/out" "$in_dir/out-diagnose" 2>/dev/null | tr '\n' ' ')"
+if [ -n "$left_out" ]; then
+    report "refused jobs leave no --out folder" FAIL "left: $left_out"
+else
+    report "refused jobs leave no --out folder" PASS "no $in_dir/out, no out-diagnose"
+fi

@@ -13,7 +13,7 @@
 //! | `fmucal_evaluations_total` | counter | results received from workers (evaluations per second: `rate()`) |
 //! | `fmucal_failed_evaluations_total` | counter | those whose simulation failed |
 //! | `fmucal_ignored_results_total` | counter | results for points never leased to their worker (forged, or a worker's bug): not told |
-//! | `fmucal_late_results_total` | counter | results for points taken back from their worker (its job ended, the point timed out, the worker expired): normal, not told |
+//! | `fmucal_late_results_total` | counter | results for points taken back from their worker (its job ended, the point timed out, the worker expired) or sent again: normal, not told |
 //! | `fmucal_refused_results_total` | counter | results that cannot be true (a negative or NaN sum of squares, a wrong number of residuals): the point is tried again |
 //! | `fmucal_evaluation_latency_seconds` | histogram | from a point's lease to its result |
 

@@ -152,16 +152,16 @@ struct WorkerInfo {
     slots: usize,
     last_seen: Instant,
     inflight: HashSet<(String, u64)>,
-    /// Points leased to it and taken back since (their job ended, or they timed out): a
-    /// result for one of them is late, not forged.
+    /// Points leased to it and answered or taken back since (their job ended, or they timed
+    /// out): a result for one of them is late (or sent again), not forged.
     released: Released,
 }
 
-/// The most taken-back points a worker remembers; past it the oldest are forgotten (a result
-/// for one of those is then logged as never leased).
+/// The most answered or taken-back points a worker remembers; past it the oldest are
+/// forgotten (a result for one of those is then logged as never leased).
 const MAX_RELEASED: usize = 4096;
 
-/// Points taken back from a worker, the newest [`MAX_RELEASED`].
+/// Points answered by a worker or taken back from it, the newest [`MAX_RELEASED`].
 #[derive(Default)]
 struct Released {
     set: HashSet<(String, u64)>,
@@ -814,6 +814,9 @@ impl Scheduler {
                 }
                 continue;
             }
+            // Answered now: the same result sent again (a worker stopping while its poll was
+            // held resends what that poll carried) is late too, not forged.
+            worker.released.insert(key);
             if r.status == pb::PointStatus::NotEvaluated as i32 {
                 self.hand_back(&r.job_id, r.point_id);
                 continue;

@@ -832,6 +832,11 @@ async fn late_results_are_counted_apart_from_results_never_leased() {
     assert_eq!(metric(&registry, "fmucal_late_results_total"), 3.0);
     s.answer(&b, resent.iter().map(ok).collect()).await;
     assert_eq!(s.get(&job).await.status, SUCCEEDED);
+    // The same results sent again (a worker that stopped while its poll was held resends what
+    // that poll carried) are late too, not forged.
+    s.answer(&b, resent.iter().map(ok).collect()).await;
+    assert_eq!(metric(&registry, "fmucal_ignored_results_total"), 2.0);
+    assert_eq!(metric(&registry, "fmucal_late_results_total"), 5.0);
 }
 
 #[tokio::test(start_paused = true)]

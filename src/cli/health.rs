@@ -43,7 +43,7 @@ pub fn run(args: Args) -> Result<()> {
     let endpoint =
         fmucal_proto::tls::endpoint(&args.url, tls.as_ref()).map_err(anyhow::Error::msg)?.connect_timeout(timeout);
     let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
-    let status = rt.block_on(async {
+    let outcome = rt.block_on(async {
         tokio::time::timeout(timeout, async {
             let channel = endpoint.connect().await.with_context(|| format!("cannot reach {}", args.url))?;
             let request = HealthCheckRequest { service: args.service.clone() };
@@ -54,14 +54,20 @@ pub fn run(args: Args) -> Result<()> {
             anyhow::Ok(response.into_inner().status)
         })
         .await
-        .with_context(|| format!("{} did not answer within {} s", args.url, args.timeout))?
     });
-    let status = match status {
-        Ok(status) => status,
-        Err(e) if fmucal_proto::tls::http_url_serves_tls(&args.url) => {
+    let status = match outcome {
+        // Nothing answered within --timeout: no time is left to look for TLS, and a TLS server
+        // would have answered a plaintext client at once.
+        Err(elapsed) => {
+            return Err(
+                anyhow::Error::new(elapsed).context(format!("{} did not answer within {} s", args.url, args.timeout))
+            );
+        }
+        Ok(Ok(status)) => status,
+        Ok(Err(e)) if fmucal_proto::tls::http_url_serves_tls(&args.url) => {
             return Err(e.context(format!("{} serves TLS: use an https:// URL with --tls-ca", args.url)));
         }
-        Err(e) => return Err(e),
+        Ok(Err(e)) => return Err(e),
     };
     let status = ServingStatus::try_from(status).unwrap_or(ServingStatus::Unknown);
     if status != ServingStatus::Serving {

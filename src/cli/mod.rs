@@ -16,7 +16,7 @@ mod run_dir;
 mod servers;
 mod simulate;
 mod tls;
-mod token;
+pub mod token;
 
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -11,6 +11,8 @@ mod fmi1;
 mod fmi3;
 mod write;
 
+pub use fmi3::MAX_VARIABLES;
+
 use quick_xml::Reader;
 use quick_xml::events::{BytesStart, Event};
 use std::collections::HashMap;
