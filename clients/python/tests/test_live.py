@@ -23,6 +23,7 @@ from fmucal_client import (
     InvalidArgumentError,
     JobFileError,
     NotFoundError,
+    Progress,
 )
 from fmucal_client.models import example_path
 
@@ -231,3 +232,26 @@ def test_cancel_stops_a_running_job_and_keeps_its_best_point(client: Client) -> 
     assert client.cancel(job_id) == "cancelled"
     assert client.status(job_id) == "cancelled"
 
+
+
+def test_calibrate_on_a_coordinator_gives_the_local_cli_optimum_bit_for_bit(
+    coordinator_url: str, token: str, cli_furuta: tuple[dict[str, Any], Path]
+) -> None:
+    import fmucal_client as fmucal
+
+    expected, _ = cli_furuta
+    events: list[Progress] = []
+    result = fmucal.calibrate(FURUTA, coordinator=coordinator_url, token=token, progress=events.append)
+    # The CLI's tolerance guard keeps the job's tolerance for this job (no refit), so the pool
+    # runs the same calibration as the local workers.
+    assert expected["tolerance_guard"].get("refit") is None
+    assert result.x_opt == expected["x_opt"]
+    assert (result.f_opt, result.evaluations, result.termination) == (
+        expected["f_opt"], expected["evaluations"], expected["termination"])
+    assert events and events[-1].evaluations == result.evaluations
+    # What the coordinator does not compute stays empty rather than made up.
+    assert result.standard_errors == {} and result.fit is None and result.rms == {}
+    with pytest.raises(ValueError, match="no fit table"):
+        result.plot()
+    with pytest.raises(TypeError, match="no workers or out"):
+        fmucal.calibrate(FURUTA, coordinator=coordinator_url, token=token, workers=2)
