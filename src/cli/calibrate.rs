@@ -430,3 +430,26 @@ fn output_table(outputs: &[fmucal_shared::job::result::OutputErrors], first: &st
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn progress_lines_are_one_json_object_with_null_for_no_point_yet() {
+        let mut ev = fmucal_proto::v1::WatchJobResponse {
+            iteration: 4,
+            evaluations: 17,
+            best_f: f64::INFINITY,
+            rounds: 5,
+            ..Default::default()
+        };
+        let line = progress_line(&ev);
+        assert!(!line.contains('\n'));
+        let v: serde_json::Value = serde_json::from_str(&line).unwrap();
+        assert_eq!(v, serde_json::json!({"progress": {"round": 5, "iteration": 4, "evaluations": 17, "best_f": null}}));
+        ev.best_f = 0.1 + 0.2;
+        let v: serde_json::Value = serde_json::from_str(&progress_line(&ev)).unwrap();
+        assert_eq!(v["progress"]["best_f"].as_f64().unwrap().to_bits(), (0.1f64 + 0.2).to_bits());
+    }
+}

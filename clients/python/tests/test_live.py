@@ -255,3 +255,15 @@ def test_calibrate_on_a_coordinator_gives_the_local_cli_optimum_bit_for_bit(
         result.plot()
     with pytest.raises(TypeError, match="no workers or out"):
         fmucal.calibrate(FURUTA, coordinator=coordinator_url, token=token, workers=2)
+
+
+def test_diagnose_on_a_coordinator_names_what_a_local_diagnosis_names(
+    coordinator_url: str, token: str, tmp_path: Path
+) -> None:
+    import fmucal_client as fmucal
+
+    job = REPO / "examples" / "diagnose" / "job.toml"
+    remote = fmucal.diagnose(job, coordinator=coordinator_url, token=token, top=2, progress=False)
+    local = fmucal.diagnose(job, top=2, progress=False)
+    assert remote.named and remote.named == local.named
+    assert remote.fitted == local.fitted

@@ -174,3 +174,12 @@ def test_toml_values_keep_every_bit_and_character() -> None:
     assert back == table
     assert math.copysign(1.0, back["a"]["z"]) == -1.0
     assert math.isnan(tomllib.loads(_toml.dumps({"a": {"n": math.nan}}))["a"]["n"])
+
+
+def test_the_progress_setting_of_the_binary_is_checked(fmucal_bin: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("FMUCAL_PROGRESS", "xml")  # the package sets json for its own runs
+    from fmucal_client import _process
+
+    with pytest.raises(CommandError) as caught:
+        _process.run(str(fmucal_bin), ["calibrate", str(FURUTA), "--out", "/nonexistent/never"])
+    assert caught.value.field == "FMUCAL_PROGRESS" and '"xml"' in caught.value.message
