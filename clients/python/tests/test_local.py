@@ -44,7 +44,7 @@ def test_a_local_result_holds_the_analysis_after_the_fit(
     result = fmucal.calibrate(FURUTA, progress=False)
     ident = expected["identifiability"]
     assert result.parameter_names == ident["names"] == ["armFriction", "pendulumFriction"]
-    assert result.standard_errors == dict(zip(ident["names"], ident["standard_errors"]))
+    assert result.standard_errors == dict(zip(ident["names"], ident["standard_errors"], strict=True))
     assert all(0 < se < 1e-3 for se in result.standard_errors.values())
     assert result.correlation is not None and result.correlation.shape == (2, 2)
     assert result.correlation[0, 0] == pytest.approx(1.0)
@@ -107,7 +107,8 @@ def test_progress_arrives_in_order_and_out_keeps_the_folder(tmp_path: Path, fmuc
 
 def test_an_error_is_an_exception_naming_the_field(tmp_path: Path, fmucal_bin: Path) -> None:
     text = FURUTA.read_text().replace('variable = "armJoint.phi"', 'variable = "armJoint.nothing"')
-    (tmp_path / "job.toml").write_text(text.replace('path = "FurutaData.mat"', f'path = "{FURUTA.parent}/FurutaData.mat"'))
+    data = f'path = "{FURUTA.parent}/FurutaData.mat"'
+    (tmp_path / "job.toml").write_text(text.replace('path = "FurutaData.mat"', data))
     with pytest.raises(CommandError) as caught:
         fmucal.calibrate(tmp_path / "job.toml", progress=False)
     assert caught.value.field == "outputs[0].variable", caught.value.message

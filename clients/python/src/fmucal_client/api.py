@@ -16,6 +16,7 @@ shows as a tqdm bar (``tqdm.auto``, so a widget in a notebook) when tqdm is inst
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import tempfile
@@ -117,10 +118,8 @@ def diagnose(
                 env["FMUCAL_TOKEN"] = token
         with _Bar(progress, "diagnosing", None, counts=False) as bar:
             done = _process.run(binary.require(), args, on_status=bar.status, env=env)
-        report = (Path(folder) / "report.json").read_text(encoding="utf-8")
-        import json
-
-        return Diagnosis(json.loads(report), (Path(folder) / "job.toml").read_text(encoding="utf-8"), done.stdout)
+        report = json.loads((Path(folder) / "report.json").read_text(encoding="utf-8"))
+        return Diagnosis(report, (Path(folder) / "job.toml").read_text(encoding="utf-8"), done.stdout)
 
 
 def simulate(

@@ -144,6 +144,8 @@ class FitTable:
             variable, _, kind = name.rpartition(":")
             if kind == "measured":
                 start = columns.get(f"{variable}:start", columns.get(f"{variable}:nominal"))
+                if start is None:
+                    start = np.full(len(body), math.nan)
                 outputs[variable] = Series(variable, columns[name], start, columns[f"{variable}:optimized"])
         return cls(columns[header[0]], outputs)
 
@@ -217,7 +219,7 @@ class CalibrationResult:
         raw = json.loads((out / "result.json").read_text(encoding="utf-8"))
         ident = raw.get("identifiability") or {}
         names = list(ident.get("names", []))
-        standard_errors = {n: _number(s) for n, s in zip(names, ident.get("standard_errors", []))}
+        standard_errors = {n: _number(s) for n, s in zip(names, ident.get("standard_errors", []), strict=True)}
         correlation = (np.array([[_number(c) for c in row] for row in ident["correlation"]], dtype=float)
                        if ident.get("correlation") else None)
         experiments = []
@@ -314,7 +316,7 @@ class CalibrationResult:
             raise ValueError("this result has no fit table (a coordinator's result: run locally to get one)")
         units = self.raw.get("units", {})
         fig, axes = plt.subplots(len(fit), 1, figsize=(9, 2.8 * len(fit)), sharex=True, squeeze=False)
-        for ax, s in zip(axes[:, 0], fit.outputs.values()):
+        for ax, s in zip(axes[:, 0], fit.outputs.values(), strict=True):
             ax.plot(fit.time, s.measured, ".", markersize=2, color="0.55", label="measured")
             ax.plot(fit.time, s.start, "--", linewidth=1, label="start")
             ax.plot(fit.time, s.optimized, linewidth=1.2, label="optimized")
