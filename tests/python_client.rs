@@ -1,14 +1,20 @@
 //! The Python client (`clients/python`, package `fmucal_client`) against real processes.
 //!
-//! The venv of `tests/fmpy/ensure_venv.sh` gets the client installed (its build generates the
-//! gRPC stubs from `proto/`); then:
-//! - its pytest suite (`clients/python/tests/`) runs against a coordinator and two worker
-//!   processes: a job submitted from Python gives the CLI's result bit for bit, progress events
-//!   arrive in order, refused jobs and bad tokens come back as exceptions naming the field, and
-//!   cancelling stops a job. The suite also compares the client's TOML → `SubmitJobRequest`
-//!   conversion with Rust's `job_to_proto`, whose requests this test writes for every job file
-//!   under `examples/` and for a job that uses every field;
-//! - `examples/python/calibrate_furuta.py` recovers the Furuta frictions and writes its plot.
+//! - `pip install clients/python` on a fresh clone, into a fresh venv, builds the wheel (the
+//!   `fmucal` binary and the package) with its cargo output in `target/python-target`, creates
+//!   nothing in the clone (`git status --ignored` unchanged), and the README's five Python lines
+//!   then give the CLI's `x_opt` bit for bit with the binary the wheel installed;
+//! - the package's pytest suite (`clients/python/tests/`, the sources on the path of the venv of
+//!   `tests/fmpy/ensure_venv.sh`, this build's binary as `FMUCAL_BIN`) runs against a
+//!   coordinator and two worker processes: local runs and jobs submitted over gRPC give the
+//!   CLI's result bit for bit, results carry the analysis after the fit, progress arrives in
+//!   order, errors come back as exceptions naming the field, cancelling stops a job, and the
+//!   examples of `examples/python` (scripts and the notebook, executed with nbclient) run. The
+//!   suite also compares the client's TOML → `SubmitJobRequest` conversion with Rust's
+//!   `job_to_proto`, whose requests this test writes for every job file under `examples/` and
+//!   for a job that uses every field;
+//! - `examples/python/calibrate_furuta.py --coordinator URL` recovers the Furuta frictions on a
+//!   coordinator and writes its plot.
 
 mod common;
 
@@ -29,51 +35,67 @@ fn repo() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// The venv's python, with `clients/python` installed. Installing is idempotent, and a lock
-/// beside the venv keeps two installs (other test binaries, other runs) from overlapping.
+/// The venv's python, with `clients/python/src` on its path (a `.pth` file: the suite tests the
+/// package's sources as they are, with `FMUCAL_BIN` for the binary; installing the package, which
+/// builds the binary again, is [`pip_install_on_a_fresh_clone_writes_nothing_into_it_and_calibrates_as_the_cli`]'s).
+/// A lock beside the venv keeps two set-ups (other test binaries, other runs) from overlapping.
 fn python() -> &'static Path {
+    static PY: OnceLock<PathBuf> = OnceLock::new();
+    PY.get_or_init(|| {
+        let py = reference_python();
+        let venv = py.parent().and_then(Path::parent).expect("python is VENV/bin/python");
+        // A package installed by an earlier version of this test would come before the `.pth`
+        // entry on sys.path: it goes first.
+        let setup = r#"
+            set -euo pipefail
+            exec 9>"$1"; flock 9
+            site=$("$2" -c 'import sysconfig; print(sysconfig.get_path("purelib"))')
+            if [ ! -f "$site/fmucal-client-src.pth" ] || [ "$(cat "$site/fmucal-client-src.pth")" != "$3" ]; then
+              "$2" -m pip uninstall --yes --quiet --disable-pip-version-check fmucal-client >/dev/null 2>&1 || true
+              printf '%s\n' "$3" > "$site/fmucal-client-src.pth"
+            fi"#;
+        let out = Command::new("bash")
+            .args(["-c", setup, "setup"])
+            .arg(venv.with_extension("client.lock"))
+            .arg(py)
+            .arg(repo().join("clients/python/src"))
+            .output()
+            .expect("run bash");
+        assert!(
+            out.status.success(),
+            "putting clients/python/src on {}'s path failed:\n{}{}",
+            venv.display(),
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        py.to_owned()
+    })
+}
+
+/// The python of `tests/fmpy/ensure_venv.sh`'s venv (FMPy, SciPy, and the Python package's
+/// runtime, build and test tools).
+fn reference_python() -> &'static Path {
     static PY: OnceLock<PathBuf> = OnceLock::new();
     PY.get_or_init(|| {
         let out =
             Command::new("bash").arg(repo().join("tests/fmpy/ensure_venv.sh")).output().expect("run ensure_venv.sh");
         // ensure_venv.sh says in one line why it failed (for example: PyPI unreachable).
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr).trim());
-        let py = PathBuf::from(String::from_utf8(out.stdout).unwrap().trim());
-        let venv = py.parent().and_then(Path::parent).expect("python is VENV/bin/python");
-        // Reinstalled when its sources or the proto changed (a stamp in the venv names their
-        // hash); setuptools' build folder goes first, so no deleted module is packaged.
-        let install = r#"
-            set -euo pipefail
-            exec 9>"$1"; flock 9
-            sum=$( { find "$3/src" "$3/setup.py" "$3/pyproject.toml" -type f -name '*.*' \
-                       ! -name 'fmucal_pb2*' ! -path '*.egg-info*' ! -path '*__pycache__*' -print0 \
-                     | sort -z | xargs -0 sha256sum; sha256sum < "$4"; } | sha256sum | cut -c1-16 )
-            stamp="$5/.fmucal-client-$sum"
-            if [ ! -f "$stamp" ]; then
-              rm -rf "$3/build"
-              "$2" -m pip install --no-deps --no-build-isolation --disable-pip-version-check --quiet "$3"
-              rm -f "$5"/.fmucal-client-*
-              touch "$stamp"
-            fi"#;
-        let out = Command::new("bash")
-            .args(["-c", install, "install"])
-            .arg(venv.with_extension("client.lock"))
-            .arg(&py)
-            .arg(repo().join("clients/python"))
-            .arg(repo().join("proto/fmucal/v1/fmucal.proto"))
-            .arg(venv)
-            .env("PYTHONDONTWRITEBYTECODE", "1")
-            .output()
-            .expect("run pip");
-        assert!(
-            out.status.success(),
-            "installing clients/python into {} failed:\n{}{}",
-            venv.display(),
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        );
-        py
+        PathBuf::from(String::from_utf8(out.stdout).unwrap().trim())
     })
+}
+
+/// Runs `cmd` (named `what`) to its end and returns its stdout; panics with its output if it fails.
+fn run_ok(mut cmd: Command, what: &str) -> String {
+    let out = cmd.stdin(Stdio::null()).output().unwrap_or_else(|e| panic!("{what}: {e}"));
+    assert!(
+        out.status.success(),
+        "{what} failed ({}):\n{}{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
 }
 
 /// Runs `cmd` with its output in files, killing it after `limit`; returns (success, output).
@@ -427,4 +449,130 @@ fn example_script_calibrates_furuta_from_python() {
     assert!((pendulum - 0.0010).abs() < 2e-5, "pendulumFriction = {pendulum}\n{output}");
     let bytes = std::fs::read(&png).unwrap_or_else(|e| panic!("{}: {e}\n{output}", png.display()));
     assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n") && bytes.len() > 10_000, "{} bytes", bytes.len());
+}
+
+/// The commit the working tree is at (what a fresh clone checks out).
+fn head_commit() -> String {
+    let mut git = Command::new("git");
+    git.arg("-C").arg(repo()).args(["rev-parse", "HEAD"]);
+    run_ok(git, "git rev-parse HEAD").trim().to_owned()
+}
+
+/// `git status --ignored --porcelain` of `clone`: every untracked and ignored file too.
+fn status_ignored(clone: &Path) -> String {
+    let mut git = Command::new("git");
+    git.arg("-C").arg(clone).args(["status", "--ignored", "--porcelain", "--untracked-files=all"]);
+    run_ok(git, "git status --ignored")
+}
+
+/// The README's Python lines (the plot saved instead of shown), then `x_opt` as JSON with each
+/// value's exact bits (`float.hex`) and where the package found its binary.
+const FIVE_LINES: &str = r#"
+import fmucal_client as fmucal
+result = fmucal.calibrate("examples/furuta/job.toml")   # local worker processes, no coordinator
+print(result.x_opt)             # dict name -> value
+print(result.standard_errors)
+result.plot()                   # with matplotlib installed
+
+import json
+from fmucal_client import binary
+print("X_OPT " + json.dumps({k: v.hex() for k, v in result.x_opt.items()}))
+print("BINARY " + binary.find())
+"#;
+
+#[test]
+fn pip_install_on_a_fresh_clone_writes_nothing_into_it_and_calibrates_as_the_cli() {
+    let dir = tempfile::tempdir().unwrap();
+    let clone = dir.path().join("fmucal");
+    let mut git = Command::new("git");
+    git.args(["clone", "--quiet", "--no-checkout"]).arg(repo()).arg(&clone);
+    run_ok(git, "git clone");
+    let mut git = Command::new("git");
+    git.arg("-C").arg(&clone).args(["checkout", "--quiet", "--detach", &head_commit()]);
+    run_ok(git, "git checkout");
+    let before = status_ignored(&clone);
+    assert_eq!(before, "", "a fresh clone is clean");
+
+    // A fresh venv; pip builds the wheel with maturin (PyPI for the build and runtime
+    // dependencies), cargo's output in this checkout's target folder (outside the clone, kept
+    // between runs).
+    let venv = dir.path().join("venv");
+    let mut mkvenv = Command::new("python3");
+    mkvenv.args(["-m", "venv"]).arg(&venv);
+    run_ok(mkvenv, "python3 -m venv");
+    let py = venv.join("bin/python");
+    let target = repo().join("target/python-target");
+    let started = Instant::now();
+    let mut pip = Command::new(&py);
+    pip.args(["-m", "pip", "install", "--disable-pip-version-check", "--quiet"])
+        .arg(clone.join("clients/python"))
+        .arg("matplotlib==3.11.2")
+        .env("FMUCAL_PYTHON_TARGET_DIR", &target)
+        .env_remove("CARGO_TARGET_DIR")
+        .env_remove("PYTHONDONTWRITEBYTECODE")
+        .current_dir(&clone);
+    let log = dir.path().join("pip");
+    std::fs::create_dir_all(&log).unwrap();
+    let (ok, output) = run_with_limit(pip, &log, Duration::from_secs(3600));
+    println!("pip install clients/python: {:.0} s", started.elapsed().as_secs_f64());
+    assert!(ok, "pip install clients/python failed:\n{output}");
+    assert_eq!(status_ignored(&clone), before, "installing wrote into the clone");
+    assert!(target.join("release/fmucal").is_file(), "cargo's output is not in {}", target.display());
+
+    // The README's lines, from the clone's root, with the binary the wheel installed.
+    let mut five = Command::new(&py);
+    five.arg("-c")
+        .arg(FIVE_LINES)
+        .current_dir(&clone)
+        .env_remove("FMUCAL_BIN")
+        .env("MPLBACKEND", "Agg")
+        .env("FMUCAL_CACHE_DIR", dir.path().join("cache"));
+    let printed = run_ok(five, "the README's Python lines");
+    let line = |tag: &str| {
+        printed
+            .lines()
+            .find_map(|l| l.strip_prefix(tag))
+            .unwrap_or_else(|| panic!("no {tag} in:\n{printed}"))
+            .to_owned()
+    };
+    assert_eq!(Path::new(&line("BINARY ")), venv.join("bin/fmucal"), "the package runs the binary its wheel installed");
+    let x_python: std::collections::BTreeMap<String, String> = serde_json::from_str(&line("X_OPT ")).unwrap();
+
+    // The CLI on the same job.
+    let mut cli = Command::new(env!("CARGO_BIN_EXE_fmucal"));
+    cli.args(["calibrate", "examples/furuta/job.toml", "--out"])
+        .arg(dir.path().join("cli"))
+        .current_dir(&clone)
+        .env("FMUCAL_CACHE_DIR", dir.path().join("cache"));
+    run_ok(cli, "fmucal calibrate");
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("cli/result.json")).unwrap()).unwrap();
+    let x_cli = result["x_opt"].as_object().unwrap();
+    assert_eq!(x_python.len(), 2, "{printed}");
+    for (name, bits) in &x_python {
+        let cli_value = x_cli[name].as_f64().unwrap();
+        let python_value = parse_hex_float(bits);
+        assert_eq!(python_value.to_bits(), cli_value.to_bits(), "{name}: Python {bits}, CLI {cli_value:e}");
+    }
+    println!("x_opt from Python and from the CLI, bit for bit: {x_python:?}");
+    // Running wrote nothing into the clone either.
+    assert_eq!(status_ignored(&clone), before, "calibrating from Python wrote into the clone");
+}
+
+/// A double from Python's `float.hex()` (`0x1.47ae147ae147bp-7`, `-0x0.0p+0`).
+fn parse_hex_float(text: &str) -> f64 {
+    let (sign, rest) = match text.strip_prefix('-') {
+        Some(r) => (-1.0, r),
+        None => (1.0, text),
+    };
+    let rest = rest.strip_prefix("0x").expect("0x");
+    let (mantissa, exponent) = rest.split_once('p').expect("p");
+    let (int, frac) = mantissa.split_once('.').unwrap_or((mantissa, ""));
+    let mut bits = u64::from_str_radix(int, 16).unwrap();
+    for c in frac.chars() {
+        bits = bits * 16 + c.to_digit(16).unwrap() as u64;
+    }
+    let exponent: i32 = exponent.parse().unwrap();
+    // Exact: at most 53 significant bits, scaled by a power of two.
+    sign * bits as f64 * 2f64.powi(exponent - 4 * frac.len() as i32)
 }

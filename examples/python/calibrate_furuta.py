@@ -2,8 +2,8 @@
 """Calibrates the paper's Furuta pendulum frictions from Python, on a running coordinator.
 
 Submits ``examples/furuta/job.toml`` (the model is the built-in ``example:furuta``, which the
-client finds by running ``fmucal examples``: put fmucal on PATH or set FMUCAL_BIN), follows its
-progress, prints the recovered frictions (generated with 0.010 and 0.0010) and plots the
+client finds by running ``fmucal examples`` with the binary the package installed, or
+``FMUCAL_BIN``), follows its progress, prints the recovered frictions (generated with 0.010 and 0.0010) and plots the
 convergence: the best objective value against evaluations, and the two frictions' best values
 round by round, to a PNG.
 

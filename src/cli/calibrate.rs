@@ -8,7 +8,9 @@
 //! A job with `[[experiments]]` gets one folder `--out/NAME` per experiment for its `fit.csv`
 //! and plots, and its RMS errors per experiment in `result.json`. Ctrl-C (or SIGTERM) cancels
 //! the job, writes its best point so far to `result.json` with termination `interrupted`, and
-//! exits with code 130.
+//! exits with code 130. With `FMUCAL_PROGRESS=json` the progress bar gives way to one JSON
+//! object per completed batch on stderr (for a program running the CLI: the Python package's
+//! progress bar).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -49,6 +51,46 @@ pub struct Args {
 /// local.
 const REFIT_STEP: f64 = 0.01;
 
+/// The environment variable that turns the progress bar into JSON lines on stderr.
+const PROGRESS_ENV: &str = "FMUCAL_PROGRESS";
+
+/// Whether `FMUCAL_PROGRESS` asks for JSON progress lines; any value but `json` (or none) is
+/// refused, naming the variable.
+fn json_progress() -> Result<bool> {
+    match std::env::var(PROGRESS_ENV) {
+        Err(std::env::VarError::NotPresent) => Ok(false),
+        Ok(v) if v.is_empty() => Ok(false),
+        Ok(v) if v == "json" => Ok(true),
+        Ok(v) => anyhow::bail!("{PROGRESS_ENV}: {} is not `json` (or unset)", quote_user_text(&v)),
+        Err(std::env::VarError::NotUnicode(_)) => anyhow::bail!("{PROGRESS_ENV}: not UTF-8"),
+    }
+}
+
+/// One progress line: `{"progress":{"round":..,"iteration":..,"evaluations":..,"best_f":..}}`
+/// (`best_f` is `null` until a point succeeded).
+fn progress_line(ev: &fmucal_proto::v1::WatchJobResponse) -> String {
+    let best_f = if ev.best_f.is_finite() { serde_json::json!(ev.best_f) } else { serde_json::Value::Null };
+    serde_json::json!({ "progress": {
+        "round": ev.rounds, "iteration": ev.iteration, "evaluations": ev.evaluations, "best_f": best_f,
+    }})
+    .to_string()
+}
+
+/// Runs one calibration on `client`: with the progress bar, or with JSON progress lines.
+async fn run_calibration(
+    client: &mut Client,
+    json: bool,
+    spec: &JobSpec,
+    data: &[fmucal_shared::job::MeasurementTable],
+    model: &std::path::Path,
+) -> Result<fmucal_shared::job::CalibrationResult> {
+    if json {
+        client.calibrate_with(spec, data, model, |ev| eprintln!("{}", progress_line(ev))).await
+    } else {
+        client.calibrate(spec, data, model).await
+    }
+}
+
 /// A run whose checks warned, under `--strict` (exit code 3).
 #[derive(Debug, thiserror::Error)]
 #[error("{0} warning(s) under --strict")]
@@ -68,6 +110,7 @@ pub(super) fn model_path(spec: &JobSpec) -> Result<PathBuf> {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    let json = json_progress()?;
     let mut spec = JobSpec::from_toml_file(&args.job)?;
     spec.validate()?;
     let threads = super::local_cluster::worker_count(args.workers, &spec)?;
@@ -117,7 +160,7 @@ pub fn run(args: Args) -> Result<()> {
             }
         };
         let mut result = tokio::select! {
-            r = client.calibrate(&prepared.spec, &data, &model) => r?,
+            r = run_calibration(&mut client, json, &prepared.spec, &data, &model) => r?,
             () = deadline => {
                 let mut r = stopper.interrupt().await?.with_context(|| {
                     format!("optimizer.max_time: {} s passed before the run had a result", max_time.unwrap_or(0.0))
@@ -147,7 +190,7 @@ pub fn run(args: Args) -> Result<()> {
                 from_optimum.optimizer.initial_step.get_or_insert(REFIT_STEP);
                 let refit_started = std::time::Instant::now();
                 let second = tokio::select! {
-                    r = client.calibrate(&from_optimum, &data, &model) => r?,
+                    r = run_calibration(&mut client, json, &from_optimum, &data, &model) => r?,
                     () = super::servers::terminate_signal() => return Ok(Err(stopper.interrupt().await?)),
                 };
                 refit = Some(tolerance::Refit {
@@ -386,4 +429,27 @@ fn output_table(outputs: &[fmucal_shared::job::result::OutputErrors], first: &st
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn progress_lines_are_one_json_object_with_null_for_no_point_yet() {
+        let mut ev = fmucal_proto::v1::WatchJobResponse {
+            iteration: 4,
+            evaluations: 17,
+            best_f: f64::INFINITY,
+            rounds: 5,
+            ..Default::default()
+        };
+        let line = progress_line(&ev);
+        assert!(!line.contains('\n'));
+        let v: serde_json::Value = serde_json::from_str(&line).unwrap();
+        assert_eq!(v, serde_json::json!({"progress": {"round": 5, "iteration": 4, "evaluations": 17, "best_f": null}}));
+        ev.best_f = 0.1 + 0.2;
+        let v: serde_json::Value = serde_json::from_str(&progress_line(&ev)).unwrap();
+        assert_eq!(v["progress"]["best_f"].as_f64().unwrap().to_bits(), (0.1f64 + 0.2).to_bits());
+    }
 }

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -81,3 +82,17 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
             metafunc.parametrize("rust_case", [None], ids=["FMUCAL_TEST_RUST_REQUESTS-missing"])
         else:
             metafunc.parametrize("rust_case", cases, ids=[c["name"] for c in cases])
+
+
+FURUTA = REPO / "examples" / "furuta" / "job.toml"
+
+
+@pytest.fixture(scope="session")
+def cli_furuta(tmp_path_factory: pytest.TempPathFactory, fmucal_bin: Path) -> tuple[dict[str, Any], Path]:
+    """``fmucal calibrate examples/furuta/job.toml``'s ``result.json`` and ``--out`` folder: what
+    every local run of that job from Python must give, to the last bit."""
+    out = tmp_path_factory.mktemp("cli") / "out"
+    done = subprocess.run([str(fmucal_bin), "calibrate", str(FURUTA), "--out", str(out)],
+                          capture_output=True, text=True, timeout=600, check=False)
+    assert done.returncode == 0, done.stderr
+    return json.loads((out / "result.json").read_text()), out

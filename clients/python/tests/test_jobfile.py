@@ -13,6 +13,7 @@ import pytest
 
 from conftest import REPO
 from fmucal_client import JobFileError, build_request, load_job
+from fmucal_client import binary
 from fmucal_client.tables import read_table
 
 JOB = """
@@ -155,6 +156,7 @@ def test_a_built_in_example_needs_the_fmucal_binary(tmp_path: Path, monkeypatch:
     job = write_job(tmp_path, JOB.replace('path = "m.fmu"', 'path = "example:furuta"'))
     monkeypatch.setenv("FMUCAL_BIN", "")
     monkeypatch.setenv("PATH", str(tmp_path))
+    monkeypatch.setattr(binary, "_candidates", lambda: [tmp_path / "bin" / "fmucal"])
     with pytest.raises(JobFileError) as caught:
         build_request(job)
     assert caught.value.field == "model.path"

@@ -23,6 +23,7 @@ from fmucal_client import (
     InvalidArgumentError,
     JobFileError,
     NotFoundError,
+    Progress,
 )
 from fmucal_client.models import example_path
 
@@ -231,3 +232,38 @@ def test_cancel_stops_a_running_job_and_keeps_its_best_point(client: Client) -> 
     assert client.cancel(job_id) == "cancelled"
     assert client.status(job_id) == "cancelled"
 
+
+
+def test_calibrate_on_a_coordinator_gives_the_local_cli_optimum_bit_for_bit(
+    coordinator_url: str, token: str, cli_furuta: tuple[dict[str, Any], Path]
+) -> None:
+    import fmucal_client as fmucal
+
+    expected, _ = cli_furuta
+    events: list[Progress] = []
+    result = fmucal.calibrate(FURUTA, coordinator=coordinator_url, token=token, progress=events.append)
+    assert result.x_opt == expected["x_opt"]
+    assert result.termination == expected["termination"]
+    # The CLI's tolerance guard then refits from that optimum at a tighter tolerance (a job on
+    # a pool runs at the job's own), which keeps the optimum and adds its evaluations.
+    refit = expected["tolerance_guard"]["refit"]
+    assert result.evaluations == expected["evaluations"] - refit["evaluations"]
+    assert events and events[-1].evaluations == result.evaluations
+    # What the coordinator does not compute stays empty rather than made up.
+    assert result.standard_errors == {} and result.fit is None and result.rms == {}
+    with pytest.raises(ValueError, match="no fit table"):
+        result.plot()
+    with pytest.raises(TypeError, match="no workers or out"):
+        fmucal.calibrate(FURUTA, coordinator=coordinator_url, token=token, workers=2)
+
+
+def test_diagnose_on_a_coordinator_names_what_a_local_diagnosis_names(
+    coordinator_url: str, token: str, tmp_path: Path
+) -> None:
+    import fmucal_client as fmucal
+
+    job = REPO / "examples" / "diagnose" / "job.toml"
+    remote = fmucal.diagnose(job, coordinator=coordinator_url, token=token, top=2, progress=False)
+    local = fmucal.diagnose(job, top=2, progress=False)
+    assert remote.named and remote.named == local.named
+    assert remote.fitted == local.fitted

@@ -28,8 +28,8 @@ MODEL_CHUNK_BYTES = 1 << 20
 """Size of the chunks a model is uploaded in (``fmucal_proto::MODEL_CHUNK_BYTES``)."""
 
 PathLike = str | os.PathLike[str]
-Job = Mapping[str, Any] | PathLike
-"""A job: the path of a TOML job file, or a dict with the same structure."""
+Job = Mapping[str, Any] | PathLike | JobSpec
+"""A job: the path of a TOML job file, a dict with the same structure, or a parsed :class:`JobSpec`."""
 
 T = TypeVar("T")
 
@@ -43,7 +43,7 @@ def build_request(job: Job, base_dir: PathLike | None = None, model: str | None 
     Raises:
         JobFileError: naming the field of the job or data at fault.
     """
-    spec = load_job(job, base_dir)
+    spec = job if isinstance(job, JobSpec) else load_job(job, base_dir)
     path = resolve_model(spec.model.path) if spec.model.path is not None else None
     tables = read_all(spec)
     return submit_request(spec, tables, model or _model_id(spec, path))
@@ -145,7 +145,7 @@ class Client:
             JobFileError: the job or its data cannot be read, naming the field.
             InvalidArgumentError: the coordinator refused the job; ``field`` names where.
         """
-        spec = load_job(job, base_dir)
+        spec = job if isinstance(job, JobSpec) else load_job(job, base_dir)
         path = resolve_model(spec.model.path) if spec.model.path is not None else None
         tables = read_all(spec)
         model = self.upload_model(path) if path is not None else _model_id(spec, None)

@@ -7,6 +7,8 @@
   ``details`` the coordinator's message (which names the field of a refused job) and ``field``
   that field, when the message starts with one.
 - :class:`JobFailedError`: a job ended in the failed state.
+- :class:`CommandError`: a local run of the ``fmucal`` binary failed; ``field`` names the job's
+  field its ``error:`` line starts with.
 """
 
 from __future__ import annotations
@@ -110,3 +112,33 @@ def from_rpc_error(error: grpc.RpcError) -> ServerError:
     code = error.code() if isinstance(error, grpc.Call) else grpc.StatusCode.UNKNOWN
     details = (error.details() if isinstance(error, grpc.Call) else None) or str(error)
     return _CLASSES.get(code, ServerError)(code, details)
+
+
+class CommandError(FmucalError):
+    """A local run of the ``fmucal`` binary failed. ``message`` is its one-line ``error: ...``
+    (without the prefix), ``field`` the job field it starts with, if any
+    (``parameters[0].lower``), ``exit_code`` its exit status and ``stderr`` all it wrote there."""
+
+    def __init__(
+        self, message: str, *, exit_code: int | None = None, stderr: str = "", command: list[str] | None = None
+    ) -> None:
+        super().__init__(message)
+        self.message = message
+        self.field = field_of(message)
+        self.exit_code = exit_code
+        self.stderr = stderr
+        self.command = command or []
+
+    @classmethod
+    def from_stderr(cls, stderr: str, exit_code: int, command: list[str]) -> CommandError:
+        """The error of a run that exited with ``exit_code``: its last ``error:`` line (a TOML
+        syntax error's following lines, which show where, included), else its last line."""
+        lines = stderr.rstrip("\n").splitlines()
+        starts = [i for i, line in enumerate(lines) if line.startswith("error: ")]
+        if starts:
+            message = "\n".join(lines[starts[-1]:]).removeprefix("error: ")
+        elif exit_code < 0:
+            message = f"fmucal was killed by signal {-exit_code}"
+        else:
+            message = (lines[-1] if lines else "") or f"fmucal exited with status {exit_code}"
+        return cls(message, exit_code=exit_code, stderr=stderr, command=command)

@@ -404,3 +404,53 @@ def _experiment(t: Table, base_dir: Path) -> Experiment:
         validation_stop_time=t.number("validation_stop_time"),
         starts=starts,
     )
+
+
+def job_table(spec: JobSpec) -> dict[str, Any]:
+    """The TOML table of ``spec``, as a job file would hold it (``set_from`` already merged into
+    ``set``; paths as the spec holds them, which :func:`load_job` made absolute)."""
+
+    def some(**fields: Any) -> dict[str, Any]:
+        return {k: (str(v) if isinstance(v, Path) else v) for k, v in fields.items() if v is not None}
+
+    def data(d: DataRef) -> dict[str, Any]:
+        return some(path=d.path, time_column=d.time_column)
+
+    def outputs(items: list[OutputMap]) -> list[dict[str, Any]]:
+        return [some(variable=o.variable, column=o.column, weight=o.weight) for o in items]
+
+    def inputs(items: list[InputMap]) -> list[dict[str, Any]]:
+        return [some(column=i.column, variable=i.variable) for i in items]
+
+    s, o = spec.simulation, spec.optimizer
+    table: dict[str, Any] = {
+        "model": some(path=spec.model.path, id=spec.model.id, interface=spec.model.interface),
+        "outputs": outputs(spec.outputs),
+        "inputs": inputs(spec.inputs),
+        "parameters": [
+            some(name=p.name, start=p.start, lower=p.lower, upper=p.upper, per_experiment=p.per_experiment,
+                 scale=p.scale)
+            for p in spec.parameters
+        ],
+        "effects": [
+            some(kind=e.kind, state=e.state, port=e.port, signal=e.signal, output=e.output, input=e.input,
+                 parameters={k: some(start=b.start, lower=b.lower, upper=b.upper) for k, b in e.parameters.items()})
+            for e in spec.effects
+        ],
+        "simulation": some(start_time=s.start_time, stop_time=s.stop_time, tolerance=s.tolerance, solver=s.solver,
+                           set=dict(s.set) or None, validation_stop_time=s.validation_stop_time),
+        "optimizer": some(**{f: getattr(o, f) for f in OPTIMIZER_FIELDS}),
+        "experiments": [
+            some(name=x.name, role=x.role, data=data(x.data) if x.data is not None else None,
+                 outputs=outputs(x.outputs) if x.outputs is not None else None,
+                 inputs=inputs(x.inputs) if x.inputs is not None else None, set=dict(x.set) or None,
+                 start_time=x.start_time, stop_time=x.stop_time, validation_stop_time=x.validation_stop_time,
+                 starts=dict(x.starts) or None)
+            for x in spec.experiments
+        ],
+    }
+    if spec.data.path is not None:
+        table["data"] = data(spec.data)
+    if spec.workers is not None:
+        table["workers"] = {"count": spec.workers}
+    return {k: v for k, v in table.items() if v != []}

@@ -2,9 +2,10 @@
 
 The built-in examples live inside the ``fmucal`` binary, which writes them to its cache folder
 and lists their paths (``fmucal examples``). Python cannot read them any other way, so an
-``example:NAME`` model is found by running that command: the binary named by ``FMUCAL_BIN``,
-else ``fmucal`` on ``PATH``. Without one, such a job is refused naming ``model.path``; give the
-``.fmu`` path instead. A model's id on a coordinator is the SHA-256 of its bytes.
+``example:NAME`` model is found by running that command with the binary
+:mod:`fmucal_client.binary` finds (the one the package installed, unless ``FMUCAL_BIN`` names
+another). Without one, such a job is refused naming ``model.path``; give the ``.fmu`` path
+instead. A model's id on a coordinator is the SHA-256 of its bytes.
 """
 
 from __future__ import annotations
@@ -12,10 +13,10 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
-import shutil
 import subprocess
 from pathlib import Path
 
+from . import binary
 from .errors import JobFileError
 from .job import quote
 
@@ -23,8 +24,8 @@ EXAMPLE_PREFIX = "example:"
 
 
 def fmucal_binary() -> str | None:
-    """The fmucal executable to ask for examples: ``FMUCAL_BIN``, else ``fmucal`` on PATH."""
-    return os.environ.get("FMUCAL_BIN") or shutil.which("fmucal")
+    """The fmucal executable to ask for examples (:func:`fmucal_client.binary.find`)."""
+    return binary.find()
 
 
 @functools.cache
@@ -56,8 +57,8 @@ def example_path(name: str) -> Path:
         raise JobFileError(
             "model.path",
             f"{quote(EXAMPLE_PREFIX + name)} is a model built into the fmucal binary, which the Python client "
-            "runs (`fmucal examples`) to find it: put fmucal on PATH or set FMUCAL_BIN, or give the path of "
-            "the .fmu",
+            "runs (`fmucal examples`) to find it: install the package with its binary (pip install "
+            "./clients/python), set FMUCAL_BIN, or give the path of the .fmu",
         )
     listed = _examples(binary)
     if name not in listed:

@@ -1,2 +1,2 @@
-"""gRPC stubs of ``fmucal.v1``, generated from ``proto/fmucal/v1/fmucal.proto`` when the package is
-built (see ``setup.py``); the generated modules are not in version control."""
+"""gRPC stubs of ``fmucal.v1``, generated from ``proto/fmucal/v1/fmucal.proto`` by
+``tools/generate_pb.py`` (grpcio-tools) and committed, so that installing generates nothing."""
