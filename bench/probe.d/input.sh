@@ -129,3 +129,22 @@ if [ -n "$left_out" ]; then
 else
     report "refused jobs leave no --out folder" PASS "no $in_dir/out, no out-diagnose"
 fi
+
+# A data file with a UTF-8 byte-order mark, as Excel writes it: the CLI reads it, and so does
+# the Python client (from the repository's sources, with the suite's venv where it exists).
+printf '\xef\xbb\xbf' > "$in_dir/bom.csv"
+cat "$EX/friction/data.csv" >> "$in_dir/bom.csv"
+j=$(in_job csv-bom friction 's#path = "data.csv"#path = "bom.csv"#')
+probe_works csv-bom-cli -- "${in_calibrate[@]}" "$j"
+in_py="$EX/../target/pyenv/bin/python"
+if [ -x "$in_py" ]; then
+  probe_works csv-bom-python -- "$in_py" -B -c '
+import sys
+from pathlib import Path
+sys.path.insert(0, sys.argv[2])
+from fmucal_client.tables import read_csv
+t = read_csv(Path(sys.argv[1]), "time")
+names = [n for n, _ in t.columns]
+assert names == ["x"] and len(t.time) > 100, names
+print("read", len(t.time), "rows; columns", names)' "$in_dir/bom.csv" "$EX/../clients/python/src"
+fi

@@ -234,54 +234,28 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
             if md.variable(&full).is_some() {
                 return Err(refuse(format!("{full}: the original already has a variable of that name")));
             }
-            md.variables.push(ScalarVariable {
-                name: full.clone(),
-                value_reference: next_vr,
-                description: Some(format!("{what}: {name} (fmucal effect parameter)")),
-                causality: Causality::Parameter,
-                variability: Variability::Tunable,
-                initial: Some(Initial::Exact),
-                var_type: VarType::Real,
-                declared_type: None,
-                start: Some(Value::Real(*value)),
-                min: None,
-                max: None,
-                nominal: None,
+            md.variables.push(new_real(
+                &full,
+                next_vr,
+                format!("{what}: {name} (fmucal effect parameter)"),
+                (Causality::Parameter, Variability::Tunable, Some(Initial::Exact)),
+                Some(*value),
                 unit,
-                derivative: None,
-                reinit: false,
-                display_unit: None,
-                alias_of: None,
-                negated: false,
-                fmi3: None,
-            });
+            ));
             parameters.push(RuntimeParameter { name: full, value_reference: next_vr, start: *value });
             next_vr += 1;
         }
         let mut output_value_reference = None;
         if let Target::Sensor { output } = &target {
             let name = format!("effects[{k}].output");
-            md.variables.push(ScalarVariable {
-                name,
-                value_reference: next_vr,
-                description: Some(format!("{output} with {} (fmucal sensor effect)", e.spec.kind)),
-                causality: Causality::Output,
-                variability: Variability::Continuous,
-                initial: None,
-                var_type: VarType::Real,
-                declared_type: None,
-                start: None,
-                min: None,
-                max: None,
-                nominal: None,
-                unit: load_unit.clone(),
-                derivative: None,
-                reinit: false,
-                display_unit: None,
-                alias_of: None,
-                negated: false,
-                fmi3: None,
-            });
+            md.variables.push(new_real(
+                &name,
+                next_vr,
+                format!("{output} with {} (fmucal sensor effect)", e.spec.kind),
+                (Causality::Output, Variability::Continuous, None),
+                None,
+                load_unit.clone(),
+            ));
             let index = md.variables.len();
             md.model_structure.outputs.push(Unknown { index, dependencies: None });
             md.model_structure.initial_unknowns.push(Unknown { index, dependencies: None });
@@ -337,6 +311,38 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
     let json = serde_json::to_string(&config).map_err(|e| refuse(e.to_string()))?;
     md.guid = format!("{{fmucal-{:016x}-{:016x}}}", fnv(original.guid.as_bytes()), fnv(json.as_bytes()));
     Ok((md, config))
+}
+
+/// A Real variable the export adds: `(causality, variability, initial)` as `kind`.
+fn new_real(
+    name: &str,
+    value_reference: u32,
+    description: String,
+    kind: (Causality, Variability, Option<Initial>),
+    start: Option<f64>,
+    unit: Option<String>,
+) -> ScalarVariable {
+    ScalarVariable {
+        name: name.to_owned(),
+        value_reference,
+        description: Some(description),
+        causality: kind.0,
+        variability: kind.1,
+        initial: kind.2,
+        var_type: VarType::Real,
+        declared_type: None,
+        start: start.map(Value::Real),
+        min: None,
+        max: None,
+        nominal: None,
+        unit,
+        derivative: None,
+        reinit: false,
+        display_unit: None,
+        alias_of: None,
+        negated: false,
+        fmi3: None,
+    }
 }
 
 /// FNV-1a, for a GUID that changes with the original and the settings (stable across builds).
