@@ -2,6 +2,7 @@
 # The container test: deploy/compose.yaml run for real, with TLS and the two tokens,
 # on an image built here (tests/containers/build_image.sh: the Dockerfile's runtime stage on a
 # locally made Debian root filesystem, as no registry can be reached). It checks that
+#   0. `fmucal export` works in the image (its FMU runtime is beside the binary);
 #   1. a calibration submitted from the host gives exactly the local result;
 #   2. workers added with `up --scale worker=4` during a running job take points;
 #   3. a worker killed with `docker kill` mid-job,
@@ -93,6 +94,16 @@ say "building the image"
 start="$(now)"
 BIN="$bin" bash "$here/build_image.sh" >/dev/null
 say "image fmucal:latest built in $(since "$start") s"
+
+# 0. The image exports: `fmucal export` in the container finds the FMU runtime beside the binary.
+if docker run --rm -v "$repo/examples/friction:/job:ro" fmucal:latest \
+     export /job/job.toml -o /var/lib/fmucal/corrected.fmu >"$work/export.log" 2>&1 \
+   && grep -q "FMI 2.0" "$work/export.log"; then
+  pass "fmucal export in the image: $(head -c 100 "$work/export.log")"
+else
+  cat "$work/export.log"
+  fail "fmucal export in the image"
+fi
 
 # References: the same jobs with local worker processes (no containers).
 "$bin" calibrate "$repo/examples/furuta/job.toml" --out "$work/local-furuta" >/dev/null 2>"$work/local-furuta.log"
