@@ -136,15 +136,27 @@ fn port_sensor_and_actuator_effects_run_inside_the_exported_model_exchange_fmu()
     let want = simulate(&original, &with_effects).unwrap();
     let got = simulate(
         &exported,
-        &spec(Interface::ModelExchange, 1e-8, Some(force), &["mass.x", "mass.v", "effects[1].output"], &[]),
+        &spec(Interface::ModelExchange, 1e-8, Some(force), &["mass.x", "mass.v", "effects[1].output", "mass.Fext"], &[]),
     )
     .unwrap();
+    // The port reads back the value set (its start, 0), not base + friction.
+    assert!(column(&got, "mass.Fext").iter().all(|f| *f == 0.0));
     for name in ["mass.x", "mass.v"] {
         let d = common::rel_max_diff(column(&got, name), column(&want, name));
         assert!(d < 1e-9, "{name}: {d:e}");
     }
     let shifted: Vec<f64> = column(&want, "mass.x").iter().map(|x| x + 0.1).collect();
     assert!(common::rel_max_diff(column(&got, "effects[1].output"), &shifted) < 1e-9);
+    // An actuated input nobody sets is its start value, transformed: F = 0 through a gain of 2
+    // is 0, so an offset shows it; the original sees F = 0.7.
+    let offset = job.replace("kind = \"actuator_gain\"", "kind = \"actuator_offset\"").replace("gain = {", "offset = {")
+        .replace("start = 2.0, lower = 0.5, upper = 3.0", "start = 0.7, lower = 0.0, upper = 3.0");
+    let offset = common::load(&export(dir.path(), &offset, "offset.fmu"), &dir.path().join("cache"));
+    let mut held = spec(Interface::ModelExchange, 1e-8, None, &["mass.x"], &[("k", 5.0), ("F", 0.7)]);
+    held.port_terms = with_effects.port_terms.clone();
+    let want_held = simulate(&original, &held).unwrap();
+    let got_held = simulate(&offset, &spec(Interface::ModelExchange, 1e-8, None, &["mass.x"], &[])).unwrap();
+    assert!(common::rel_max_diff(column(&got_held, "mass.x"), column(&want_held, "mass.x")) < 1e-9);
     // The friction matters: without it the motion differs.
     let plain = simulate(&original, &spec(Interface::ModelExchange, 1e-8, None, &["mass.x"], &[("k", 5.0)])).unwrap();
     assert!(common::rel_max_diff(column(&plain, "mass.x"), column(&want, "mass.x")) > 1e-2);
@@ -190,6 +202,10 @@ fn state_effects_run_inside_both_interfaces_and_instances_are_independent() {
     assert_eq!(a1.columns, b1.columns);
     assert_eq!(a2.columns, me.columns, "after fmi2Reset the exported defaults are back");
     assert_ne!(a1.columns, me.columns, "effects[0].force changes the motion");
+    // fmi2DoStep before initialisation is refused, not run on the original.
+    let mut raw = fmucal_shared::fmu::Instance::new(&exported, Interface::CoSimulation, "early").unwrap();
+    assert!(raw.call("fmi2DoStep", |c| c.do_step(0.0, 0.1)).is_err());
+    drop(raw);
     let mut c = Simulator::new(&exported, Some(Interface::CoSimulation)).unwrap();
     let cs_spec = spec(Interface::CoSimulation, 1e-8, None, &outputs, &[]);
     assert_eq!(c.run(&cs_spec).unwrap().columns, cs.columns);
@@ -323,6 +339,21 @@ fn calibrating_the_exported_fmu_reproduces_the_job() {
     ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("--result") && err.contains("another job"), "{err}");
+    // A value outside the job's bounds is refused.
+    let text = std::fs::read_to_string(dir.path().join("original/result.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["x_opt"]["k"] = serde_json::json!(1e308);
+    std::fs::write(other.join("result.json"), v.to_string()).unwrap();
+    let o = fmucal(&[
+        "export",
+        dir.path().join("original.toml").to_str().unwrap(),
+        "--result",
+        other.to_str().unwrap(),
+        "-o",
+        dir.path().join("x.fmu").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("outside the job's bounds"), "{err}");
     // With the original's own result, its values become the defaults.
     let o = fmucal(&[
         "export",
@@ -359,6 +390,15 @@ fn what_cannot_be_exported_is_refused_in_one_line_and_writes_nothing() {
         assert!(err.contains(want), "case {k}: {err}");
         assert_eq!(std::fs::read(&out).ok(), before, "case {k} touched {}", out.display());
     }
+    // `-o` onto the job's data (not an .fmu name) leaves it as it was.
+    let data_path = dir.path().join("data.csv");
+    let before = std::fs::read(&data_path).unwrap();
+    let path = dir.path().join("good.toml");
+    std::fs::write(&path, &job).unwrap();
+    let o = fmucal(&["export", path.to_str().unwrap(), "-o", data_path.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("-o:") && err.contains(".fmu"), "{err}");
+    assert_eq!(std::fs::read(&data_path).unwrap(), before);
     // A state effect on a Co-Simulation-only original.
     let data = dir.path().join("d.csv");
     common::write_input_csv(&common::table(vec![0.0, 1.0], vec![("phi", vec![0.0, 0.0])]), &data);

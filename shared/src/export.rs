@@ -270,6 +270,38 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
             output_value_reference,
         });
     }
+    // What an effect changes depends on its new parameters (and a state term on its signal):
+    // the unknowns it reaches lose their dependency lists, which then mean "on everything".
+    let index_of = |name: &str| md.variable(name).map(|v| v.value_reference).and_then(|vr| {
+        md.variables.iter().position(|v| v.value_reference == vr && v.var_type == VarType::Real && v.name == name).map(|i| i + 1)
+    });
+    let mut via: Vec<usize> = vec![];
+    let mut reached: Vec<usize> = vec![];
+    for e in &effects_out {
+        match &e.target {
+            Target::Port { port, .. } => via.extend(index_of(port)),
+            Target::Actuator { input } => via.extend(index_of(input)),
+            Target::State { state, .. } => {
+                if let Some((_, der)) = original.states().into_iter().find(|(s, _)| s.name == *state) {
+                    let vr = der.value_reference;
+                    reached.extend(
+                        md.variables
+                            .iter()
+                            .enumerate()
+                            .filter(|(_, v)| v.value_reference == vr && v.var_type == VarType::Real)
+                            .map(|(i, _)| i + 1),
+                    );
+                }
+            }
+            Target::Sensor { .. } => {}
+        }
+    }
+    let ms = &mut md.model_structure;
+    for u in ms.outputs.iter_mut().chain(ms.derivatives.iter_mut()).chain(ms.initial_unknowns.iter_mut()) {
+        if reached.contains(&u.index) || u.dependencies.as_ref().is_some_and(|d| d.iter().any(|i| via.contains(i))) {
+            u.dependencies = None;
+        }
+    }
     // Every unit a variable names is defined.
     let used: Vec<String> = md.variables.iter().filter_map(|v| v.unit.clone()).collect();
     for u in used {

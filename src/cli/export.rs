@@ -55,9 +55,19 @@ pub(crate) fn runtime_library() -> Result<PathBuf> {
     })
 }
 
-/// The calibrated values of `job` from `dir/result.json`, in the job's point order.
+/// The calibrated values of `job` from `dir/result.json` (its `x_opt`), in the job's point
+/// order, each within the job's bounds.
 fn result_values(dir: &Path, job: &PreparedJob) -> Result<Vec<f64>> {
-    let (result, _) = super::outputs::read(dir).with_context(|| format!("--result {}", dir.display()))?;
+    let path = dir.join("result.json");
+    fmucal_shared::job::limits::check_regular_file("--result", &path, fmucal_shared::job::limits::MAX_JOB_FILE_BYTES)?;
+    let text = std::fs::read_to_string(&path).with_context(|| format!("--result: cannot read {}", path.display()))?;
+    let value: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("--result: {} is not JSON", path.display()))?;
+    let x_opt: std::collections::BTreeMap<String, f64> = value
+        .get("x_opt")
+        .and_then(|v| serde_json::from_value(v.clone()).ok())
+        .with_context(|| format!("--result: {} has no x_opt of names and numbers", path.display()))?;
+    let result = fmucal_shared::job::CalibrationResult { x_opt, ..Default::default() };
     let names = &job.parameter_names;
     if let Some(missing) = names.iter().find(|n| !result.x_opt.contains_key(*n)) {
         bail!(
@@ -75,8 +85,14 @@ fn result_values(dir: &Path, job: &PreparedJob) -> Result<Vec<f64>> {
         );
     }
     let x = result.x_opt_in(names);
-    if let Some((n, v)) = names.iter().zip(&x).find(|(_, v)| !v.is_finite()) {
-        bail!("--result: the value of {} is {v}, not a number", quote_user_text(n));
+    let (_, _, lower, upper) = job.spec.parameter_vectors();
+    for (((n, v), lo), hi) in names.iter().zip(&x).zip(&lower).zip(&upper) {
+        if !v.is_finite() {
+            bail!("--result: the value of {} is {v}, not a number", quote_user_text(n));
+        }
+        if v < lo || v > hi {
+            bail!("--result: {} = {v} is outside the job's bounds [{lo}, {hi}]", quote_user_text(n));
+        }
     }
     Ok(x)
 }
@@ -104,6 +120,11 @@ pub(crate) fn export(spec: &JobSpec, values: Values, experiment: Option<&str>, o
     let model = super::calibrate::model_path(spec)?;
     if output.is_dir() {
         bail!("-o: {} is a folder; name the FMU file to write", output.display());
+    }
+    // Only a file named *.fmu is written, so a slip of the finger cannot replace the job or
+    // its data.
+    if !output.extension().is_some_and(|e| e.eq_ignore_ascii_case("fmu")) {
+        bail!("-o: {} does not end in .fmu; name the FMU file to write", output.display());
     }
     if let (Ok(a), Ok(b)) = (std::fs::canonicalize(output), std::fs::canonicalize(&model))
         && a == b

@@ -144,7 +144,7 @@ pub extern "C" fn fmi2GetVersion() -> *const c_char {
 pub unsafe extern "C" fn fmi2Instantiate(
     instance_name: *const c_char,
     fmu_type: c_int,
-    _guid: *const c_char,
+    guid: *const c_char,
     resource_location: *const c_char,
     functions: *const CallbackFunctions,
     _visible: c_int,
@@ -170,7 +170,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
         };
         let uri = text(resource_location).ok_or("no fmuResourceLocation was given")?;
         let resources = uri_path(&uri).ok_or_else(|| format!("fmuResourceLocation {uri:?} is not a local file URI"))?;
-        Corrected::new(&resources, interface, &name.to_string_lossy())
+        Corrected::new(&resources, interface, &name.to_string_lossy(), text(guid).as_deref())
     }));
     match result {
         Ok(Ok(model)) => Box::into_raw(Box::new(Component {

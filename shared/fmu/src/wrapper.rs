@@ -89,11 +89,11 @@ fn fail(e: impl std::fmt::Display) -> Failure {
 
 impl Corrected {
     /// Loads the original from `resources` (the exported FMU's unpacked `resources/` folder) and
-    /// instantiates it for `interface`.
+    /// instantiates it for `interface`; `guid`, if given, must be this FMU's.
     ///
     /// # Errors
     /// A line saying what is missing or broken.
-    pub fn new(resources: &Path, interface: Interface, name: &str) -> Result<Corrected, Failure> {
+    pub fn new(resources: &Path, interface: Interface, name: &str, guid: Option<&str>) -> Result<Corrected, Failure> {
         let path = resources.join(CONFIG_PATH.trim_start_matches("resources/"));
         let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
         let config: RuntimeConfig =
@@ -104,6 +104,13 @@ impl Corrected {
                 path.display(),
                 config.format
             ));
+        }
+        // The importer's GUID must be this FMU's (its description sits beside resources/).
+        if let (Some(guid), Ok(xml)) = (guid, std::fs::read_to_string(resources.join("../modelDescription.xml")))
+            && let Ok(md) = fmucal_fmi::ModelDescription::parse(&xml)
+            && md.guid != guid
+        {
+            return Err(format!("fmuGUID {guid:?} is not this FMU's ({:?})", md.guid));
         }
         let fmu = Fmu::open_unpacked(&resources.join(ORIGINAL_DIR.trim_start_matches("resources/")), String::new())
             .map_err(fail)?;
@@ -199,6 +206,7 @@ impl Corrected {
             tolerance: None,
         };
         c.plan.apply_settings(&mut c.inst).map_err(fail)?;
+        c.actuate_starts()?;
         Ok(c)
     }
 
@@ -302,7 +310,35 @@ impl Corrected {
         self.strings.clear();
         self.stepper = None;
         self.mode = Mode::Instantiated;
-        self.plan.apply_settings(&mut self.inst).map_err(fail)
+        self.plan.apply_settings(&mut self.inst).map_err(fail)?;
+        self.actuate_starts()
+    }
+
+    /// Each actuated input at its start value (the exported default, else the description's),
+    /// transformed, so that the original sees the effect even if the importer never sets it.
+    fn actuate_starts(&mut self) -> Result<(), Failure> {
+        let md = self.fmu.description.clone();
+        let mut vrs = vec![];
+        for s in self.series.iter().filter(|s| s.output_vr.is_none()) {
+            if !vrs.contains(&s.vr) {
+                vrs.push(s.vr);
+            }
+        }
+        for vr in vrs {
+            let var = md.variables.iter().find(|v| v.value_reference == vr && v.var_type == fmucal_fmi::schema::VarType::Real);
+            let set = self.config.settings.iter().rev().find_map(|(n, text)| {
+                md.variable(n).filter(|v| v.value_reference == vr).and(text.parse::<f64>().ok())
+            });
+            let start = var.and_then(|v| match &v.start {
+                Some(fmucal_fmi::schema::Value::Real(x)) => Some(*x),
+                _ => None,
+            });
+            let raw = set.or(start).unwrap_or(0.0);
+            self.raw_inputs.insert(vr, raw);
+            let u = self.actuated(vr, raw);
+            self.inst.call("fmi2SetReal", |c| c.set_real(&[vr], &[u])).map_err(fail)?;
+        }
+        Ok(())
     }
 
     fn set_parameter(&mut self, place: Use, j: usize, v: f64) {
@@ -347,7 +383,7 @@ impl Corrected {
         let values = self.original_real(&ask)?;
         let mut value_of: HashMap<u32, f64> = ask.iter().copied().zip(values).collect();
         // A state term is part of its derivative, wherever that is read.
-        if self.live() && !self.plan.state_terms.is_empty() {
+        if self.mode != Mode::Instantiated && !self.plan.state_terms.is_empty() {
             let wanted: Vec<usize> = (0..self.plan.state_terms.len())
                 .filter(|&i| value_of.contains_key(&self.plan.state_terms[i].derivative_vr))
                 .collect();
@@ -369,6 +405,11 @@ impl Corrected {
                 self.parameter(place, j)
             } else if let Some(raw) = self.raw_inputs.get(vr) {
                 *raw
+            } else if let Some(PortBase::Value(base)) =
+                self.plan.port_terms.iter().find(|t| t.port_vr == *vr).map(|t| t.base)
+            {
+                // The port reads back what was set, not base + term.
+                base
             } else if let Some(s) = self.series.iter().find(|s| s.output_vr == Some(*vr)) {
                 let y = value_of.get(&s.vr).copied().unwrap_or(f64::NAN);
                 s.kind.apply(&s.parameters, &[t], &[y])[0]
@@ -576,6 +617,15 @@ impl Corrected {
         }
         if !(h >= 0.0) || !h.is_finite() {
             return Err(format!("fmi2DoStep: step size {h} is not a non-negative number"));
+        }
+        if !t.is_finite() {
+            return Err(format!("fmi2DoStep: the communication point {t} is not a number"));
+        }
+        if !self.live() {
+            return Err("fmi2DoStep before fmi2ExitInitializationMode (or after fmi2Terminate)".into());
+        }
+        if self.integrate && self.stepper.is_none() {
+            return Err("fmi2DoStep: the model has not been initialised".into());
         }
         if let Some(stepper) = &mut self.stepper {
             if (stepper.time() - t).abs() > 1e-9 * t.abs().max(1.0) {
