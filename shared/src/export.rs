@@ -49,7 +49,7 @@ pub struct RuntimeConfig {
     pub effects: Vec<RuntimeEffect>,
     /// The integrator of the Co-Simulation interface over a Model Exchange original.
     pub solver: String,
-    /// Its relative tolerance; `None`: the one `fmi2SetupExperiment` gives, else the original's
+    /// Its relative tolerance when `fmi2SetupExperiment` gives none; `None`: the original's
     /// default experiment's, else 1e-6.
     pub tolerance: Option<f64>,
 }

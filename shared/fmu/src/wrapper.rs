@@ -262,7 +262,9 @@ impl Corrected {
             self.plan.start = self.start_time;
             self.plan.stop = self.stop_time.unwrap_or(f64::INFINITY).max(self.start_time);
             self.plan.grid.clear();
-            if let Some(tol) = self.config.tolerance.or(self.tolerance) {
+            // The importer's tolerance wins; the plan holds the job's (else the default
+            // experiment's, else 1e-6).
+            if let Some(tol) = self.tolerance.filter(|t| *t > 0.0 && *t < 1.0) {
                 self.plan.tolerance = tol;
             }
             if let Some(stop) = self.stop_time.filter(|s| *s > self.start_time) {
