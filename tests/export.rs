@@ -20,6 +20,13 @@ fn fmucal(args: &[&str]) -> std::process::Output {
     Command::new(FMUCAL).args(args).output().unwrap()
 }
 
+/// `fmucal export original.toml --result RESULT -o x.fmu` in `dir`.
+fn export_result(dir: &Path, result: &Path) -> std::process::Output {
+    let job = dir.join("original.toml");
+    let out = dir.join("x.fmu");
+    fmucal(&["export", job.to_str().unwrap(), "--result", result.to_str().unwrap(), "-o", out.to_str().unwrap()])
+}
+
 /// F = 3 sin(t) every 0.05 s over 10 s, with a column `x` of zeros (the export reads the data but
 /// not its values).
 fn write_data(path: &Path) -> InputTable {
@@ -329,14 +336,7 @@ fn calibrating_the_exported_fmu_reproduces_the_job() {
         let text = std::fs::read_to_string(dir.path().join("original").join(f)).unwrap();
         std::fs::write(other.join(f), text.replace("\"k\"", "\"spring.k\"")).unwrap();
     }
-    let o = fmucal(&[
-        "export",
-        dir.path().join("original.toml").to_str().unwrap(),
-        "--result",
-        other.to_str().unwrap(),
-        "-o",
-        dir.path().join("x.fmu").to_str().unwrap(),
-    ]);
+    let o = export_result(dir.path(), &other);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("--result") && err.contains("another job"), "{err}");
     // A value outside the job's bounds is refused.
@@ -344,25 +344,11 @@ fn calibrating_the_exported_fmu_reproduces_the_job() {
     let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
     v["x_opt"]["k"] = serde_json::json!(1e308);
     std::fs::write(other.join("result.json"), v.to_string()).unwrap();
-    let o = fmucal(&[
-        "export",
-        dir.path().join("original.toml").to_str().unwrap(),
-        "--result",
-        other.to_str().unwrap(),
-        "-o",
-        dir.path().join("x.fmu").to_str().unwrap(),
-    ]);
+    let o = export_result(dir.path(), &other);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("outside the job's bounds"), "{err}");
     // With the original's own result, its values become the defaults.
-    let o = fmucal(&[
-        "export",
-        dir.path().join("original.toml").to_str().unwrap(),
-        "--result",
-        dir.path().join("original").to_str().unwrap(),
-        "-o",
-        dir.path().join("x.fmu").to_str().unwrap(),
-    ]);
+    let o = export_result(dir.path(), &dir.path().join("original"));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
