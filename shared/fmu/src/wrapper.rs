@@ -642,6 +642,9 @@ impl Corrected {
         self.apply_ports_at(t)?;
         self.inst.set_error_time(t);
         let status = self.inst.call("fmi2DoStep", |c| c.do_step(t, h)).map_err(fail)?;
+        if status != Status::Discard {
+            self.inst.set_error_time(t + h);
+        }
         Ok(status == Status::Discard)
     }
 
