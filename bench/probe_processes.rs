@@ -223,7 +223,7 @@ fn uploads_left(data_dir: &Path) -> Vec<String> {
         .unwrap_or_default()
 }
 
-/// A data dir on a disk that fills up (issue 11: after the first ENOSPC every write was
+/// A data dir on a disk that fills up (once, after the first ENOSPC every write was
 /// refused until a restart, jobs were still reported SUCCEEDED, and came back RUNNING after a
 /// restart). `disk` is a small tmpfs of this process's own mount namespace. With the disk
 /// full: an upload is refused naming the cause and leaves no file; a job whose evaluations
@@ -341,7 +341,7 @@ pub async fn full_disk(disk: &Path) {
     );
 }
 
-/// A model file removed while the coordinator is down (issue 11: its finished jobs vanished
+/// A model file removed while the coordinator is down (once, its finished jobs vanished
 /// from the API without a log line). The finished job keeps its result and says its model is
 /// gone; the job that was running fails naming the model id.
 pub async fn model_gone(dir: &Path) {
@@ -393,8 +393,8 @@ pub async fn model_gone(dir: &Path) {
     ended("model gone at restart: the running job", get(&mut c, &running).await.as_ref(), FAILED, "model_id");
 }
 
-/// A model that never returns (issue 11: the stuck slot never freed, other jobs blocked,
-/// SIGTERM was ignored; issue 33: a hung FMU in one job slowed a normal job on the same worker
+/// A model that never returns (once, the stuck slot never freed, other jobs blocked,
+/// SIGTERM was ignored; later a hung FMU in one job slowed a normal job on the same worker
 /// from 0.03 s to 14.2 s). With one slot and a 2 s deadline, the hung point fails naming the
 /// deadline and the worker (restarted in place) runs the next job; with two slots and a 60 s
 /// deadline, another job's points end while the hung one is within its deadline (its time is
@@ -518,7 +518,7 @@ fn processes_mentioning(needle: &str) -> Vec<u32> {
         .unwrap_or_default()
 }
 
-/// A SIGKILL of the coordinator during a Diagnose call (issue 33: after a restart the
+/// A SIGKILL of the coordinator during a Diagnose call (once, after a restart the
 /// diagnosis's calibration job stayed RUNNING forever). The diagnosis process ends with its
 /// coordinator; the next coordinator cancels the job, saying why.
 pub async fn killed_diagnosis(dir: &Path) {

@@ -136,14 +136,23 @@ fn port_sensor_and_actuator_effects_run_inside_the_exported_model_exchange_fmu()
     // The job scales the input's samples, the FMU the value between them: the same numbers
     // to the last bit for a gain of 2.
     let gained = common::table(force.time.clone(), vec![("F", force.columns[0].1.iter().map(|f| 2.0 * f).collect())]);
-    let mut with_effects =
-        spec(Interface::ModelExchange, 1e-8, Some(gained), &["mass.x", "mass.v"], &[("k", 5.0)]);
-    with_effects.port_terms =
-        vec![PortTerm { kind: "coulomb_friction".into(), port: "mass.Fext".into(), signal: "mass.v".into(), parameters: vec![0.4] }];
+    let mut with_effects = spec(Interface::ModelExchange, 1e-8, Some(gained), &["mass.x", "mass.v"], &[("k", 5.0)]);
+    with_effects.port_terms = vec![PortTerm {
+        kind: "coulomb_friction".into(),
+        port: "mass.Fext".into(),
+        signal: "mass.v".into(),
+        parameters: vec![0.4],
+    }];
     let want = simulate(&original, &with_effects).unwrap();
     let got = simulate(
         &exported,
-        &spec(Interface::ModelExchange, 1e-8, Some(force), &["mass.x", "mass.v", "effects[1].output", "mass.Fext"], &[]),
+        &spec(
+            Interface::ModelExchange,
+            1e-8,
+            Some(force),
+            &["mass.x", "mass.v", "effects[1].output", "mass.Fext"],
+            &[],
+        ),
     )
     .unwrap();
     // The port reads back the value set (its start, 0), not base + friction.
@@ -156,7 +165,9 @@ fn port_sensor_and_actuator_effects_run_inside_the_exported_model_exchange_fmu()
     assert!(common::rel_max_diff(column(&got, "effects[1].output"), &shifted) < 1e-9);
     // An actuated input nobody sets is its start value, transformed: F = 0 through a gain of 2
     // is 0, so an offset shows it; the original sees F = 0.7.
-    let offset = job.replace("kind = \"actuator_gain\"", "kind = \"actuator_offset\"").replace("gain = {", "offset = {")
+    let offset = job
+        .replace("kind = \"actuator_gain\"", "kind = \"actuator_offset\"")
+        .replace("gain = {", "offset = {")
         .replace("start = 2.0, lower = 0.5, upper = 3.0", "start = 0.7, lower = 0.0, upper = 3.0");
     let offset = common::load(&export(dir.path(), &offset, "offset.fmu"), &dir.path().join("cache"));
     let mut held = spec(Interface::ModelExchange, 1e-8, None, &["mass.x"], &[("k", 5.0), ("F", 0.7)]);
@@ -182,7 +193,12 @@ fn state_effects_run_inside_both_interfaces_and_instances_are_independent() {
     let outputs = ["mass.x", "mass.v", "mass.a"];
     let mut with_effects = spec(Interface::ModelExchange, 1e-8, None, &outputs, &[("k", 5.0)]);
     with_effects.state_terms = vec![
-        StateTerm { kind: "coulomb_friction".into(), state: "mass.v".into(), signal: "mass.v".into(), parameters: vec![0.05] },
+        StateTerm {
+            kind: "coulomb_friction".into(),
+            state: "mass.v".into(),
+            signal: "mass.v".into(),
+            parameters: vec![0.05],
+        },
         StateTerm {
             kind: "dead_zone_spring".into(),
             state: "mass.v".into(),
@@ -224,7 +240,8 @@ fn a_co_simulation_only_original_exports_co_simulation_with_its_port_effect() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data.csv");
     let time: Vec<f64> = (0..=100).map(|k| k as f64 * 0.1).collect();
-    let table = common::table(time.clone(), vec![("u", time.iter().map(|t| 0.1 * t.sin()).collect()), ("phi", vec![0.0; 101])]);
+    let table =
+        common::table(time.clone(), vec![("u", time.iter().map(|t| 0.1 * t.sin()).collect()), ("phi", vec![0.0; 101])]);
     common::write_input_csv(&table, &data);
     let job = common::job_toml(
         &Fixture::FurutaFmi1Cs.path(),
@@ -242,7 +259,11 @@ fn a_co_simulation_only_original_exports_co_simulation_with_its_port_effect() {
     let original = common::load(&Fixture::FurutaFmi1Cs.path(), &dir.path().join("cache"));
     let inputs = common::table(time, vec![("u", table.columns[0].1.clone())]);
     let outputs = ["armJoint.phi", "pendulumJoint.phi"];
-    let mut s = SimSpec { stop_time: Some(10.0), output_times: Some(OutputTimes::Interval(0.1)), ..spec(Interface::CoSimulation, 1e-8, Some(inputs.clone()), &outputs, &[("armFriction", 0.02)]) };
+    let mut s = SimSpec {
+        stop_time: Some(10.0),
+        output_times: Some(OutputTimes::Interval(0.1)),
+        ..spec(Interface::CoSimulation, 1e-8, Some(inputs.clone()), &outputs, &[("armFriction", 0.02)])
+    };
     s.port_terms = vec![PortTerm {
         kind: "viscous_damping".into(),
         port: "pendulumJoint.tauExt".into(),
@@ -274,13 +295,24 @@ fn fmpy_validates_and_runs_the_exported_fmu_as_fmucal_does() {
     let ports = export(dir.path(), &ports, "ports.fmu");
     let data = dir.path().join("phi.csv");
     common::write_input_csv(&common::table(vec![0.0, 1.0], vec![("phi", vec![0.0, 0.0])]), &data);
-    let fmi1 = common::job_toml(&Fixture::FurutaFmi1Cs.path(), Some(&data), &[("armJoint.phi", "phi")], &[], &[("armFriction", 0.02, 0.0, 0.1)], "");
+    let fmi1 = common::job_toml(
+        &Fixture::FurutaFmi1Cs.path(),
+        Some(&data),
+        &[("armJoint.phi", "phi")],
+        &[],
+        &[("armFriction", 0.02, 0.0, 0.1)],
+        "",
+    );
     let fmi1 = export(dir.path(), &fmi1, "fmi1.fmu");
     let exported = common::load(&fmu, &dir.path().join("cache"));
     let outputs = ["mass.x", "mass.v"];
     let mut refs = vec![];
     for (interface, tag) in [(Interface::ModelExchange, "ME"), (Interface::CoSimulation, "CS")] {
-        let r = simulate(&exported, &SimSpec { output_times: Some(OutputTimes::Interval(0.01)), ..spec(interface, 1e-8, None, &outputs, &[]) }).unwrap();
+        let r = simulate(
+            &exported,
+            &SimSpec { output_times: Some(OutputTimes::Interval(0.01)), ..spec(interface, 1e-8, None, &outputs, &[]) },
+        )
+        .unwrap();
         let csv = dir.path().join(format!("fmucal_{tag}.csv"));
         let mut text = String::from("time,mass.x,mass.v\n");
         for (i, t) in r.time.iter().enumerate() {
@@ -307,7 +339,14 @@ fn calibrating_the_exported_fmu_reproduces_the_job() {
     let data = Path::new(REPO).join("examples/friction/data.csv");
     let tables = "[simulation]\nstop_time = 15.0\ntolerance = 1e-8\ntolerance_guard = false\n[optimizer]\nx_tol = 1e-6\nf_tol = 1e-12\n";
     let effect = "[[effects]]\nkind = \"coulomb_friction\"\nstate = \"mass.v\"\nparameters = { force = { start = 0.03, lower = 0.0, upper = 0.2 } }\n";
-    let job = common::job_toml(&common::example("spring-mass"), Some(&data), &[("mass.x", "x")], &[], &[("k", 3.5, 0.5, 10.0), ("d", 0.4, 0.0, 2.0)], &format!("{effect}{tables}"));
+    let job = common::job_toml(
+        &common::example("spring-mass"),
+        Some(&data),
+        &[("mass.x", "x")],
+        &[],
+        &[("k", 3.5, 0.5, 10.0), ("d", 0.4, 0.0, 2.0)],
+        &format!("{effect}{tables}"),
+    );
     let fmu = export(dir.path(), &job, "corrected.fmu");
     let plain = common::job_toml(
         &fmu,
@@ -324,7 +363,8 @@ fn calibrating_the_exported_fmu_reproduces_the_job() {
         let out = dir.path().join(name);
         let o = fmucal(&["calibrate", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "--workers", "2"]);
         assert!(o.status.success(), "{name}: {}", String::from_utf8_lossy(&o.stderr));
-        let result: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
+        let result: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
         f_opt.push(result["f_opt"].as_f64().unwrap());
     }
     assert!((f_opt[0] - f_opt[1]).abs() <= 1e-6 * f_opt[0], "{f_opt:?}");
@@ -357,7 +397,10 @@ fn what_cannot_be_exported_is_refused_in_one_line_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let (job, _) = spring_mass_job(dir.path());
     let cases = [
-        (job.replace("kind = \"sensor_offset\"", "kind = \"sensor_lag\"").replace("offset = {", "time_constant = {"), "effects[1].kind: sensor_lag cannot be exported"),
+        (
+            job.replace("kind = \"sensor_offset\"", "kind = \"sensor_lag\"").replace("offset = {", "time_constant = {"),
+            "effects[1].kind: sensor_lag cannot be exported",
+        ),
         (job.replace(&format!("path = \"{}\"", Fixture::SpringMass.path().display()), "path = \"OUT\""), "-o:"),
     ];
     for (k, (text, want)) in cases.iter().enumerate() {
@@ -388,7 +431,14 @@ fn what_cannot_be_exported_is_refused_in_one_line_and_writes_nothing() {
     // A state effect on a Co-Simulation-only original.
     let data = dir.path().join("d.csv");
     common::write_input_csv(&common::table(vec![0.0, 1.0], vec![("phi", vec![0.0, 0.0])]), &data);
-    let job = common::job_toml(&Fixture::FurutaFmi1Cs.path(), Some(&data), &[("armJoint.phi", "phi")], &[], &[], "[[effects]]\nkind = \"viscous_damping\"\nstate = \"pendulumJoint.w\"\nparameters = { c = { start = 0.01, lower = 0.0, upper = 1.0 } }\n");
+    let job = common::job_toml(
+        &Fixture::FurutaFmi1Cs.path(),
+        Some(&data),
+        &[("armJoint.phi", "phi")],
+        &[],
+        &[],
+        "[[effects]]\nkind = \"viscous_damping\"\nstate = \"pendulumJoint.w\"\nparameters = { c = { start = 0.01, lower = 0.0, upper = 1.0 } }\n",
+    );
     let path = dir.path().join("cs.toml");
     std::fs::write(&path, job).unwrap();
     let out = dir.path().join("cs.fmu");

@@ -26,7 +26,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::diagnose::effects::{self, Found, Scale};
-use crate::fmu::schema::{Causality, InterfaceInfo, Initial, ScalarVariable, Unit, Unknown, Value, VarType, Variability};
+use crate::fmu::schema::{
+    Causality, Initial, InterfaceInfo, ScalarVariable, Unit, Unknown, Value, VarType, Variability,
+};
 use crate::fmu::{Fmu, ModelDescription};
 use crate::job::PreparedJob;
 use crate::quote::quote_user_text;
@@ -109,13 +111,16 @@ pub struct Request<'a> {
 
 /// The model identifier of the exported FMU: the original's, with `_corrected`.
 pub fn model_identifier(md: &ModelDescription) -> String {
-    let base = md.model_exchange.as_ref().or(md.co_simulation.as_ref()).map_or("model", |i| i.model_identifier.as_str());
+    let base =
+        md.model_exchange.as_ref().or(md.co_simulation.as_ref()).map_or("model", |i| i.model_identifier.as_str());
     format!("{base}_corrected")
 }
 
 /// The unit of what effect `target` adds to, and of the signal it reads.
 fn target_units(md: &ModelDescription, target: &Target) -> (Option<String>, Option<String>) {
-    let unit = |name: &str| md.variable(name).and_then(|v| md.unit_of(v).or_else(|| md.unit_of(md.base_of(v)))).map(str::to_owned);
+    let unit = |name: &str| {
+        md.variable(name).and_then(|v| md.unit_of(v).or_else(|| md.unit_of(md.base_of(v)))).map(str::to_owned)
+    };
     match target {
         Target::Port { port, signal } => (unit(port), unit(signal)),
         Target::State { state, signal } => {
@@ -167,7 +172,9 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
         .variables
         .iter()
         .enumerate()
-        .filter(|(_, v)| v.negated && !matches!(v.causality, Causality::Input | Causality::Output | Causality::Parameter))
+        .filter(|(_, v)| {
+            v.negated && !matches!(v.causality, Causality::Input | Causality::Output | Causality::Parameter)
+        })
         .map(|(i, _)| i)
         .collect();
     let mut md = original.without_variables(&drop);
@@ -178,7 +185,8 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
         let Some((vr, ty, value)) = typed_start(&s) else {
             return Err(refuse(format!("{}: FMI 2.0 has no Binary start value", quote_user_text(name))));
         };
-        let ty = |v: &ScalarVariable| v.var_type == ty || (ty == VarType::Integer && v.var_type == VarType::Enumeration);
+        let ty =
+            |v: &ScalarVariable| v.var_type == ty || (ty == VarType::Integer && v.var_type == VarType::Enumeration);
         for v in md.variables.iter_mut().filter(|v| v.value_reference == vr && ty(v) && !v.negated) {
             if v.start.is_some() || v.name == *name {
                 v.start = Some(value.clone());
@@ -210,7 +218,10 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
             _ => return Err(refuse(format!("{}: the effect names no port, state, output or input", field("kind")))),
         };
         if let Found::Series(kind) = &found
-            && !matches!(kind.name(), "sensor_offset" | "sensor_gain" | "actuator_offset" | "actuator_gain" | "actuator_saturation")
+            && !matches!(
+                kind.name(),
+                "sensor_offset" | "sensor_gain" | "actuator_offset" | "actuator_gain" | "actuator_saturation"
+            )
         {
             return Err(refuse(format!(
                 "{}: {} cannot be exported: it needs a memory of the signal's past inside the FMU; export the job without it",
@@ -272,9 +283,14 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
     }
     // What an effect changes depends on its new parameters (and a state term on its signal):
     // the unknowns it reaches lose their dependency lists, which then mean "on everything".
-    let index_of = |name: &str| md.variable(name).map(|v| v.value_reference).and_then(|vr| {
-        md.variables.iter().position(|v| v.value_reference == vr && v.var_type == VarType::Real && v.name == name).map(|i| i + 1)
-    });
+    let index_of = |name: &str| {
+        md.variable(name).map(|v| v.value_reference).and_then(|vr| {
+            md.variables
+                .iter()
+                .position(|v| v.value_reference == vr && v.var_type == VarType::Real && v.name == name)
+                .map(|i| i + 1)
+        })
+    };
     let mut via: Vec<usize> = vec![];
     let mut reached: Vec<usize> = vec![];
     for e in &effects_out {
@@ -413,7 +429,8 @@ fn add_tree(
     options: zip::write::SimpleFileOptions,
 ) -> Result<(), ExportError> {
     let read = |p: &Path, e: std::io::Error| refuse(format!("cannot read {}: {e}", p.display()));
-    let mut entries: Vec<_> = std::fs::read_dir(dir).map_err(|e| read(dir, e))?.collect::<Result<_, _>>().map_err(|e| read(dir, e))?;
+    let mut entries: Vec<_> =
+        std::fs::read_dir(dir).map_err(|e| read(dir, e))?.collect::<Result<_, _>>().map_err(|e| read(dir, e))?;
     entries.sort_by_key(std::fs::DirEntry::file_name);
     for entry in entries {
         let path = entry.path();
@@ -424,7 +441,8 @@ fn add_tree(
             let rel = path.strip_prefix(root).unwrap_or(&path);
             let name = format!("{ORIGINAL_DIR}/{}", rel.to_string_lossy().replace('\\', "/"));
             let bytes = std::fs::read(&path).map_err(|e| read(&path, e))?;
-            zip.start_file(name, options.unix_permissions(0o755)).map_err(|e| refuse(format!("cannot write the archive: {e}")))?;
+            zip.start_file(name, options.unix_permissions(0o755))
+                .map_err(|e| refuse(format!("cannot write the archive: {e}")))?;
             zip.write_all(&bytes).map_err(|e| refuse(format!("cannot write the archive: {e}")))?;
         }
     }

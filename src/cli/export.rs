@@ -147,7 +147,11 @@ pub(crate) fn export(spec: &JobSpec, values: Values, experiment: Option<&str>, o
             format!(
                 "--experiment: the job has no experiment {} ({})",
                 quote_user_text(name),
-                if names.is_empty() { "it has no [[experiments]]".to_owned() } else { format!("its experiments: {}", names.join(", ")) }
+                if names.is_empty() {
+                    "it has no [[experiments]]".to_owned()
+                } else {
+                    format!("its experiments: {}", names.join(", "))
+                }
             )
         })?,
     };
@@ -155,7 +159,8 @@ pub(crate) fn export(spec: &JobSpec, values: Values, experiment: Option<&str>, o
     let runtime = std::fs::read(&runtime_path).with_context(|| format!("cannot read {}", runtime_path.display()))?;
     let bytes = corrected_fmu(&Request { fmu: &fmu, job: &job, experiment: k, x: &x, runtime: &runtime })?;
     write_atomically(output, &bytes)?;
-    let interfaces = if fmu.description.model_exchange.is_some() { "Model Exchange and Co-Simulation" } else { "Co-Simulation" };
+    let interfaces =
+        if fmu.description.model_exchange.is_some() { "Model Exchange and Co-Simulation" } else { "Co-Simulation" };
     let effects = job.spec.effects.len();
     Ok(format!(
         "wrote {} ({}, FMI 2.0, {interfaces}): {} calibrated value(s) as defaults, {effects} effect(s) inside",

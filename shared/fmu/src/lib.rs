@@ -161,7 +161,8 @@ pub unsafe extern "C" fn fmi2Instantiate(
         // SAFETY: the importer passes NUL-terminated strings or null.
         if p.is_null() { None } else { Some(unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()) }
     };
-    let name = CString::new(text(instance_name).unwrap_or_else(|| "instance".into()).replace('\0', "")).unwrap_or_default();
+    let name =
+        CString::new(text(instance_name).unwrap_or_else(|| "instance".into()).replace('\0', "")).unwrap_or_default();
     let result = catch_unwind(AssertUnwindSafe(|| -> Result<Corrected, String> {
         let interface = match fmu_type {
             0 => Interface::ModelExchange,
@@ -208,7 +209,12 @@ pub unsafe extern "C" fn fmi2FreeInstance(c: *mut c_void) {
 /// # Safety
 /// FMI 2.0's contract.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn fmi2SetDebugLogging(c: *mut c_void, on: c_int, _n: usize, _categories: *const *const c_char) -> Status {
+pub unsafe extern "C" fn fmi2SetDebugLogging(
+    c: *mut c_void,
+    on: c_int,
+    _n: usize,
+    _categories: *const *const c_char,
+) -> Status {
     with(c, "fmi2SetDebugLogging", |comp| {
         comp.logging = on != 0;
         Ok(OK)
@@ -286,11 +292,17 @@ setter!(fmi2SetBoolean, c_int, set_boolean);
 /// # Safety
 /// FMI 2.0's contract: `vr` and `value` hold `n` elements.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn fmi2GetString(c: *mut c_void, vr: *const c_uint, n: usize, value: *mut *const c_char) -> Status {
+pub unsafe extern "C" fn fmi2GetString(
+    c: *mut c_void,
+    vr: *const c_uint,
+    n: usize,
+    value: *mut *const c_char,
+) -> Status {
     // SAFETY: as the function's contract says.
     let (vrs, out) = unsafe { (slice(vr, n), slice_mut(value, n)) };
     with(c, "fmi2GetString", |comp| {
-        comp.strings = vrs.iter().map(|&v| CString::new(comp.model.get_string(v).replace('\0', "")).unwrap_or_default()).collect();
+        comp.strings =
+            vrs.iter().map(|&v| CString::new(comp.model.get_string(v).replace('\0', "")).unwrap_or_default()).collect();
         for (slot, s) in out.iter_mut().zip(&comp.strings) {
             *slot = s.as_ptr();
         }
@@ -301,7 +313,12 @@ pub unsafe extern "C" fn fmi2GetString(c: *mut c_void, vr: *const c_uint, n: usi
 /// # Safety
 /// FMI 2.0's contract: `vr` and `value` hold `n` elements, each a NUL-terminated string.
 #[unsafe(no_mangle)]
-pub unsafe extern "C" fn fmi2SetString(c: *mut c_void, vr: *const c_uint, n: usize, value: *const *const c_char) -> Status {
+pub unsafe extern "C" fn fmi2SetString(
+    c: *mut c_void,
+    vr: *const c_uint,
+    n: usize,
+    value: *const *const c_char,
+) -> Status {
     // SAFETY: as the function's contract says.
     let (vrs, ptrs) = unsafe { (slice(vr, n), slice(value, n)) };
     let texts: Vec<String> = ptrs

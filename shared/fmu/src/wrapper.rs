@@ -96,14 +96,9 @@ impl Corrected {
     pub fn new(resources: &Path, interface: Interface, name: &str, guid: Option<&str>) -> Result<Corrected, Failure> {
         let path = resources.join(CONFIG_PATH.trim_start_matches("resources/"));
         let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        let config: RuntimeConfig =
-            serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+        let config: RuntimeConfig = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
         if config.format != CONFIG_FORMAT {
-            return Err(format!(
-                "{} is format {}, this runtime reads {CONFIG_FORMAT}",
-                path.display(),
-                config.format
-            ));
+            return Err(format!("{} is format {}, this runtime reads {CONFIG_FORMAT}", path.display(), config.format));
         }
         // The importer's GUID must be this FMU's (its description sits beside resources/).
         if let (Some(guid), Ok(xml)) = (guid, std::fs::read_to_string(resources.join("../modelDescription.xml")))
@@ -285,8 +280,12 @@ impl Corrected {
     /// Back to the state after instantiation, with the exported defaults.
     pub fn reset(&mut self) -> Result<(), Failure> {
         self.inst.call("fmi2Reset", |c| c.reset()).map_err(fail)?;
-        let starts: Vec<(u32, f64)> =
-            self.config.effects.iter().flat_map(|e| e.parameters.iter().map(|p| (p.value_reference, p.start))).collect();
+        let starts: Vec<(u32, f64)> = self
+            .config
+            .effects
+            .iter()
+            .flat_map(|e| e.parameters.iter().map(|p| (p.value_reference, p.start)))
+            .collect();
         for (vr, start) in starts {
             if let Some(&(place, j)) = self.params.get(&vr) {
                 self.set_parameter(place, j, start);
@@ -327,10 +326,14 @@ impl Corrected {
             }
         }
         for vr in vrs {
-            let var = md.variables.iter().find(|v| v.value_reference == vr && v.var_type == fmucal_fmi::schema::VarType::Real);
-            let set = self.config.settings.iter().rev().find_map(|(n, text)| {
-                md.variable(n).filter(|v| v.value_reference == vr).and(text.parse::<f64>().ok())
-            });
+            let var = md
+                .variables
+                .iter()
+                .find(|v| v.value_reference == vr && v.var_type == fmucal_fmi::schema::VarType::Real);
+            let set =
+                self.config.settings.iter().rev().find_map(|(n, text)| {
+                    md.variable(n).filter(|v| v.value_reference == vr).and(text.parse::<f64>().ok())
+                });
             let start = var.and_then(|v| match &v.start {
                 Some(fmucal_fmi::schema::Value::Real(x)) => Some(*x),
                 _ => None,

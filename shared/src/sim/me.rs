@@ -293,9 +293,7 @@ fn advance(model: &Model, rec: &mut Recorder, p: &mut Progress, run: &mut Carry,
             inst.call("fmi2GetContinuousStates", |c| c.get_continuous_states(&mut p.x))?;
         }
         if nx > 0 && run.info.nominals_of_continuous_states_changed != 0 {
-            inst.call("fmi2GetNominalsOfContinuousStates", |c| {
-                c.get_nominals_of_continuous_states(&mut run.nominals)
-            })?;
+            inst.call("fmi2GetNominalsOfContinuousStates", |c| c.get_nominals_of_continuous_states(&mut run.nominals))?;
         }
         drop(inst);
         check_finite(model, &p.x, p.t)?;

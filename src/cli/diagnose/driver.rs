@@ -643,7 +643,8 @@ fn name(ctx: &Context, candidate: &Candidate, fit: &CandidateFit, job: &JobSpec)
         .map(|(j, (n, v))| {
             let w = fit.verdict.as_ref().and_then(|v| v.half_widths.get(j).copied()).unwrap_or(f64::NAN);
             // Only the loads (a force, a strength): the port's or the derivative's unit.
-            let load = effects::parameter_scale(n) == effects::Scale::Load && !matches!(*n, "offset" | "lower" | "upper");
+            let load =
+                effects::parameter_scale(n) == effects::Scale::Load && !matches!(*n, "offset" | "lower" | "upper");
             let u = if load { unit.as_str() } else { "" };
             format!("{n} {}{u}", value_with_interval(*v, w))
         })

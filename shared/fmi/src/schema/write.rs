@@ -10,7 +10,7 @@ use std::fmt::Write;
 use quick_xml::escape::escape;
 
 use super::{
-    Causality, Fmi3Type, Initial, InterfaceInfo, ModelDescription, SchemaError, ScalarVariable, Unknown, Value,
+    Causality, Fmi3Type, Initial, InterfaceInfo, ModelDescription, ScalarVariable, SchemaError, Unknown, Value,
     VarType, Variability,
 };
 
@@ -259,9 +259,16 @@ impl ModelDescription {
                 out.push_str(">\n");
                 if let Some(b) = &u.base_unit {
                     out.push_str("      <BaseUnit");
-                    for (name, e) in
-                        [("kg", b.kg), ("m", b.m), ("s", b.s), ("A", b.a), ("K", b.k), ("mol", b.mol), ("cd", b.cd), ("rad", b.rad)]
-                    {
+                    for (name, e) in [
+                        ("kg", b.kg),
+                        ("m", b.m),
+                        ("s", b.s),
+                        ("A", b.a),
+                        ("K", b.k),
+                        ("mol", b.mol),
+                        ("cd", b.cd),
+                        ("rad", b.rad),
+                    ] {
                         if e != 0 {
                             attr(&mut out, name, &e.to_string());
                         }
@@ -362,7 +369,11 @@ impl ModelDescription {
                 .iter()
                 .map(|&index| Unknown {
                     index,
-                    dependencies: ms.initial_unknowns.iter().find(|u| u.index == index).and_then(|u| u.dependencies.clone()),
+                    dependencies: ms
+                        .initial_unknowns
+                        .iter()
+                        .find(|u| u.index == index)
+                        .and_then(|u| u.dependencies.clone()),
                 })
                 .collect();
             unknowns(&mut out, "InitialUnknowns", &list);
@@ -447,15 +458,23 @@ mod tests {
         assert_eq!(back.number_of_event_indicators, 1);
         assert_eq!(back.variables.len(), 5);
         for (a, b) in md.variables.iter().zip(&back.variables) {
-            assert_eq!((&a.name, a.value_reference, a.causality, a.variability), (&b.name, b.value_reference, b.causality, b.variability));
-            assert_eq!((&a.start, a.derivative, &a.unit, &a.description), (&b.start, b.derivative, &b.unit, &b.description));
+            assert_eq!(
+                (&a.name, a.value_reference, a.causality, a.variability),
+                (&b.name, b.value_reference, b.causality, b.variability)
+            );
+            assert_eq!(
+                (&a.start, a.derivative, &a.unit, &a.description),
+                (&b.start, b.derivative, &b.unit, &b.description)
+            );
         }
         assert_eq!(back.states().len(), 1);
         assert_eq!(back.outputs()[0].name, "y");
         assert_eq!(back.model_structure.derivatives[0].dependencies, Some(vec![1, 3]));
         assert_eq!(back.type_definitions[0].items.len(), 2);
         assert_eq!(back.default_experiment.unwrap().stop_time, Some(2.5));
-        assert!(back.model_exchange.is_some() && back.co_simulation.unwrap().can_handle_variable_communication_step_size);
+        assert!(
+            back.model_exchange.is_some() && back.co_simulation.unwrap().can_handle_variable_communication_step_size
+        );
     }
 
     #[test]
