@@ -283,14 +283,7 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
     }
     // What an effect changes depends on its new parameters (and a state term on its signal):
     // the unknowns it reaches lose their dependency lists, which then mean "on everything".
-    let index_of = |name: &str| {
-        md.variable(name).map(|v| v.value_reference).and_then(|vr| {
-            md.variables
-                .iter()
-                .position(|v| v.value_reference == vr && v.var_type == VarType::Real && v.name == name)
-                .map(|i| i + 1)
-        })
-    };
+    let index_of = |name: &str| md.variables.iter().position(|v| v.name == name).map(|i| i + 1);
     let mut via: Vec<usize> = vec![];
     let mut reached: Vec<usize> = vec![];
     for e in &effects_out {

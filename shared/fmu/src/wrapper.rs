@@ -45,6 +45,7 @@ enum Use {
     Series(usize),
 }
 
+#[derive(Clone)]
 struct SeriesTerm {
     kind: &'static dyn SeriesEffect,
     parameters: Vec<f64>,
@@ -64,6 +65,8 @@ pub struct Corrected {
     /// Co-Simulation over a Model Exchange original.
     integrate: bool,
     plan: Plan,
+    /// The plan and the series terms as instantiated, which `fmi2Reset` restores.
+    initial: (Plan, Vec<SeriesTerm>),
     stepper: Option<Stepper>,
     mode: Mode,
     params: HashMap<u32, (Use, usize)>,
@@ -188,6 +191,7 @@ impl Corrected {
             inst,
             interface,
             integrate,
+            initial: (plan.clone(), series.clone()),
             plan,
             stepper: None,
             mode: Mode::Instantiated,
@@ -280,33 +284,8 @@ impl Corrected {
     /// Back to the state after instantiation, with the exported defaults.
     pub fn reset(&mut self) -> Result<(), Failure> {
         self.inst.call("fmi2Reset", |c| c.reset()).map_err(fail)?;
-        let starts: Vec<(u32, f64)> = self
-            .config
-            .effects
-            .iter()
-            .flat_map(|e| e.parameters.iter().map(|p| (p.value_reference, p.start)))
-            .collect();
-        for (vr, start) in starts {
-            if let Some(&(place, j)) = self.params.get(&vr) {
-                self.set_parameter(place, j, start);
-            }
-        }
-        let md = self.fmu.description.clone();
-        for t in &mut self.plan.port_terms {
-            let start = md
-                .variables
-                .iter()
-                .find(|v| v.value_reference == t.port_vr)
-                .and_then(|v| match &v.start {
-                    Some(fmucal_fmi::schema::Value::Real(x)) => Some(*x),
-                    _ => None,
-                })
-                .unwrap_or(0.0);
-            let set = self.config.settings.iter().rev().find_map(|(n, v)| {
-                md.variable(n).filter(|var| var.value_reference == t.port_vr).and(v.parse::<f64>().ok())
-            });
-            t.base = PortBase::Value(set.unwrap_or(start));
-        }
+        // The effect parameters and port bases as exported, and the plan's times.
+        (self.plan, self.series) = self.initial.clone();
         self.raw_inputs.clear();
         self.strings.clear();
         self.stepper = None;

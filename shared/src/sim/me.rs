@@ -344,7 +344,8 @@ impl Stepper {
     /// As a simulation: the FMU, the integrator or the step budget.
     pub fn advance(&mut self, inst: &mut Instance, plan: &Plan, until: f64) -> Result<(), SimError> {
         let mut rec = Recorder::new(plan);
-        rec_skip_grid(&mut self.progress, plan);
+        // A stepper records nothing: its outputs are read by the caller.
+        self.progress.next_output = plan.grid.len();
         let model = Model::new(inst, plan);
         if advance(&model, &mut rec, &mut self.progress, &mut self.carry, until)? {
             self.terminated = true;
@@ -354,11 +355,6 @@ impl Stepper {
         model.set_point(&mut inst, self.progress.t, &self.progress.x)?;
         Ok(())
     }
-}
-
-/// A stepper records nothing: its outputs are read by the caller.
-fn rec_skip_grid(p: &mut Progress, plan: &Plan) {
-    p.next_output = plan.grid.len();
 }
 
 /// Fails naming the first state that is not finite.
