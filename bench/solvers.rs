@@ -70,7 +70,7 @@ fn load(file: &str) -> (JobSpec, Arc<Fmu>, Vec<fmucal_shared::job::MeasurementTa
 
 fn run(spec: &JobSpec, fmu: &Arc<Fmu>, data: &[fmucal_shared::job::MeasurementTable], algorithm: &str) -> Run {
     let mut spec = spec.clone();
-    spec.optimizer.algorithm = algorithm.parse().expect("a known algorithm");
+    spec.optimizer.algorithm = Some(algorithm.parse().expect("a known algorithm"));
     spec.optimizer.max_fevals = Some(BUDGET);
     let job = Arc::new(PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), data).expect("the job prepares"));
     let started = Instant::now();

@@ -179,7 +179,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 fixed_from_earlier_stage: vec![],
             },
             optimizer: OptimizerSpec {
-                algorithm: choice("spec.optimizer.algorithm", Some(o.algorithm))?.unwrap_or_default(),
+                algorithm: choice("spec.optimizer.algorithm", Some(o.algorithm))?,
                 parallel: o.parallel.unwrap_or(true),
                 x_tol: o.x_tol,
                 f_tol: o.f_tol,
@@ -301,7 +301,7 @@ pub fn job_to_proto(spec: &JobSpec, data: &[MeasurementTable], model_id: &str) -
             validation_stop_time: spec.simulation.validation_stop_time,
         }),
         optimizer: Some(pb::OptimizerSpec {
-            algorithm: o.algorithm.to_string(),
+            algorithm: o.algorithm.map(|a| a.to_string()).unwrap_or_default(),
             parallel: Some(o.parallel),
             x_tol: o.x_tol,
             f_tol: o.f_tol,

@@ -31,7 +31,7 @@ pub fn decision_f_tol(ssr: f64, n_eff: f64) -> f64 {
 /// own tolerances afterwards). Returns the settings and the f_tol the decision uses.
 pub fn decision_optimizer(own: &OptimizerSpec, ssr: f64, n_eff: f64) -> (OptimizerSpec, f64) {
     let mut o = own.clone();
-    o.algorithm = Algorithm::LeastSquares;
+    o.algorithm = Some(Algorithm::LeastSquares);
     let needed = decision_f_tol(ssr, n_eff);
     let f_tol = match own.f_tol {
         // 0 disables the rule in the job; the decision still stops at what it needs.
@@ -229,7 +229,7 @@ top = 3
         let (o, f_tol) = decision_optimizer(&own, 2000.0, 1000.0);
         assert_eq!((o.f_tol, f_tol), (Some(0.2), 0.2));
         assert_eq!(o.x_tol, Some(1e-5), "x_tol is the job's");
-        assert_eq!(o.algorithm, Algorithm::LeastSquares, "the fit uses the residual vector");
+        assert_eq!(o.algorithm(), Algorithm::LeastSquares, "the fit uses the residual vector");
         let loose = OptimizerSpec { f_tol: Some(1.0), ..Default::default() };
         assert_eq!(decision_optimizer(&loose, 2000.0, 1000.0).0.f_tol, Some(1.0));
         let off = OptimizerSpec { f_tol: Some(0.0), ..Default::default() };

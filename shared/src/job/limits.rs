@@ -110,7 +110,7 @@ fn round_points(spec: &JobSpec, n: usize) -> usize {
         return points.len();
     }
     let o = &spec.optimizer;
-    match o.algorithm {
+    match o.algorithm() {
         Algorithm::DifferentialEvolution => o.population.unwrap_or(DeSettings::new(n).population),
         Algorithm::Genetic => o.population.unwrap_or(GaSettings::new(n).population),
         Algorithm::CmaEs => {
@@ -127,7 +127,7 @@ fn check_optimizer(spec: &JobSpec) -> Result<(), JobError> {
     let o = &spec.optimizer;
     if let Some(p) = o.population {
         // CMA-ES doubles its population at each IPOP restart.
-        let doublings = if o.algorithm == Algorithm::CmaEs { o.restarts.unwrap_or(0) } else { 0 };
+        let doublings = if o.algorithm() == Algorithm::CmaEs { o.restarts.unwrap_or(0) } else { 0 };
         let largest = 1usize.checked_shl(doublings).filter(|_| doublings < 64).and_then(|f| f.checked_mul(p));
         if largest.is_none_or(|l| l > MAX_POPULATION) {
             let what =

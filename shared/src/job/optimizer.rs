@@ -52,12 +52,12 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
     };
     // A job that sets either budget gets exactly what it set; else the algorithm's default.
     let (max_iters, max_fevals) = match (o.max_iters, o.max_fevals) {
-        (None, None) => default_budget(o.algorithm, n),
+        (None, None) => default_budget(o.algorithm(), n),
         set => set,
     };
     let stopping =
         Stopping { x_tol: rule(o.x_tol, defaults.x_tol), f_tol: rule(o.f_tol, defaults.f_tol), max_iters, max_fevals };
-    Ok(match o.algorithm {
+    Ok(match o.algorithm() {
         Algorithm::DifferentialEvolution => {
             let d = DeSettings::new(n);
             let s = DeSettings {

@@ -360,9 +360,11 @@ impl std::fmt::Display for SetValue {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OptimizerSpec {
-    /// nelder-mead (default), differential-evolution, genetic, cma-es or least-squares.
-    #[serde(default, with = "text")]
-    pub algorithm: Algorithm,
+    /// nelder-mead, differential-evolution, genetic, cma-es or least-squares; unset, the default
+    /// ([`Algorithm::default`], read through [`OptimizerSpec::algorithm`]). Kept apart from the
+    /// default so that a job written back says only what its author chose.
+    #[serde(default, with = "optional_text", skip_serializing_if = "Option::is_none")]
+    pub algorithm: Option<Algorithm>,
     /// Nelder–Mead: evaluate the four trial points as one batch. Default: true.
     #[serde(default = "default_true")]
     pub parallel: bool,
@@ -415,6 +417,13 @@ fn default_true() -> bool {
 impl Default for OptimizerSpec {
     fn default() -> Self {
         toml::from_str("").expect("an empty optimizer table is valid")
+    }
+}
+
+impl OptimizerSpec {
+    /// The algorithm that runs: the one the job names, else the default.
+    pub fn algorithm(&self) -> Algorithm {
+        self.algorithm.unwrap_or_default()
     }
 }
 
@@ -839,7 +848,7 @@ upper = 2.0
         assert_eq!(spec.model.path.as_deref(), Some(Path::new("/jobs/m.fmu")));
         assert_eq!(spec.data.time_column, "time");
         assert_eq!(spec.outputs[0].weight, 1.0);
-        assert_eq!(spec.optimizer.algorithm, Algorithm::NelderMead);
+        assert_eq!(spec.optimizer.algorithm(), Algorithm::NelderMead);
         assert_eq!(spec.kind, JobKind::Calibration);
         assert!(spec.optimizer.parallel);
         spec.validate().unwrap();
@@ -926,7 +935,7 @@ upper = 2.0
         .unwrap();
         assert_eq!(spec.model.interface, Some(Interface::CoSimulation));
         assert_eq!(spec.simulation.solver, Some(Solver::Tsit45));
-        assert_eq!(spec.optimizer.algorithm, Algorithm::Genetic);
+        assert_eq!(spec.optimizer.algorithm, Some(Algorithm::Genetic));
         for (from, to, says) in [
             ("path = \"m.fmu\"", "path = \"m.fmu\"\ninterface = \"xx\"", "\"xx\" is not me or cs"),
             ("[data]", "[optimizer]\nalgorithm = \"points\"\n[data]", "\"points\" is not nelder-mead"),

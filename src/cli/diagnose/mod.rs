@@ -25,6 +25,8 @@ use std::sync::Arc;
 
 use anyhow::{Context as _, Result, bail};
 use fmucal_shared::fmu::Fmu;
+use fmucal_shared::diagnose::jobs::polish_step;
+use fmucal_shared::job::choices::Algorithm;
 use fmucal_shared::job::{JobSpec, MeasurementTable};
 
 use super::client::Client;
@@ -170,8 +172,7 @@ pub fn run(args: Args) -> Result<()> {
     let json = serde_json::to_string_pretty(report)?;
     std::fs::write(args.out.join("report.json"), json + "\n")?;
     // The job that reproduces the diagnosis: the named effects added, every start at the
-    // final fit, paths that hold from any folder, and (with standard errors for all) an
-    // initial step of one standard error so that the search stays near the optimum.
+    // final fit, paths that hold from any folder, and a search that stays near the optimum.
     let mut kept = original.with_absolute_paths();
     kept.effects.extend(report.named.iter().map(|n| n.effect.clone()));
     let mut kept = kept.with_starts(&report.fitted);
@@ -180,6 +181,16 @@ pub fn run(args: Args) -> Result<()> {
     if report.windows.holdout {
         kept.simulation.stop_time = Some(report.windows.calibration_stop);
         kept.simulation.validation_stop_time = Some(report.windows.validation_stop);
+    }
+    // A job that names no algorithm gets the one the diagnosis polished its fit with: least
+    // squares from the polish's small trust radius, which confirms the optimum in a few
+    // points where Nelder–Mead's simplex must shrink from its first edge down to x_tol. A job
+    // that names its algorithm keeps it, with a first step of one standard error.
+    if kept.optimizer.algorithm.is_none() {
+        kept.optimizer.algorithm = Some(Algorithm::LeastSquares);
+        if kept.optimizer.initial_step.is_none() {
+            kept.optimizer.initial_step = Some(polish_step(kept.optimizer.x_tol, None));
+        }
     }
     if kept.optimizer.initial_step.is_none() {
         kept.optimizer.initial_step = local_step(&kept, &report.standard_errors);
