@@ -164,13 +164,14 @@ fn effect() -> impl Strategy<Value = EffectSpec> {
 }
 
 fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
-    let algorithm = prop_oneof![
+    // None: the job names no algorithm, and none crosses the wire.
+    let algorithm = prop::option::of(prop_oneof![
         Just(Algorithm::NelderMead),
         Just(Algorithm::DifferentialEvolution),
         Just(Algorithm::Genetic),
         Just(Algorithm::CmaEs),
         Just(Algorithm::LeastSquares)
-    ];
+    ]);
     let opt_f = || prop::option::of(1e-9..1.0f64);
     (
         (algorithm, any::<bool>(), opt_f(), opt_f(), prop::option::of(1..10_000u64), prop::option::of(1..10_000u64)),
