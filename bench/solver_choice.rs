@@ -28,7 +28,8 @@
 //! coordinator drives; the result does not depend on the number of threads). Prints a Markdown
 //! table, the failures, and the decision rule's verdict: least squares becomes the default if
 //! it wins at least 80 % of the cases and fails on no start where Nelder–Mead succeeds.
-//! `--case TEXT` runs the cases whose name contains TEXT.
+//! `--case TEXT` runs the cases whose name contains TEXT; `--f-tol VALUE` replaces every job's
+//! `f_tol` (for both solvers), to tell a stopping rule from a solver that is stuck.
 
 #[path = "solver_runs.rs"]
 mod solver_runs;
@@ -536,6 +537,11 @@ fn cell(v: f64) -> String {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let only = args.iter().position(|a| a == "--case").and_then(|i| args.get(i + 1)).cloned();
+    let f_tol: Option<f64> = args
+        .iter()
+        .position(|a| a == "--f-tol")
+        .and_then(|i| args.get(i + 1))
+        .map(|v| v.parse().expect("--f-tol takes a number"));
     let mut lines = vec![];
     let mut notes = vec![];
     let (mut cases_run, mut ls_wins, mut ls_only_failures) = (0, 0, 0);
@@ -553,13 +559,16 @@ fn main() {
             Source::Example(file) => Ok(load(file)),
             Source::Generated(g) => generate(g, dir.path()),
         };
-        let problem = match problem {
+        let mut problem = match problem {
             Ok(p) => p,
             Err(e) => {
                 notes.push(format!("{}: cannot set up: {e}", case.name));
                 continue;
             }
         };
+        if f_tol.is_some() {
+            problem.spec.optimizer.f_tol = f_tol;
+        }
         let per_evaluation = problem.spec.fitted_experiments().len() as u64;
         let n = problem.spec.parameter_vectors().0.len();
         let starts = starts(&problem.spec, 1000 + index as u64);
