@@ -10,13 +10,10 @@
 //! round that reached it. Prints a Markdown table, and JSON with `--json FILE`; `--problem
 //! NAME` runs one problem only, and `--history` prints each round's best f after the table.
 
-use std::path::Path;
-use std::sync::Arc;
-use std::time::Instant;
+#[path = "solver_runs.rs"]
+mod solver_runs;
 
-use fmucal_shared::fmu::Fmu;
-use fmucal_shared::job::data::read_all;
-use fmucal_shared::job::{HistoryPoint, JobSpec, PreparedJob, local};
+use solver_runs::{Run, load, run};
 
 const THREADS: usize = 4;
 const BUDGET: u64 = 3000;
@@ -28,62 +25,6 @@ const PROBLEMS: [(&str, &str); 3] = [
 ];
 
 const ALGORITHMS: [&str; 3] = ["nelder-mead", "least-squares", "cma-es"];
-
-/// One optimizer's run on one problem.
-struct Run {
-    history: Vec<HistoryPoint>,
-    f_opt: f64,
-    evaluations: u64,
-    rounds: u64,
-    wall_s: f64,
-    termination: String,
-}
-
-impl Run {
-    /// Simulations, rounds and wall time to reach `target` (none if never).
-    fn reach(&self, target: f64) -> Option<(u64, u64, f64)> {
-        let mut wall = 0.0;
-        for h in &self.history {
-            wall += h.batch_wall_s;
-            if h.best_f <= target {
-                return Some((h.evaluations, h.round, wall));
-            }
-        }
-        None
-    }
-}
-
-fn load(file: &str) -> (JobSpec, Arc<Fmu>, Vec<fmucal_shared::job::MeasurementTable>) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut spec = JobSpec::from_toml_file(&root.join(file)).expect("the example job reads");
-    let model = spec.model.path.clone().expect("a model path");
-    let name = model.to_string_lossy().strip_prefix("example:").map(str::to_owned);
-    let path = match name {
-        Some(name) => fmucal_models::example(&name).expect("a built-in example"),
-        None => model,
-    };
-    spec.model.path = Some(path.clone());
-    let data = read_all(&spec).expect("the example data read");
-    let fmu = Arc::new(Fmu::load(&path).expect("the example FMU loads"));
-    (spec, fmu, data)
-}
-
-fn run(spec: &JobSpec, fmu: &Arc<Fmu>, data: &[fmucal_shared::job::MeasurementTable], algorithm: &str) -> Run {
-    let mut spec = spec.clone();
-    spec.optimizer.algorithm = Some(algorithm.parse().expect("a known algorithm"));
-    spec.optimizer.max_fevals = Some(BUDGET);
-    let job = Arc::new(PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), data).expect("the job prepares"));
-    let started = Instant::now();
-    let result = local::calibrate(fmu.clone(), job, THREADS, |_| {}).expect("the calibration runs");
-    Run {
-        history: result.history,
-        f_opt: result.f_opt,
-        evaluations: result.evaluations,
-        rounds: result.rounds,
-        wall_s: started.elapsed().as_secs_f64(),
-        termination: result.termination,
-    }
-}
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -97,8 +38,14 @@ fn main() {
     );
     println!("|---|---|---|---|---|---|---|---|");
     for (problem, file) in PROBLEMS.into_iter().filter(|(p, _)| only.as_deref().is_none_or(|o| o == *p)) {
-        let (spec, fmu, data) = load(file);
-        let runs: Vec<(&str, Run)> = ALGORITHMS.iter().map(|a| (*a, run(&spec, &fmu, &data, a))).collect();
+        let loaded = load(file);
+        let runs: Vec<(&str, Run)> = ALGORITHMS
+            .iter()
+            .map(|a| {
+                let algorithm = a.parse().expect("a known algorithm");
+                (*a, run(&loaded, algorithm, THREADS, Some(BUDGET)).expect("the calibration runs"))
+            })
+            .collect();
         let target = 1.01 * runs[0].1.f_opt;
         for (algorithm, r) in &runs {
             let reached = r.reach(target);

@@ -1,0 +1,669 @@
+//! Which solver should calibrations use by default? Run with `bash bench/solver_choice.sh`
+//! (`cargo bench --bench solver_choice`): Nelder–Mead and least squares, each with the job's
+//! own settings otherwise (tolerances, budget or the algorithm's default budget), on
+//!
+//! - every example under `examples/` that `fmucal calibrate` runs as it is (the exhaust's
+//!   stage 2 reads stage 1's result and is left out; stage 1 and all four cover its model);
+//! - the base jobs of the diagnosis benchmarks (`tests/diagnosis_grid.rs`,
+//!   `tests/diagnosis_exported.rs`): the base model's parameters fitted to data from a fixture
+//!   that hides an effect the base lacks (the model cannot fit it exactly), or from the base;
+//! - the hybrid fixtures: the stick-slip oscillator (stiction and Coulomb friction with mode
+//!   switches), the bouncing ball (state events) and a spring–mass with an injected dead-zone
+//!   spring (the term's own event indicators);
+//! - the Dymola-shaped (`*Exported`) fixtures, through the exported grid's base jobs.
+//!
+//! Generated cases simulate their data from the fixture at its defaults (tolerance 1e-10) and
+//! add seeded Gaussian noise of 1 % of each output's range, as the diagnosis grids do; their
+//! jobs copy the grids' `[[parameters]]`, `[simulation]` and `[optimizer]` tables.
+//!
+//! Each case runs from the job's start and from `RANDOM_STARTS` seeded random starts, uniform
+//! on the middle 90 % of each parameter's bounds (of its logarithm for `scale = "log"`). The
+//! target of a case is 1 % above the best f any of its runs reached; a run's cost is the
+//! simulations until its best f is within the target (read from its history, as `result.json`
+//! holds it), a run that never gets there or stops with an error is a failure. A case's cost for
+//! one solver is the median over its starts, a failure counting as infinite. Least squares
+//! wins a case when its median is lower than Nelder–Mead's.
+//!
+//! Runs are in-process on 2 evaluation threads (`local::calibrate`, the ask/tell loop the
+//! coordinator drives; the result does not depend on the number of threads). Prints a Markdown
+//! table, the failures, and the decision rule's verdict: least squares becomes the default if
+//! it wins at least 80 % of the cases and fails on no start where Nelder–Mead succeeds.
+//! `--case TEXT` runs the cases whose name contains TEXT; `--f-tol VALUE` replaces every job's
+//! `f_tol` (for both solvers), to tell a stopping rule from a solver that is stuck.
+
+#[path = "solver_runs.rs"]
+mod solver_runs;
+
+use std::path::{Path, PathBuf};
+
+use fmucal_models::Fixture;
+use fmucal_shared::job::{Algorithm, JobSpec, MeasurementTable};
+use fmucal_shared::sim::{InputTable, OutputTimes, PortTerm, SimSpec, simulate};
+use solver_runs::{Problem, Run, load, prepare, run};
+
+const THREADS: usize = 2;
+const RANDOM_STARTS: usize = 3;
+const NOISE: f64 = 0.01;
+const SOLVERS: [Algorithm; 2] = [Algorithm::NelderMead, Algorithm::LeastSquares];
+
+/// SplitMix64 and Box–Muller: seeded uniform and Gaussian numbers without a dependency.
+struct Rng(u64);
+
+impl Rng {
+    fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn gaussian(&mut self) -> f64 {
+        let (u1, u2) = (self.uniform().max(1e-300), self.uniform());
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
+}
+
+/// Input columns of a generated case: (data column, FMU input, samples).
+type Inputs = Vec<(&'static str, &'static str, Vec<f64>)>;
+
+/// A case whose data is simulated here.
+struct Generated {
+    /// The model the data comes from (a fixture that may hide an effect).
+    data_fmu: PathBuf,
+    /// Values set on `data_fmu` and effects injected into it for the data.
+    set: Vec<(&'static str, f64)>,
+    port_terms: Vec<PortTerm>,
+    /// The job's model.
+    job_fmu: PathBuf,
+    time: Vec<f64>,
+    inputs: Inputs,
+    /// (FMU output, data column).
+    outputs: &'static [(&'static str, &'static str)],
+    /// The job's `[[parameters]]`, `[[effects]]`, `[simulation]` and `[optimizer]` tables.
+    body: String,
+    seed: u64,
+}
+
+enum Source {
+    /// A job file under `examples/`.
+    Example(&'static str),
+    Generated(Generated),
+}
+
+struct Case {
+    name: &'static str,
+    source: Source,
+}
+
+fn grid(n: usize, dt: f64) -> Vec<f64> {
+    (0..=n).map(|k| k as f64 * dt).collect()
+}
+
+/// The Furuta inputs of `tests/diagnosis_grid.rs`: 0 torque pulses then a free swing, 1 a
+/// two-tone sine whose amplitude grows threefold.
+fn furuta_inputs(profile: usize) -> (Vec<f64>, Inputs) {
+    let time = grid(1000, 0.01);
+    let u = time
+        .iter()
+        .map(|t| match profile {
+            0 if *t < 1.0 => 0.08,
+            0 if *t < 2.0 => -0.08,
+            0 if (4.0..4.5).contains(t) => 0.1,
+            0 => 0.0,
+            _ => (0.5 + 0.1 * t) * (0.05 * (1.3 * t).sin() + 0.02 * (4.1 * t).sin()),
+        })
+        .collect();
+    (time, vec![("u", "u", u)])
+}
+
+/// The exhaust pipe's measured inputs up to 1800 s (`examples/exhaust/exhaust_data.csv`).
+fn exhaust_inputs() -> (Vec<f64>, Inputs) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/exhaust/exhaust_data.csv");
+    let data = MeasurementTable::read(&path, "time").expect("the exhaust data reads");
+    let rows = data.time.partition_point(|t| *t <= 1800.0);
+    let columns = ["inlet.T", "inlet.p", "turbine1.w", "turbine2.w", "outlet.p"]
+        .map(|c| (c, c, data.column(c).expect("an exhaust input")[..rows].to_vec()))
+        .to_vec();
+    (data.time[..rows].to_vec(), columns)
+}
+
+const FURUTA_OUTPUTS: &[(&str, &str)] = &[("armJoint.phi", "phi"), ("pendulumJoint.phi", "theta")];
+const SPRING_OUTPUTS: &[(&str, &str)] = &[("mass.x", "x")];
+const EXHAUST_OUTPUTS: &[(&str, &str)] = &[("outlet.T", "outlet_T")];
+
+const FURUTA_PARAMETERS: &str = r#"
+[[parameters]]
+name = "armFriction"
+start = 0.01
+lower = 0.0
+upper = 0.05
+[[parameters]]
+name = "pendulumFriction"
+start = 0.003
+lower = 0.0
+upper = 0.02
+"#;
+
+const SPRING_PARAMETERS: &str = r#"
+[[parameters]]
+name = "k"
+start = 3.5
+lower = 0.5
+upper = 10.0
+[[parameters]]
+name = "d"
+start = 0.4
+lower = 0.0
+upper = 2.0
+"#;
+
+const EXHAUST_BODY: &str = r#"
+[[parameters]]
+name = "rightVolume.wallCapacity"
+start = 12000.0
+lower = 1000.0
+upper = 100000.0
+[[parameters]]
+name = "rightVolume.wallConductance"
+start = 80.0
+lower = 5.0
+upper = 500.0
+[simulation]
+stop_time = 1200.0
+validation_stop_time = 1800.0
+tolerance = 1e-6
+[optimizer]
+x_tol = 1e-4
+f_tol = 1e-6
+"#;
+
+const TIGHT: &str = "[optimizer]\nx_tol = 1e-5\nf_tol = 1e-10\n";
+/// The `[simulation]` tables: the grid fits the whole record (its last quarter held out), the
+/// exported grid names its windows.
+const GRID_WINDOW: &str = "[simulation]\ntolerance = 1e-8\n";
+const FURUTA_EXPORTED_WINDOW: &str = "[simulation]\nstop_time = 7.5\nvalidation_stop_time = 10.0\ntolerance = 1e-8\n";
+const SPRING_EXPORTED_WINDOW: &str = "[simulation]\nstop_time = 15.0\nvalidation_stop_time = 20.0\ntolerance = 1e-8\n";
+
+fn cases() -> Vec<Case> {
+    let example = |name, file| Case { name, source: Source::Example(file) };
+    let generated = |name, g| Case { name, source: Source::Generated(g) };
+    let furuta = || fmucal_models::example("furuta").expect("the furuta example");
+    let exhaust = || fmucal_models::example("exhaust-pipe").expect("the exhaust example");
+    let grid_furuta = |data_fmu: PathBuf, profile, seed| {
+        let (time, inputs) = furuta_inputs(profile);
+        Generated {
+            data_fmu,
+            set: vec![],
+            port_terms: vec![],
+            job_fmu: furuta(),
+            time,
+            inputs,
+            outputs: FURUTA_OUTPUTS,
+            body: body(FURUTA_PARAMETERS, GRID_WINDOW),
+            seed,
+        }
+    };
+    let exported_spring = |data_fmu: PathBuf, driven: bool, seed| {
+        let time = grid(1000, 0.02);
+        let inputs = if driven {
+            let f = time.iter().map(|t| 0.8 * (1.3 * t).sin() + 0.4 * (0.5 * t).sin()).collect();
+            vec![("F", "F", f)]
+        } else {
+            vec![]
+        };
+        Generated {
+            data_fmu,
+            set: vec![],
+            port_terms: vec![],
+            job_fmu: Fixture::SpringMassExported.path(),
+            time,
+            inputs,
+            outputs: SPRING_OUTPUTS,
+            body: body(SPRING_PARAMETERS, SPRING_EXPORTED_WINDOW),
+            seed,
+        }
+    };
+    let (exhaust_time, exhaust_in) = exhaust_inputs();
+    let exhaust_case = |data_fmu, job_fmu, seed| Generated {
+        data_fmu,
+        set: vec![],
+        port_terms: vec![],
+        job_fmu,
+        time: exhaust_time.clone(),
+        inputs: exhaust_in.clone(),
+        outputs: EXHAUST_OUTPUTS,
+        body: EXHAUST_BODY.to_owned(),
+        seed,
+    };
+    vec![
+        // The examples that are calibration jobs.
+        example("example furuta", "examples/furuta/job.toml"),
+        example("example furuta_experiments", "examples/furuta_experiments/job.toml"),
+        example("example exhaust stage 1", "examples/exhaust/stage1_right.toml"),
+        example("example exhaust all four", "examples/exhaust/all_four.toml"),
+        example("example friction (base job)", "examples/friction/job.toml"),
+        example("example diagnose (base job)", "examples/diagnose/job.toml"),
+        // Base jobs of the diagnosis grid.
+        generated("grid Furuta, pendulum Coulomb", grid_furuta(Fixture::FurutaHiddenCoulomb.path(), 0, 11)),
+        generated("grid Furuta, arm sensor offset", grid_furuta(Fixture::FurutaHiddenSensorOffset.path(), 0, 12)),
+        generated("grid Furuta, arm drag", grid_furuta(Fixture::FurutaHiddenArmDrag.path(), 1, 13)),
+        generated("grid Furuta, nothing hidden", grid_furuta(furuta(), 1, 14)),
+        generated("grid spring-mass, cubic spring", {
+            let time = grid(1000, 0.02);
+            let f = time.iter().map(|t| 3.0 * t.sin()).collect();
+            Generated {
+                data_fmu: Fixture::SpringMassHiddenCubic.path(),
+                set: vec![],
+                port_terms: vec![],
+                job_fmu: Fixture::SpringMass.path(),
+                time,
+                inputs: vec![("F", "F", f)],
+                outputs: SPRING_OUTPUTS,
+                body: body(SPRING_PARAMETERS, GRID_WINDOW),
+                seed: 15,
+            }
+        }),
+        generated("grid exhaust, radiation", exhaust_case(Fixture::ExhaustPipeHiddenRadiation.path(), exhaust(), 16)),
+        // Base jobs of the exported grid: Dymola-shaped descriptions.
+        generated(
+            "exported spring-mass, Coulomb, driven",
+            exported_spring(Fixture::SpringMassExportedHiddenCoulomb.path(), true, 21),
+        ),
+        generated(
+            "exported spring-mass, Stribeck, free",
+            exported_spring(Fixture::SpringMassExportedHiddenStribeck.path(), false, 22),
+        ),
+        generated(
+            "exported spring-mass, nothing hidden",
+            exported_spring(Fixture::SpringMassExported.path(), true, 23),
+        ),
+        generated("exported Furuta, pendulum Coulomb", {
+            let (time, inputs) = furuta_inputs(1);
+            Generated {
+                data_fmu: Fixture::FurutaExportedHiddenCoulomb.path(),
+                set: vec![],
+                port_terms: vec![],
+                job_fmu: Fixture::FurutaExported.path(),
+                time,
+                inputs,
+                outputs: FURUTA_OUTPUTS,
+                body: body(FURUTA_PARAMETERS, FURUTA_EXPORTED_WINDOW),
+                seed: 24,
+            }
+        }),
+        generated(
+            "exported exhaust, radiation",
+            exhaust_case(Fixture::ExhaustPipeExportedHiddenRadiation.path(), Fixture::ExhaustPipeExported.path(), 25),
+        ),
+        // Hybrid models.
+        generated("hybrid stick-slip", {
+            // F = 2.2 sin(0.8 t): stick and slip phases in both directions. The model refuses
+            // Fc > Fs, so the bounds keep Fc below Fs everywhere.
+            let time = grid(400, 0.05);
+            let f = time.iter().map(|t| 2.2 * (0.8 * t).sin()).collect();
+            Generated {
+                data_fmu: Fixture::StickSlip.path(),
+                set: vec![],
+                port_terms: vec![],
+                job_fmu: Fixture::StickSlip.path(),
+                time,
+                inputs: vec![("F", "F", f)],
+                outputs: &[("x", "x")],
+                body: r#"
+[[parameters]]
+name = "Fs"
+start = 1.4
+lower = 0.7
+upper = 2.0
+[[parameters]]
+name = "Fc"
+start = 0.3
+lower = 0.1
+upper = 0.7
+[[parameters]]
+name = "d"
+start = 0.2
+lower = 0.0
+upper = 0.5
+[simulation]
+tolerance = 1e-8
+[optimizer]
+x_tol = 1e-5
+f_tol = 1e-10
+"#
+                .to_owned(),
+                seed: 31,
+            }
+        }),
+        generated(
+            "hybrid bouncing ball",
+            Generated {
+                data_fmu: fmucal_models::example("bouncing-ball").expect("the bouncing-ball example"),
+                set: vec![],
+                port_terms: vec![],
+                job_fmu: fmucal_models::example("bouncing-ball").expect("the bouncing-ball example"),
+                time: grid(300, 0.01),
+                inputs: vec![],
+                outputs: &[("h", "h")],
+                body: r#"
+[[parameters]]
+name = "e"
+start = 0.5
+lower = 0.3
+upper = 0.95
+[[parameters]]
+name = "g"
+start = 8.0
+lower = 5.0
+upper = 15.0
+[simulation]
+tolerance = 1e-8
+[optimizer]
+x_tol = 1e-5
+f_tol = 1e-10
+"#
+                .to_owned(),
+                seed: 32,
+            },
+        ),
+        generated(
+            "hybrid dead-zone spring",
+            Generated {
+                // A free spring–mass from x = 1 m with a dead-zone spring (k 12 N/m, width
+                // 0.3 m) injected on its force port: the zone's edges are event indicators.
+                data_fmu: Fixture::SpringMass.path(),
+                set: vec![("mass.x", 1.0)],
+                port_terms: vec![PortTerm {
+                    kind: "dead_zone_spring".into(),
+                    port: "mass.Fext".into(),
+                    signal: "mass.x".into(),
+                    parameters: vec![12.0, 0.3],
+                }],
+                job_fmu: Fixture::SpringMass.path(),
+                time: grid(1000, 0.01),
+                inputs: vec![],
+                outputs: SPRING_OUTPUTS,
+                body: r#"
+[[effects]]
+kind = "dead_zone_spring"
+port = "mass.Fext"
+signal = "mass.x"
+parameters = { k = { start = 6.0, lower = 1.0, upper = 30.0 }, width = { start = 0.15, lower = 0.0, upper = 0.6 } }
+[simulation]
+set = { "mass.x" = 1.0 }
+tolerance = 1e-8
+[optimizer]
+x_tol = 1e-5
+f_tol = 1e-10
+"#
+                .to_owned(),
+                seed: 33,
+            },
+        ),
+    ]
+}
+
+/// `parameters`, `simulation` and the grids' tight optimizer table, as one job body.
+fn body(parameters: &str, simulation: &str) -> String {
+    format!("{parameters}{simulation}{TIGHT}")
+}
+
+/// Writes the case's noisy data and job into `dir` and prepares the job.
+fn generate(g: &Generated, dir: &Path) -> Result<Problem, String> {
+    let fmu = fmucal_shared::fmu::Fmu::load(&g.data_fmu).map_err(|e| e.to_string())?;
+    let inputs = (!g.inputs.is_empty()).then(|| InputTable {
+        time: g.time.clone(),
+        columns: g.inputs.iter().map(|(_, variable, v)| ((*variable).to_owned(), v.clone())).collect(),
+    });
+    let spec = SimSpec {
+        start_time: Some(g.time[0]),
+        stop_time: g.time.last().copied(),
+        output_times: Some(OutputTimes::Times(g.time.clone())),
+        parameters: g.set.iter().map(|(n, v)| ((*n).to_owned(), v.to_string())).collect(),
+        inputs,
+        outputs: g.outputs.iter().map(|(v, _)| (*v).to_owned()).collect(),
+        tolerance: Some(1e-10),
+        port_terms: g.port_terms.clone(),
+        ..Default::default()
+    };
+    let clean = simulate(&fmu, &spec).map_err(|e| e.to_string())?;
+    let sigma: Vec<f64> = clean
+        .columns
+        .iter()
+        .map(|c| {
+            let (lo, hi) = c.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+            NOISE * (hi - lo)
+        })
+        .collect();
+    let mut noise = Rng(g.seed);
+    let mut csv = String::from("time");
+    for (_, column) in g.outputs {
+        csv.push_str(&format!(",{column}"));
+    }
+    for (column, _, _) in &g.inputs {
+        csv.push_str(&format!(",{column}"));
+    }
+    csv.push('\n');
+    for (i, t) in g.time.iter().enumerate() {
+        csv.push_str(&format!("{t}"));
+        for (c, s) in clean.columns.iter().zip(&sigma) {
+            csv.push_str(&format!(",{}", c[i] + s * noise.gaussian()));
+        }
+        for (_, _, v) in &g.inputs {
+            csv.push_str(&format!(",{}", v[i]));
+        }
+        csv.push('\n');
+    }
+    std::fs::write(dir.join("data.csv"), csv).map_err(|e| e.to_string())?;
+    let mut job = format!("[model]\npath = {:?}\n[data]\npath = \"data.csv\"\n", g.job_fmu.display().to_string());
+    for (variable, column) in g.outputs {
+        job.push_str(&format!("[[outputs]]\nvariable = \"{variable}\"\ncolumn = \"{column}\"\n"));
+    }
+    for (column, variable, _) in &g.inputs {
+        job.push_str(&format!("[[inputs]]\ncolumn = \"{column}\"\nvariable = \"{variable}\"\n"));
+    }
+    job.push_str(&g.body);
+    let spec = JobSpec::from_toml(&job, dir).map_err(|e| e.to_string())?;
+    prepare(spec)
+}
+
+/// The job with its calibrated values started at `x` (in `calibrated()` order).
+fn started_at(spec: &JobSpec, x: &[f64]) -> JobSpec {
+    let mut spec = spec.clone();
+    let mut k = 0;
+    for p in 0..spec.parameters.len() {
+        if spec.parameters[p].per_experiment && !spec.experiments.is_empty() {
+            for e in spec.fitted_experiments() {
+                let name = spec.parameters[p].name.clone();
+                spec.experiments[e].starts.insert(name, x[k]);
+                k += 1;
+            }
+        } else {
+            spec.parameters[p].start = x[k];
+            k += 1;
+        }
+    }
+    for effect in 0..spec.effects.len() {
+        let names: Vec<&str> =
+            spec.effects[effect].ordered_parameters(effect).unwrap_or_default().iter().map(|(n, _)| *n).collect();
+        for name in names {
+            if let Some(b) = spec.effects[effect].parameters.get_mut(name) {
+                b.start = x[k];
+            }
+            k += 1;
+        }
+    }
+    spec
+}
+
+/// The job's start, then `RANDOM_STARTS` seeded starts inside the bounds.
+fn starts(spec: &JobSpec, seed: u64) -> Vec<Vec<f64>> {
+    let (_, x0, lower, upper) = spec.parameter_vectors();
+    let log = spec.log_scaled();
+    let mut rng = Rng(seed);
+    let mut out = vec![x0.clone()];
+    for _ in 0..RANDOM_STARTS {
+        let x = (0..x0.len())
+            .map(|i| {
+                let u = 0.05 + 0.9 * rng.uniform();
+                if !(lower[i].is_finite() && upper[i].is_finite()) {
+                    x0[i]
+                } else if log[i] {
+                    (lower[i].ln() + u * (upper[i].ln() - lower[i].ln())).exp()
+                } else {
+                    lower[i] + u * (upper[i] - lower[i])
+                }
+            })
+            .collect();
+        out.push(x);
+    }
+    out
+}
+
+/// One solver's runs of a case, one per start (an error as text).
+type Runs = Vec<Result<Run, String>>;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+}
+
+fn cell(v: f64) -> String {
+    if v.is_finite() { format!("{v:.0}") } else { "failed".into() }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let only = args.iter().position(|a| a == "--case").and_then(|i| args.get(i + 1)).cloned();
+    let f_tol: Option<f64> = args
+        .iter()
+        .position(|a| a == "--f-tol")
+        .and_then(|i| args.get(i + 1))
+        .map(|v| v.parse().expect("--f-tol takes a number"));
+    let mut lines = vec![];
+    let mut notes = vec![];
+    let (mut cases_run, mut ls_wins, mut ls_only_failures) = (0, 0, 0);
+    let mut ratios = vec![];
+    println!(
+        "| case | n | starts | NM simulations | LS simulations | LS ÷ NM | NM rounds | LS rounds | NM failures | LS failures |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for (index, case) in cases().into_iter().enumerate() {
+        if only.as_deref().is_some_and(|o| !case.name.contains(o)) {
+            continue;
+        }
+        let dir = tempfile::tempdir().expect("a scratch folder");
+        let problem = match &case.source {
+            Source::Example(file) => Ok(load(file)),
+            Source::Generated(g) => generate(g, dir.path()),
+        };
+        let mut problem = match problem {
+            Ok(p) => p,
+            Err(e) => {
+                notes.push(format!("{}: cannot set up: {e}", case.name));
+                continue;
+            }
+        };
+        if f_tol.is_some() {
+            problem.spec.optimizer.f_tol = f_tol;
+        }
+        let per_evaluation = problem.spec.fitted_experiments().len() as u64;
+        let n = problem.spec.parameter_vectors().0.len();
+        let starts = starts(&problem.spec, 1000 + index as u64);
+        let runs: Vec<Runs> = SOLVERS
+            .iter()
+            .map(|algorithm| {
+                starts
+                    .iter()
+                    .map(|x| {
+                        let p = Problem {
+                            spec: started_at(&problem.spec, x),
+                            fmu: problem.fmu.clone(),
+                            data: problem.data.clone(),
+                        };
+                        run(&p, *algorithm, THREADS, None)
+                    })
+                    .collect()
+            })
+            .collect();
+        let best = runs.iter().flatten().flatten().map(|r| r.f_opt).fold(f64::INFINITY, f64::min);
+        let target = best * 1.01;
+        // Per solver: simulations and rounds to the target per start (infinite: failed).
+        let reached: Vec<Vec<(f64, f64)>> = runs
+            .iter()
+            .map(|runs| {
+                runs.iter()
+                    .map(|r| match r.as_ref().ok().and_then(|r| r.reach(target)) {
+                        Some((evaluations, rounds, _)) => ((evaluations * per_evaluation) as f64, rounds as f64),
+                        None => (f64::INFINITY, f64::INFINITY),
+                    })
+                    .collect()
+            })
+            .collect();
+        for (s, algorithm) in SOLVERS.iter().enumerate() {
+            for (k, r) in runs[s].iter().enumerate() {
+                if reached[s][k].0.is_finite() {
+                    continue;
+                }
+                let other = reached[1 - s][k].0.is_finite();
+                if *algorithm == Algorithm::LeastSquares && other {
+                    ls_only_failures += 1;
+                }
+                let what = match r {
+                    Ok(r) => format!(
+                        "ended at f = {:.6e} ({:.1} % above the best), {} simulations, {}",
+                        r.f_opt,
+                        100.0 * (r.f_opt / best - 1.0),
+                        r.evaluations * per_evaluation,
+                        r.termination
+                    ),
+                    Err(e) => format!("error: {e}"),
+                };
+                let start: Vec<String> = starts[k].iter().map(|v| format!("{v:.3e}")).collect();
+                notes.push(format!(
+                    "{}: {algorithm} from [{}] {what}{}",
+                    case.name,
+                    start.join(", "),
+                    if other { "; the other solver reached the target from there" } else { "" }
+                ));
+            }
+        }
+        let med = |s: usize, col: usize| median(reached[s].iter().map(|r| if col == 0 { r.0 } else { r.1 }).collect());
+        let (nm, ls) = (med(0, 0), med(1, 0));
+        let fails = |s: usize| reached[s].iter().filter(|r| !r.0.is_finite()).count();
+        let ratio = if nm.is_finite() && ls.is_finite() { format!("{:.2}", ls / nm) } else { "–".into() };
+        if nm.is_finite() && ls.is_finite() {
+            ratios.push(ls / nm);
+        }
+        cases_run += 1;
+        if ls < nm {
+            ls_wins += 1;
+        }
+        let line = format!(
+            "| {} | {n} | {} | {} | {} | {ratio} | {} | {} | {} | {} |",
+            case.name,
+            starts.len(),
+            cell(nm),
+            cell(ls),
+            cell(med(0, 1)),
+            cell(med(1, 1)),
+            fails(0),
+            fails(1)
+        );
+        println!("{line}");
+        lines.push(line);
+    }
+    println!();
+    println!("Least squares wins {ls_wins} of {cases_run} cases; median LS ÷ NM {:.2}.", median(ratios.clone()));
+    println!("Starts where least squares fails and Nelder–Mead reaches the target: {ls_only_failures}.");
+    let holds = cases_run > 0 && ls_wins * 5 >= cases_run * 4 && ls_only_failures == 0;
+    println!(
+        "Decision rule (wins on >= 80 % of cases, no failure Nelder–Mead avoids): {}.",
+        if holds { "holds" } else { "does not hold" }
+    );
+    for note in &notes {
+        println!("- {note}");
+    }
+}
