@@ -6,7 +6,7 @@
 //! with an injection port (SpringMass.fmu), an array parameter's elements as scalars
 //! (ArrayParams.fmu), FMI 3.0 and FMI 1.0 builds of the same C sources (below), and hidden-effect fixtures: a
 //! model's C source built with a define that adds physics its (unchanged) description does not
-//! mention, each exactly one of fmucal's effect formulas (shared/src/diagnose/effects.rs):
+//! mention, each exactly one of fmucal's effect formulas (shared/src/effects.rs):
 //!
 //! | fixture | base | define | effect |
 //! |---|---|---|---|

@@ -7,8 +7,8 @@
 use std::path::Path;
 
 use fmucal_models::Fixture;
-use fmucal_shared::diagnose::effects::Domain;
-use fmucal_shared::diagnose::structure::{Pairing, Quantity, Role, Structure};
+use fmucal_shared::effects::Domain;
+use fmucal_shared::structure::{Pairing, Quantity, Role, Structure};
 use fmucal_shared::fmu::schema::ModelDescription;
 use fmucal_shared::fmu::{ArchiveLimits, LoadOptions, describe};
 

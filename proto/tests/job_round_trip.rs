@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use fmucal_proto::convert::{SubmittedJob, job_to_proto};
-use fmucal_shared::diagnose::effects;
+use fmucal_shared::effects;
 use fmucal_shared::fmu::Interface;
 use fmucal_shared::job::choices::{ExperimentRole, Scale};
 use fmucal_shared::job::experiments::ExperimentSpec;

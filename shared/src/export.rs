@@ -25,7 +25,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::diagnose::effects::{self, Found, Scale};
+use crate::effects::{self, Found, Scale};
 use crate::fmu::schema::{
     Causality, Initial, InterfaceInfo, ScalarVariable, Unit, Unknown, Value, VarType, Variability,
 };

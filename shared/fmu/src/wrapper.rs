@@ -20,7 +20,7 @@ use std::path::Path;
 
 use fmucal_fmi::ffi::{EventInfo, Status};
 use fmucal_fmi::{Fmu, Instance, Interface};
-use fmucal_shared::diagnose::effects::{self, Found, SeriesEffect};
+use fmucal_shared::effects::{self, Found, SeriesEffect};
 use fmucal_shared::export::{CONFIG_FORMAT, CONFIG_PATH, ORIGINAL_DIR, RuntimeConfig, Target};
 use fmucal_shared::sim::inputs::Side;
 use fmucal_shared::sim::plan::{Plan, PortBase};

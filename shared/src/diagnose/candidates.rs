@@ -3,7 +3,7 @@
 //! [`generate`] lists every effect kind at every place it fits ([`super::places`]): each
 //! compatible (port, signal) pair, each state's derivative (with the state or its position as
 //! signal), sensor effects on every output and actuator effects on every input, each with its
-//! parameters guessed from the sizes of this job ([`super::guess`]): a port's load scale, a
+//! parameters guessed from the sizes of this job ([`crate::effects::guess`]): a port's load scale, a
 //! state's derivative scale.
 //!
 //! [`Screening`] ranks them without fitting any: all candidates are added to one job at their
@@ -22,12 +22,12 @@ use std::collections::BTreeMap;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use super::effects::{self, Domain, Found};
-use super::guess::{Guess, Guesses, Scales, SignalRole, SignalStats};
+use crate::effects::{self, Domain, Found};
+use crate::effects::guess::{Guess, Guesses, Scales, SignalRole, SignalStats};
 use super::places::Places;
-use super::residuals::chi_squared_survival;
+use crate::residuals::chi_squared_survival;
 use super::spec::{DiagnoseSpec, PortDomain};
-use super::structure::Role;
+use crate::structure::Role;
 use crate::job::identifiability::relative_step;
 use crate::job::spec::{Bounds, EffectSpec, JobSpec};
 

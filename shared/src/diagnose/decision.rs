@@ -23,7 +23,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::residuals::chi_squared_survival;
+use crate::residuals::chi_squared_survival;
 
 /// The evidence about one fitted candidate.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -50,7 +50,7 @@ pub fn decision_optimizer(own: &OptimizerSpec, ssr: f64, n_eff: f64) -> (Optimiz
 /// one output's residual ends and the next begins, and events). No fit can end much below it,
 /// so a tolerance derived from it is tight enough for any candidate.
 pub fn noise_ssr(r: &[f64]) -> f64 {
-    r.len() as f64 * super::residuals::noise_sigma(r).powi(2)
+    r.len() as f64 * crate::residuals::noise_sigma(r).powi(2)
 }
 
 /// A candidate fit whose Gauss–Newton step would still gain `decrease` stopped early (its
@@ -144,7 +144,7 @@ mod tests {
     use std::path::Path;
 
     use super::*;
-    use crate::diagnose::guess::Guess;
+    use crate::effects::guess::Guess;
 
     fn base() -> JobSpec {
         let text = r#"

@@ -5,7 +5,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::residuals::{LjungBox, WindowRms, correlation, ljung_box, windows};
+use crate::residuals::{LJUNG_BOX_LAGS, LjungBox, WindowRms, correlation, ljung_box, windows};
 
 /// The correlation of an output's residual with one signal.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -44,8 +44,6 @@ pub struct Localisation {
     pub outputs: Vec<OutputResidual>,
 }
 
-/// Lags of the Ljung–Box test: 20, or fewer for short series.
-pub const LJUNG_BOX_LAGS: usize = 20;
 
 /// Analyses `residuals` (per output: variable and simulated − measured on `time`, NaN where
 /// missing) against `signals` (name and values on `time`), in `window_count` windows.

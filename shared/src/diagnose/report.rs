@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::candidates::{Candidate, Screened};
 use super::decision::{Baseline, Evidence, Verdict, elsewhere};
 use super::localise::Localisation;
-use super::residuals::Misfit;
+use crate::residuals::Misfit;
 use crate::job::spec::EffectSpec;
 
 /// What a diagnosis concludes.
@@ -18,7 +18,7 @@ pub enum Conclusion {
     /// An effect of the library was named.
     Named,
     /// None was, and the base model's residual is far from its noise
-    /// ([`super::residuals::Misfit::far`]), or the best candidate left it far: the model
+    /// ([`crate::residuals::Misfit::far`]), or the best candidate left it far: the model
     /// misses something none of the tried effects explains.
     MissesSomething,
     /// None was, and the residual is consistent with noise: the model fits.

@@ -12,10 +12,10 @@ use super::experiments::{ExperimentView, Slot, position_for, prefixed};
 use super::objective::{Objective, Target};
 use super::spec::{EffectSpec, JobSpec};
 use super::{JobError, JobKind, limits};
-use crate::diagnose::effects;
-use crate::diagnose::effects::Domain;
-use crate::diagnose::guess::SignalRole;
-use crate::diagnose::structure::{Quantity, Role, Structure};
+use crate::effects;
+use crate::effects::Domain;
+use crate::effects::guess::SignalRole;
+use crate::structure::{Quantity, Role, Structure};
 use crate::fmu::schema::{Causality, VarType};
 use crate::fmu::{Interface, ModelDescription};
 use crate::quote::quote_user_text;
@@ -215,7 +215,7 @@ fn state_signal(
 }
 
 /// A state's quantity and role in words: "a rotational position (rad)".
-pub fn describe_state(s: &crate::diagnose::structure::State) -> String {
+pub fn describe_state(s: &crate::structure::State) -> String {
     let quantity = match s.quantity {
         Quantity::Translational => "translational ",
         Quantity::Rotational => "rotational ",

@@ -61,7 +61,7 @@ use serde::{Deserialize, Serialize};
 use super::JobError;
 use super::choices::{Algorithm, JobKind, Scale, optional_interface, optional_text, text};
 use super::experiments::ExperimentSpec;
-use crate::diagnose::effects::{self, Domain};
+use crate::effects::{self, Domain};
 use crate::diagnose::spec::DiagnoseSpec;
 use crate::fmu::Interface;
 use crate::quote::quote_user_text;
@@ -179,7 +179,7 @@ impl ParameterSpec {
     }
 }
 
-/// An effect of the library ([`crate::diagnose::effects`]) added to the model:
+/// An effect of the library ([`crate::effects`]) added to the model:
 ///
 /// ```toml
 /// [[effects]]

@@ -5,7 +5,7 @@
 //! (in Co-Simulation, where an FMU may ignore the tolerance and the error comes from the
 //! communication step, the finer run also splits every output interval into ten steps) and
 //! compares, output by output, the difference on the measured times with the output's noise
-//! estimate σ ([`crate::diagnose::residuals::noise_sigma`] of the residual, with the
+//! estimate σ ([`crate::residuals::noise_sigma`] of the residual, with the
 //! same floor as the diagnosis: a millionth of the output's range, or of its magnitude when it is
 //! constant). Two numbers judge it: the RMS of the difference over σ, which must not exceed
 //! [`GUARD_RATIO`], and its norm ‖e‖ over σ, which must not exceed [`GUARD_SHIFT`]. The second
@@ -26,7 +26,7 @@ use super::JobError;
 use super::data::MeasurementTable;
 use super::prepared::PreparedJob;
 use super::spec::JobSpec;
-use crate::diagnose::residuals::noise_sigma;
+use crate::residuals::noise_sigma;
 use crate::fmu::{Fmu, Interface};
 use crate::sim::{SimResult, simulate};
 
@@ -223,7 +223,7 @@ fn error_over_noise(coarse: &SimResult, fine: &SimResult, variable: &str, measur
     }
     // A constant output has no range: a millionth of its magnitude then.
     let scale = if hi > lo { hi - lo } else { hi.abs().max(lo.abs()) };
-    let floor = crate::diagnose::residuals::NOISE_FLOOR * scale;
+    let floor = crate::residuals::NOISE_FLOOR * scale;
     let noise = noise_sigma(&residual).max(floor).max(f64::MIN_POSITIVE);
     ((sum / n as f64).sqrt() / noise, sum.sqrt() / noise)
 }

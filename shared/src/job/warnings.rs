@@ -3,7 +3,7 @@
 //! as `warning: ...`): a parameter at a bound, a run ended by its budget, a validation error
 //! worse than at the start point, a correlation near ±1, a defaulted start time that is not
 //! the model's own, and an integration error the tolerance guard could not make small against
-//! the noise. The misfit check (the diagnosis's [`crate::diagnose::residuals::Misfit`])
+//! the noise. The misfit check (the diagnosis's [`crate::residuals::Misfit`])
 //! needs the fit's series and is added by the caller that has them.
 
 use super::result::CalibrationResult;

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use super::inputs::Side;
 use super::spec::{OutputTimes, PortTerm, SimError, SimSpec, Solver, StateTerm};
-use crate::diagnose::effects::{self, PortEffect};
+use crate::effects::{self, PortEffect};
 use crate::fmu::schema::{Causality, ScalarVariable, VarType, Variability};
 use crate::fmu::{FmuError, Instance, Interface, ModelDescription};
 use crate::quote::quote_user_text;
@@ -192,7 +192,7 @@ fn plan_term(
     {
         return Err(invalid(format!("port {} is not a continuous Real input of the model", quote_user_text(&t.port))));
     }
-    if let Some((unit, domain)) = crate::diagnose::structure::port_domain(md, port)
+    if let Some((unit, domain)) = crate::structure::port_domain(md, port)
         && domain != effect.domain()
     {
         return Err(invalid(format!(

@@ -86,7 +86,7 @@ pub struct SimSpec {
     pub max_steps: Option<u64>,
     /// Wall-clock budget. Default: none.
     pub timeout: Option<Duration>,
-    /// Effects added to injection ports (see [`crate::diagnose::effects`]).
+    /// Effects added to injection ports (see [`crate::effects`]).
     pub port_terms: Vec<PortTerm>,
     /// Effects added to state derivatives (Model Exchange only).
     pub state_terms: Vec<StateTerm>,

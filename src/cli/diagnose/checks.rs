@@ -9,11 +9,11 @@ use std::collections::BTreeMap;
 
 use anyhow::{Result, bail};
 use fmucal_shared::diagnose::candidates::{Sizes, generate};
-use fmucal_shared::diagnose::guess::SignalStats;
+use fmucal_shared::effects::guess::SignalStats;
 use fmucal_shared::diagnose::places::Places;
 use fmucal_shared::diagnose::report::Windows;
 use fmucal_shared::diagnose::spec::{DEFAULT_HOLDOUT, DiagnoseSpec};
-use fmucal_shared::diagnose::structure::Structure;
+use fmucal_shared::structure::Structure;
 use fmucal_shared::fmu::{Fmu, Interface};
 use fmucal_shared::job::{JobError, JobSpec, MeasurementTable, PreparedJob};
 use fmucal_shared::quote::quote_user_text;

@@ -13,8 +13,8 @@ use fmucal_shared::diagnose::candidates::{Candidate, Screening, Sizes, generate,
 use fmucal_shared::diagnose::decision::{
     Baseline, Evidence, ParameterEvidence, Rule, choose, equally_supported, judge,
 };
-use fmucal_shared::diagnose::effects;
-use fmucal_shared::diagnose::guess::SignalStats;
+use fmucal_shared::effects;
+use fmucal_shared::effects::guess::SignalStats;
 use fmucal_shared::diagnose::jobs::{
     candidate_job, decision_f_tol, decision_optimizer, gauss_newton, noise_ssr, polish_step, same_place, stopped_early,
 };

@@ -36,7 +36,7 @@
 
 use serde::Serialize;
 
-use super::effects::Domain;
+use crate::effects::Domain;
 use crate::fmu::schema::{BaseUnit, Causality, ModelDescription, ScalarVariable, VarType, Variability};
 
 /// What a state measures, from its unit (or its declared type's `quantity`).

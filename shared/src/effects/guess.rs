@@ -12,7 +12,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::effects::{
+use super::{
     ActuatorSaturation, ConstantLoad, ConstantRate, Convection, CoulombFriction, CubicSpring, DeadZoneSpring, HeatLoss,
     Kind, LinearRelaxation, LinearSpring, QuadraticDrag, Radiation, SIGMA, SensorLag, Shared, StribeckFriction,
     ViscousDamping,
@@ -303,7 +303,7 @@ impl Guesses for ActuatorSaturation {
 
 #[cfg(test)]
 mod tests {
-    use super::super::effects::{Found, find, port_kinds, series_kinds};
+    use crate::effects::{Found, find, port_kinds, series_kinds};
     use super::*;
 
     fn scales() -> Scales {

@@ -34,7 +34,9 @@
 
 use std::fmt;
 
-use super::guess::Guesses;
+pub mod guess;
+
+use guess::Guesses;
 
 /// Where an effect acts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]

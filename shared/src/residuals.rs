@@ -1,6 +1,7 @@
-//! Residual analysis on a calibration window (the "localise" step of a diagnosis): where the
-//! simulation and the measurements disagree, whether the disagreement is noise, and which
-//! readable signal it follows.
+//! The statistics of a fit's residual on a calibration window: where the simulation and the
+//! measurements disagree, whether the disagreement is noise, and which readable signal it
+//! follows. `fmucal calibrate` warns with them ([`Misfit`]) and a diagnosis localises with
+//! them (`diagnose::localise`).
 //!
 //! - [`windows`]: RMS of the residual in equal time windows, worst first.
 //! - [`ljung_box`]: the Ljung–Box statistic Q = n(n+2) Σₖ₌₁ʰ ρ̂ₖ²/(n−k) over the first h
@@ -17,6 +18,9 @@
 //! left out (a window or a lag with no pair of valid samples contributes nothing).
 
 use serde::{Deserialize, Serialize};
+
+/// Lags of the Ljung–Box test: 20, or fewer for short series.
+pub const LJUNG_BOX_LAGS: usize = 20;
 
 /// The RMS of the residual between two times.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -153,7 +157,7 @@ impl OutputMisfit {
             rms: rms(calibration).unwrap_or(0.0),
             validation_rms: rms(validation),
             noise: noise_sigma(calibration).max(NOISE_FLOOR * range.abs()),
-            ljung_box_p: ljung_box(calibration, super::localise::LJUNG_BOX_LAGS).map(|l| l.p_value),
+            ljung_box_p: ljung_box(calibration, LJUNG_BOX_LAGS).map(|l| l.p_value),
         }
     }
 
