@@ -540,7 +540,9 @@ pub async fn killed_diagnosis(dir: &Path) {
         (Ok(s), Ok(d)) => (s, d),
         _ => return report(case, false, "cannot read examples/diagnose"),
     };
-    let Some(settings) = spec.diagnose.take() else { return report(case, false, "no [diagnose] in the example") };
+    let Some(Ok(settings)) = spec.diagnose.take().map(|t| fmucal_diagnose::spec::DiagnoseSpec::from_table(Some(&t))) else {
+        return report(case, false, "no [diagnose] in the example");
+    };
     let req = pb::DiagnoseRequest {
         spec: Some(job_to_proto(&spec, std::slice::from_ref(&data), &model)),
         settings: Some(fmucal_proto::diagnose::diagnose_to_proto(&settings)),

@@ -9,7 +9,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use fmucal_shared::diagnose::report::Diagnosis;
+use fmucal_diagnose::report::Diagnosis;
 
 fn example_job() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/job.toml")
@@ -52,7 +52,7 @@ fn a_coordinator_and_a_local_run_name_the_same_effect_with_the_same_values() {
     assert_eq!(a.named.len(), 1);
     let (ra, rb) = (&a.rounds[0], &b.rounds[0]);
     assert_eq!(ra.chosen, rb.chosen);
-    let fitted = |r: &fmucal_shared::diagnose::report::Round| {
+    let fitted = |r: &fmucal_diagnose::report::Round| {
         r.candidates
             .iter()
             .filter_map(|c| c.fit.as_ref().map(|f| (c.description.clone(), f.x_opt.clone())))
@@ -223,7 +223,7 @@ fn the_readme_example_finds_the_friction_of_a_model_with_no_port_and_its_job_rep
     assert!(stdout.contains("found: coulomb_friction on der(mass.v), force 0.05"), "{stdout}");
     assert!(stdout.contains(" m/s2"), "the strength is printed in the derivative's unit: {stdout}");
     let d = report(&dir.path().join("diagnosis"));
-    assert_eq!(d.conclusion, fmucal_shared::diagnose::report::Conclusion::Named);
+    assert_eq!(d.conclusion, fmucal_diagnose::report::Conclusion::Named);
     let (force, se) = (d.fitted["effects[0].force"], d.standard_errors["effects[0].force"]);
     assert!((force - 0.05).abs() < 3.0 * se, "{force} ± {se}");
     // Every fitted value is printed with its standard error.

@@ -16,7 +16,7 @@ use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::diagnose::diagnose_to_proto;
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::calibration_client::CalibrationClient;
-use fmucal_shared::diagnose::report::Diagnosis;
+use fmucal_diagnose::report::Diagnosis;
 use fmucal_shared::job::{JobSpec, MeasurementTable};
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
@@ -48,7 +48,7 @@ async fn example_request(rpc: &mut Rpc) -> pb::DiagnoseRequest {
     let model_id = rpc.upload_model(tokio_stream::iter(chunks)).await.unwrap().into_inner().model_id;
     let mut spec = JobSpec::from_toml_file(&example_dir().join("job.toml")).unwrap();
     let data = MeasurementTable::read(&example_dir().join("data.csv"), "time").unwrap();
-    let settings = spec.diagnose.take().unwrap();
+    let settings = fmucal_diagnose::spec::DiagnoseSpec::from_table(spec.diagnose.take().as_ref()).unwrap();
     pb::DiagnoseRequest {
         spec: Some(job_to_proto(&spec, std::slice::from_ref(&data), &model_id)),
         settings: Some(diagnose_to_proto(&settings)),

@@ -33,7 +33,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use fmucal_models::Fixture;
-use fmucal_shared::diagnose::report::{Conclusion, Diagnosis};
+use fmucal_diagnose::report::{Conclusion, Diagnosis};
 use fmucal_shared::job::{JobSpec, MeasurementTable, PreparedJob};
 use fmucal_shared::sim::{OutputTimes, SimResult, SimSpec, simulate};
 

@@ -16,7 +16,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use fmucal_models::Fixture;
-use fmucal_shared::diagnose::report::Diagnosis;
+use fmucal_diagnose::report::Diagnosis;
 use fmucal_shared::sim::{OutputTimes, SimResult, SimSpec, simulate};
 
 /// Which model a case uses, and how its job and data look.

@@ -513,7 +513,7 @@ async fn a_diagnosis_killed_with_its_coordinator_leaves_no_job_running() {
     let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose");
     let mut spec = JobSpec::from_toml_file(&example.join("job.toml")).unwrap();
     let data = MeasurementTable::read(&example.join("data.csv"), "time").unwrap();
-    let settings = spec.diagnose.take().unwrap();
+    let settings = fmucal_diagnose::spec::DiagnoseSpec::from_table(spec.diagnose.take().as_ref()).unwrap();
     let req = pb::DiagnoseRequest {
         spec: Some(job_to_proto(&spec, std::slice::from_ref(&data), &model)),
         settings: Some(fmucal_proto::diagnose::diagnose_to_proto(&settings)),

@@ -3,7 +3,7 @@
 //! the result is validated as the section is. Errors name fields as the job file does
 //! (`diagnose.ports[0].domain`), whichever way the settings came.
 
-use fmucal_shared::diagnose::spec::{DiagnoseSpec, PortDomain, PortSpec};
+use fmucal_diagnose::spec::{DiagnoseSpec, PortDomain, PortSpec};
 use fmucal_shared::job::JobError;
 
 use crate::convert::ConvertError;

@@ -211,6 +211,26 @@ impl OptimError {
 }
 
 /// The ask/tell interface every optimizer implements.
+///
+/// The loop a caller runs, here with the objective evaluated in place (fmucal sends each batch
+/// to workers and tells the results as they come back, in any order):
+///
+/// ```
+/// use fmucal_optim::nelder_mead::{NelderMead, NmSettings};
+/// use fmucal_optim::{Optimizer, Outcome, Status};
+///
+/// // (x − 1)² + (y + 2)² on [−5, 5]², from the origin.
+/// let mut nm = NelderMead::new(&[-5.0, -5.0], &[5.0, 5.0], &[0.0, 0.0], NmSettings::new(2)).unwrap();
+/// while nm.status() == Status::Running {
+///     for c in nm.ask() {
+///         let f = (c.x[0] - 1.0).powi(2) + (c.x[1] + 2.0).powi(2);
+///         nm.tell(c.id, Outcome::Value(f)).unwrap();
+///     }
+/// }
+/// let (x, f) = nm.best().unwrap();
+/// assert!((x[0] - 1.0).abs() < 1e-3 && (x[1] + 2.0).abs() < 1e-3, "{x:?}");
+/// assert!(f < 1e-6);
+/// ```
 pub trait Optimizer {
     /// The candidates of the current batch that still await a result (a new batch once the
     /// previous one is fully told). Empty when done. Asking twice returns the same candidates.

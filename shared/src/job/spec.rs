@@ -49,7 +49,7 @@
 //! [workers]
 //! count = 2                  # local runs, 1 to 256; default: number of cores
 //!
-//! [diagnose]                 # what `fmucal diagnose` may try: see crate::diagnose::spec
+//! [diagnose]                 # what `fmucal diagnose` may try: see the fmucal-diagnose crate
 //!
 //! [[experiments]]            # several data sets, one parameter set: see super::experiments
 //! ```
@@ -62,7 +62,6 @@ use super::JobError;
 use super::choices::{Algorithm, JobKind, Scale, optional_interface, optional_text, text};
 use super::experiments::ExperimentSpec;
 use crate::effects::{self, Domain};
-use crate::diagnose::spec::DiagnoseSpec;
 use crate::fmu::Interface;
 use crate::quote::quote_user_text;
 use crate::sim::Solver;
@@ -88,10 +87,11 @@ pub struct JobSpec {
     pub optimizer: OptimizerSpec,
     #[serde(default)]
     pub workers: WorkersSpec,
-    /// What `fmucal diagnose` may try ([`crate::diagnose::spec`]); ignored by `calibrate` and
-    /// not sent to a coordinator.
+    /// The `[diagnose]` section as written: what `fmucal diagnose` may try. The diagnosis
+    /// owns its keys and reads them (`fmucal_diagnose::spec`); `calibrate` accepts the
+    /// section and ignores it, and it is not sent to a coordinator.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub diagnose: Option<DiagnoseSpec>,
+    pub diagnose: Option<toml::Table>,
     /// Several experiments fitted with one parameter set ([`super::experiments`]); none: the
     /// job is one experiment.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -503,6 +503,33 @@ impl JobSpec {
 
     /// Parses TOML text; relative paths are resolved against `base_dir`.
     ///
+    /// ```
+    /// use std::path::Path;
+    /// use fmucal_shared::job::JobSpec;
+    ///
+    /// let text = r#"
+    ///     [model]
+    ///     path = "example:decay"
+    ///     [data]
+    ///     path = "data.csv"
+    ///     [[outputs]]
+    ///     variable = "x"
+    ///     column = "x"
+    ///     [[parameters]]
+    ///     name = "k"
+    ///     start = 1.0
+    ///     lower = 0.1
+    ///     upper = 10.0
+    /// "#;
+    /// let job = JobSpec::from_toml(text, Path::new("/bench")).unwrap();
+    /// job.validate().unwrap();
+    /// assert_eq!(job.data.path.as_deref(), Some(Path::new("/bench/data.csv")));
+    /// assert_eq!(job.calibrated()[0].name, "k");
+    /// // A misspelled key is refused, naming it.
+    /// let e = JobSpec::from_toml(&text.replace("lower", "lowr"), Path::new(".")).unwrap_err();
+    /// assert!(e.to_string().contains("unknown field `lowr`"));
+    /// ```
+    ///
     /// # Errors
     /// [`JobError::Invalid`] with field `toml` and the parser's message in its layout
     /// ([`toml_error`]): several lines, quoting one line of `text` at most.
@@ -620,9 +647,6 @@ impl JobSpec {
         self.validate_experiments()?;
         if self.experiments.is_empty() {
             self.validate_mapping()?;
-        }
-        if let Some(d) = &self.diagnose {
-            d.validate()?;
         }
         Ok(())
     }

@@ -75,6 +75,25 @@ impl Simulator {
 
 /// Simulates `fmu` once with a fresh instance.
 ///
+/// The `decay` example is dx/dt = −k·x with x(0) = 1: at k = 2, x(1) = e⁻².
+///
+/// ```
+/// use fmucal_shared::fmu::Fmu;
+/// use fmucal_shared::sim::{SimSpec, simulate};
+///
+/// let fmu = Fmu::load(&fmucal_models::example("decay").unwrap()).unwrap();
+/// let spec = SimSpec {
+///     stop_time: Some(1.0),
+///     tolerance: Some(1e-8),
+///     parameters: vec![("k".into(), "2".into())],
+///     outputs: vec!["x".into()],
+///     ..SimSpec::default()
+/// };
+/// let result = simulate(&fmu, &spec).unwrap();
+/// let x = result.column("x").unwrap();
+/// assert!((x.last().unwrap() - (-2.0f64).exp()).abs() < 1e-6);
+/// ```
+///
 /// # Errors
 /// See [`Simulator::run`].
 pub fn simulate(fmu: &Fmu, spec: &SimSpec) -> Result<SimResult, SimError> {

@@ -8,11 +8,11 @@
 use std::collections::BTreeMap;
 
 use anyhow::{Result, bail};
-use fmucal_shared::diagnose::candidates::{Sizes, generate};
+use fmucal_diagnose::candidates::{Sizes, generate};
 use fmucal_shared::effects::guess::SignalStats;
-use fmucal_shared::diagnose::places::Places;
-use fmucal_shared::diagnose::report::Windows;
-use fmucal_shared::diagnose::spec::{DEFAULT_HOLDOUT, DiagnoseSpec};
+use fmucal_diagnose::places::Places;
+use fmucal_diagnose::report::Windows;
+use fmucal_diagnose::spec::{DEFAULT_HOLDOUT, DiagnoseSpec};
 use fmucal_shared::structure::Structure;
 use fmucal_shared::fmu::{Fmu, Interface};
 use fmucal_shared::job::{JobError, JobSpec, MeasurementTable, PreparedJob};

@@ -9,17 +9,17 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, Result};
-use fmucal_shared::diagnose::candidates::{Candidate, Screening, Sizes, generate, ranking};
-use fmucal_shared::diagnose::decision::{
+use fmucal_diagnose::candidates::{Candidate, Screening, Sizes, generate, ranking};
+use fmucal_diagnose::decision::{
     Baseline, Evidence, ParameterEvidence, Rule, choose, equally_supported, judge,
 };
 use fmucal_shared::effects;
 use fmucal_shared::effects::guess::SignalStats;
-use fmucal_shared::diagnose::jobs::{
+use fmucal_diagnose::jobs::{
     candidate_job, decision_f_tol, decision_optimizer, gauss_newton, noise_ssr, polish_step, same_place, stopped_early,
 };
-use fmucal_shared::diagnose::localise::localise;
-use fmucal_shared::diagnose::report::{
+use fmucal_diagnose::localise::localise;
+use fmucal_diagnose::report::{
     CandidateFit, Conclusion, Diagnosis, NamedEffect, PhaseTime, RankedCandidate, Round, value_with_interval,
 };
 use fmucal_shared::job::choices::Algorithm;
@@ -587,7 +587,7 @@ fn judge_fit(
             n_eff: seen.n_eff,
             validation_rms: seen.rms.validation,
             parameters,
-            place: fmucal_shared::diagnose::decision::place(&candidate.effect),
+            place: fmucal_diagnose::decision::place(&candidate.effect),
         };
         Ok((e, seen))
     })();

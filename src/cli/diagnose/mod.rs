@@ -2,7 +2,7 @@
 //! disagree, screens the candidate effects at every place the model's structure offers (its
 //! states in Model Exchange, its injection inputs) and the job's `[diagnose]` section allows, fits the most
 //! promising ones concurrently on the workers, names the one that passes all three tests of
-//! [`fmucal_shared::diagnose::decision`] (or none), and writes to `--out` (default
+//! [`fmucal_diagnose::decision`] (or none), and writes to `--out` (default
 //! `diagnosis/`): `report.json`, `job.toml` (the job with the named effects added, ready for
 //! `fmucal calibrate`), `corrected.fmu` (that job's model as an FMU, when an effect is named,
 //! as `fmucal export` writes it) and the residual plots. Locally (an in-process coordinator and worker
@@ -25,7 +25,8 @@ use std::sync::Arc;
 
 use anyhow::{Context as _, Result, bail};
 use fmucal_shared::fmu::Fmu;
-use fmucal_shared::diagnose::jobs::polish_step;
+use fmucal_diagnose::jobs::polish_step;
+use fmucal_diagnose::spec::DiagnoseSpec;
 use fmucal_shared::job::choices::Algorithm;
 use fmucal_shared::job::{JobSpec, MeasurementTable};
 
@@ -64,10 +65,10 @@ pub(crate) struct Context {
     pub fmu: Arc<Fmu>,
     pub data: Arc<MeasurementTable>,
     pub model: PathBuf,
-    pub settings: fmucal_shared::diagnose::spec::DiagnoseSpec,
-    pub windows: fmucal_shared::diagnose::report::Windows,
+    pub settings: fmucal_diagnose::spec::DiagnoseSpec,
+    pub windows: fmucal_diagnose::report::Windows,
     /// Where candidates go: ports by hand and from the model, states in Model Exchange.
-    pub places: fmucal_shared::diagnose::places::Places,
+    pub places: fmucal_diagnose::places::Places,
 }
 
 /// One standard error of the widest parameter as a fraction of its range (the optimizers'
@@ -115,7 +116,11 @@ pub fn run(args: Args) -> Result<()> {
     let mut spec = JobSpec::from_toml_file(&args.job)?;
     spec.validate()?;
     let original = spec.clone();
-    let mut settings = spec.diagnose.take().unwrap_or_default();
+    // The section is the diagnosis's own: read from the file's text so that a TOML error
+    // quotes its line.
+    spec.diagnose = None;
+    let text = std::fs::read_to_string(&args.job).with_context(|| format!("cannot read {}", args.job.display()))?;
+    let mut settings = DiagnoseSpec::from_job_text(&text)?;
     if let Some(top) = args.top {
         settings.top = top;
         settings.validate()?;

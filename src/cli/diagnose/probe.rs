@@ -10,8 +10,8 @@
 use std::collections::BTreeMap;
 
 use anyhow::{Result, bail};
-use fmucal_shared::diagnose::places::Places;
-use fmucal_shared::diagnose::spec::PortDomain;
+use fmucal_diagnose::places::Places;
+use fmucal_diagnose::spec::PortDomain;
 use fmucal_shared::job::JobSpec;
 use fmucal_shared::job::spec::{Bounds, EffectSpec};
 

@@ -3,7 +3,7 @@
 //! [`generate`] lists every effect kind at every place it fits ([`super::places`]): each
 //! compatible (port, signal) pair, each state's derivative (with the state or its position as
 //! signal), sensor effects on every output and actuator effects on every input, each with its
-//! parameters guessed from the sizes of this job ([`crate::effects::guess`]): a port's load scale, a
+//! parameters guessed from the sizes of this job ([`fmucal_shared::effects::guess`]): a port's load scale, a
 //! state's derivative scale.
 //!
 //! [`Screening`] ranks them without fitting any: all candidates are added to one job at their
@@ -22,14 +22,14 @@ use std::collections::BTreeMap;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use crate::effects::{self, Domain, Found};
-use crate::effects::guess::{Guess, Guesses, Scales, SignalRole, SignalStats};
+use fmucal_shared::effects::{self, Domain, Found};
+use fmucal_shared::effects::guess::{Guess, Guesses, Scales, SignalRole, SignalStats};
 use super::places::Places;
-use crate::residuals::chi_squared_survival;
+use fmucal_shared::residuals::chi_squared_survival;
 use super::spec::{DiagnoseSpec, PortDomain};
-use crate::structure::Role;
-use crate::job::identifiability::relative_step;
-use crate::job::spec::{Bounds, EffectSpec, JobSpec};
+use fmucal_shared::structure::Role;
+use fmucal_shared::job::identifiability::relative_step;
+use fmucal_shared::job::spec::{Bounds, EffectSpec, JobSpec};
 
 /// One candidate effect.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -264,21 +264,21 @@ pub struct Screening {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Screened {
     /// Predicted drop of the sum of squares.
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub predicted_drop: f64,
     /// Score statistic n_eff·D/SSR and its p-value (χ² with q degrees of freedom).
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub score: f64,
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub p_value: f64,
     /// Predicted change of the information criterion (negative: better).
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub predicted_delta_ic: f64,
     /// The Gauss–Newton estimate of each parameter (shape parameters at their guess).
-    #[serde(with = "crate::optim::serde_float::vec")]
+    #[serde(with = "fmucal_shared::optim::serde_float::vec")]
     pub estimate: Vec<f64>,
     /// The same Gauss–Newton step's change of each base parameter (0 for one held fixed).
-    #[serde(with = "crate::optim::serde_float::vec")]
+    #[serde(with = "fmucal_shared::optim::serde_float::vec")]
     pub base_step: Vec<f64>,
 }
 
@@ -584,7 +584,7 @@ mod tests {
 
     #[test]
     fn each_state_gets_the_kinds_of_its_quantity_and_springs_read_its_position() {
-        use crate::diagnose::places::StatePlace;
+        use crate::places::StatePlace;
         let text =
             "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n";
         let base = JobSpec::from_toml(text, std::path::Path::new("/")).unwrap();

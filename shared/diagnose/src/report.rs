@@ -8,8 +8,8 @@ use serde::{Deserialize, Serialize};
 use super::candidates::{Candidate, Screened};
 use super::decision::{Baseline, Evidence, Verdict, elsewhere};
 use super::localise::Localisation;
-use crate::residuals::Misfit;
-use crate::job::spec::EffectSpec;
+use fmucal_shared::residuals::Misfit;
+use fmucal_shared::job::spec::EffectSpec;
 
 /// What a diagnosis concludes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -18,7 +18,7 @@ pub enum Conclusion {
     /// An effect of the library was named.
     Named,
     /// None was, and the base model's residual is far from its noise
-    /// ([`crate::residuals::Misfit::far`]), or the best candidate left it far: the model
+    /// ([`fmucal_shared::residuals::Misfit::far`]), or the best candidate left it far: the model
     /// misses something none of the tried effects explains.
     MissesSomething,
     /// None was, and the residual is consistent with noise: the model fits.
@@ -99,9 +99,9 @@ pub struct Windows {
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RmsPair {
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub calibration: f64,
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub validation: f64,
 }
 
@@ -144,7 +144,7 @@ pub struct CandidateFit {
     /// Their standard errors (absent where the identifiability analysis failed).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub standard_errors: BTreeMap<String, f64>,
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub calibration_rms: f64,
     pub evidence: Option<Evidence>,
     pub verdict: Option<Verdict>,

@@ -9,7 +9,7 @@
 //! holdout = 0.25               # without [simulation] validation_stop_time: the last quarter
 //!                              # of the window is held out of every fit and used to decide
 //! min_validation_gain = 0.02   # an effect must cut the held-out RMS by at least 2 %, and by
-//!                              # more than chance (see crate::diagnose::decision)
+//!                              # more than chance (see crate::decision)
 //! confidence = 0.95            # of that test and of the parameters' intervals, which must
 //!                              # exclude "no effect"
 //! windows = 10                 # time windows of the residual report
@@ -32,8 +32,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::job::JobError;
-use crate::quote::quote_user_text;
+use fmucal_shared::job::JobError;
+use fmucal_shared::job::spec::toml_error;
+use fmucal_shared::quote::quote_user_text;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -132,6 +133,44 @@ impl PortSpec {
 }
 
 impl DiagnoseSpec {
+    /// The `[diagnose]` section of a job file's text, checked ([`DiagnoseSpec::validate`]);
+    /// the defaults where the job has none. The job itself is read by
+    /// [`JobSpec::from_toml`](fmucal_shared::job::JobSpec::from_toml), which keeps the section as
+    /// written.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`]: field `toml` with the parser's message in its layout (the line at
+    /// fault quoted) for an unknown key or a wrong type, else as [`DiagnoseSpec::validate`].
+    pub fn from_job_text(text: &str) -> Result<DiagnoseSpec, JobError> {
+        #[derive(Deserialize)]
+        struct Job {
+            diagnose: Option<DiagnoseSpec>,
+        }
+        let job: Job = toml::from_str(text).map_err(|e| JobError::invalid("toml", toml_error(&e, text)))?;
+        let spec = job.diagnose.unwrap_or_default();
+        spec.validate()?;
+        Ok(spec)
+    }
+
+    /// The section a job carries ([`JobSpec::diagnose`](fmucal_shared::job::JobSpec::diagnose)),
+    /// checked; the defaults for none.
+    ///
+    /// # Errors
+    /// [`JobError::Invalid`] naming the field.
+    pub fn from_table(table: Option<&toml::Table>) -> Result<DiagnoseSpec, JobError> {
+        let Some(table) = table else { return Ok(DiagnoseSpec::default()) };
+        let spec: DiagnoseSpec = toml::Value::Table(table.clone())
+            .try_into()
+            .map_err(|e: toml::de::Error| JobError::invalid("diagnose", e.message().to_string()))?;
+        spec.validate()?;
+        Ok(spec)
+    }
+
+    /// The section as a job carries it.
+    pub fn to_table(&self) -> toml::Table {
+        toml::Table::try_from(self).expect("a [diagnose] section is a TOML table")
+    }
+
     /// Checks what can be checked without the model: settings in range, each port with signals
     /// of its domain. The model checks (a real input, readable signals, no algebraic loop) come
     /// when the candidates are prepared.
@@ -224,6 +263,22 @@ mod tests {
         let s: DiagnoseSpec = toml::from_str(text).map_err(|e| e.to_string())?;
         s.validate().map_err(|e| e.to_string())?;
         Ok(s)
+    }
+
+    #[test]
+    fn the_section_reads_from_a_job_and_from_the_table_a_job_carries() {
+        let job = "[model]\npath = \"m.fmu\"\n\n[diagnose]\ntop = 3\nexclude = [\"x\"]\n";
+        let s = DiagnoseSpec::from_job_text(job).unwrap();
+        assert_eq!((s.top, s.exclude.clone()), (3, vec!["x".to_string()]));
+        assert_eq!(DiagnoseSpec::from_table(Some(&s.to_table())).unwrap(), s);
+        assert_eq!(DiagnoseSpec::from_table(None).unwrap(), DiagnoseSpec::default());
+        assert_eq!(DiagnoseSpec::from_job_text("[model]\n").unwrap(), DiagnoseSpec::default());
+        let e = DiagnoseSpec::from_job_text("[diagnose]\ntopp = 3\n").unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("unknown field `topp`"), "{e}");
+        let mut t = toml::Table::new();
+        t.insert("top".into(), toml::Value::Integer(0));
+        let e = DiagnoseSpec::from_table(Some(&t)).unwrap_err().to_string();
+        assert!(e.starts_with("diagnose.top: must be at least 1"), "{e}");
     }
 
     #[test]

@@ -5,16 +5,16 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::residuals::{LJUNG_BOX_LAGS, LjungBox, WindowRms, correlation, ljung_box, windows};
+use fmucal_shared::residuals::{LJUNG_BOX_LAGS, LjungBox, WindowRms, correlation, ljung_box, windows};
 
 /// The correlation of an output's residual with one signal.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SignalCorrelation {
     pub signal: String,
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub correlation: f64,
     /// With sign(signal): what a Coulomb-like effect of that signal would leave.
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub sign_correlation: f64,
 }
 
@@ -29,7 +29,7 @@ impl SignalCorrelation {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct OutputResidual {
     pub variable: String,
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub rms: f64,
     /// Worst first.
     pub windows: Vec<WindowRms>,

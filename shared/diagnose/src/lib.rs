@@ -3,10 +3,10 @@
 //!
 //! - [`spec`]: the job file's `[diagnose]` section.
 //! - [`places`]: where a diagnosis may add effects (ports by hand and from the model's
-//!   [`structure`](crate::structure), states in Model Exchange), each a kind of the
-//!   [`effects`](crate::effects) library sized by its [`guess`](crate::effects::guess).
+//!   [`structure`](fmucal_shared::structure), states in Model Exchange), each a kind of the
+//!   [`effects`](fmucal_shared::effects) library sized by its [`guess`](fmucal_shared::effects::guess).
 //! - [`localise`]: the residual analysis (RMS per window, whiteness, correlation with candidate
-//!   signals) with the statistics of [`residuals`](crate::residuals).
+//!   signals) with the statistics of [`residuals`](fmucal_shared::residuals).
 //! - [`candidates`]: candidate generation and screening by the score statistic.
 //! - [`jobs`]: the candidate calibrations and next-round bases built from the base job.
 //! - [`decision`]: the three tests an effect must pass to be named.
@@ -18,6 +18,8 @@
 //!
 //! The steps that need simulations (calibrations, screening points) are driven by
 //! `fmucal diagnose` over the coordinator's protocol, so they run on the workers.
+
+#![forbid(unsafe_code)]
 
 pub mod candidates;
 pub mod decision;

@@ -1,6 +1,7 @@
 //! The docs cannot drift from the code: every ```` ```toml ```` block in the README and in the
 //! book (`docs/src/**/*.md`) parses as a job ([`JobSpec::from_toml`], then
-//! [`JobSpec::validate`], neither of which reads the model or the data), or, when it has no
+//! [`JobSpec::validate`], and its `[diagnose]` section by [`DiagnoseSpec::from_job_text`], none of
+//! which reads the model or the data), or, when it has no
 //! `[model]`, as a job fragment merged into a minimal job. The job types deny unknown fields, so
 //! a misspelled or removed key in a snippet fails here. A block that is not a job is fenced
 //! otherwise (` ```text `, ` ```yaml `). A block may be `{{#include FILE}}` of a real job file.
@@ -14,11 +15,12 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
+use fmucal_diagnose::spec::DiagnoseSpec;
 use fmucal_shared::job::JobSpec;
 
 /// The repository root (this crate is `shared/`).
 fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("shared/ has a parent").to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
 }
 
 /// README.md, ARCHITECTURE.md, CHANGELOG.md and every markdown file under docs/src.
@@ -167,7 +169,9 @@ fn check_job_snippet(text: &str) -> Result<(), String> {
         toml::to_string(&job).map_err(|e| format!("cannot write the merged job: {e}"))?
     };
     let spec = JobSpec::from_toml(&job_text, Path::new(".")).map_err(|e| e.to_string())?;
-    spec.validate().map_err(|e| e.to_string())
+    spec.validate().map_err(|e| e.to_string())?;
+    // The [diagnose] section is the diagnosis's to read.
+    DiagnoseSpec::from_job_text(&job_text).map(|_| ()).map_err(|e| e.to_string())
 }
 
 /// Every problem with the `toml` blocks of one markdown text (`dir`: its folder, for includes).

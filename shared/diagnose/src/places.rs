@@ -1,14 +1,14 @@
 //! Where a diagnosis may add effects, from the job's `[diagnose]` section and the model's own
-//! structure ([`crate::structure`]). With no port listed by hand (no `[diagnose]` section at
+//! structure ([`fmucal_shared::structure`]). With no port listed by hand (no `[diagnose]` section at
 //! all, say), every injection input the model has that the job does not feed from data, and
 //! (Model Exchange) every continuous state, narrowed by `states` and `exclude`. Ports listed by
 //! hand say where to look: then only they, and the states `states` names. What cannot be
 //! tried, and why, is kept as notes for the summary.
 
-use crate::effects::Domain;
+use fmucal_shared::effects::Domain;
 use super::spec::{DiagnoseSpec, PortDomain, PortSpec};
-use crate::structure::{Role, Structure};
-use crate::job::JobSpec;
+use fmucal_shared::structure::{Role, Structure};
+use fmucal_shared::job::JobSpec;
 
 /// A port a diagnosis may add terms to, with the job field (or model input) it comes from.
 #[derive(Debug, Clone, PartialEq)]
@@ -172,8 +172,8 @@ impl Places {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::effects::Domain;
-    use crate::structure::{Port, Quantity, State};
+    use fmucal_shared::effects::Domain;
+    use fmucal_shared::structure::{Port, Quantity, State};
 
     fn state(name: &str, role: Role, position: Option<&str>) -> State {
         State {

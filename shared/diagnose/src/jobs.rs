@@ -6,9 +6,9 @@
 use std::collections::BTreeMap;
 
 use super::candidates::Candidate;
-use crate::job::choices::Algorithm;
-use crate::job::identifiability::DifferencePlan;
-use crate::job::spec::{EffectSpec, JobSpec, OptimizerSpec, SetValue};
+use fmucal_shared::job::choices::Algorithm;
+use fmucal_shared::job::identifiability::DifferencePlan;
+use fmucal_shared::job::spec::{EffectSpec, JobSpec, OptimizerSpec, SetValue};
 
 /// How far a candidate fit's ΔIC = n_eff·ln(SSR₁/SSR₀) + q·ln(n_eff) may be off because its
 /// SSR is not fully converged: far below the differences the decision acts on (0 for the IC
@@ -36,7 +36,7 @@ pub fn decision_optimizer(own: &OptimizerSpec, ssr: f64, n_eff: f64) -> (Optimiz
     let f_tol = match own.f_tol {
         // 0 disables the rule in the job; the decision still stops at what it needs.
         Some(t) if t > 0.0 => t.max(needed),
-        _ => needed.max(crate::optim::Stopping::default_for(1).f_tol.unwrap_or(0.0)),
+        _ => needed.max(fmucal_shared::optim::Stopping::default_for(1).f_tol.unwrap_or(0.0)),
     };
     if f_tol > 0.0 {
         o.f_tol = Some(f_tol);
@@ -50,7 +50,7 @@ pub fn decision_optimizer(own: &OptimizerSpec, ssr: f64, n_eff: f64) -> (Optimiz
 /// one output's residual ends and the next begins, and events). No fit can end much below it,
 /// so a tolerance derived from it is tight enough for any candidate.
 pub fn noise_ssr(r: &[f64]) -> f64 {
-    r.len() as f64 * crate::residuals::noise_sigma(r).powi(2)
+    r.len() as f64 * fmucal_shared::residuals::noise_sigma(r).powi(2)
 }
 
 /// A candidate fit whose Gauss–Newton step would still gain `decrease` stopped early (its
@@ -144,7 +144,7 @@ mod tests {
     use std::path::Path;
 
     use super::*;
-    use crate::effects::guess::Guess;
+    use fmucal_shared::effects::guess::Guess;
 
     fn base() -> JobSpec {
         let text = r#"
@@ -180,7 +180,7 @@ top = 3
             input: None,
             parameters: Default::default(),
         };
-        effect.parameters.insert("force".into(), crate::job::spec::Bounds { start: 0.0, lower: 0.0, upper: 0.1 });
+        effect.parameters.insert("force".into(), fmucal_shared::job::spec::Bounds { start: 0.0, lower: 0.0, upper: 0.1 });
         Candidate {
             effect,
             guesses: vec![Guess { neutral: 0.0, step: Some(0.01), lower: 0.0, upper: 0.1 }],

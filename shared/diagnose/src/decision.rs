@@ -23,20 +23,20 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::residuals::chi_squared_survival;
+use fmucal_shared::residuals::chi_squared_survival;
 
 /// The evidence about one fitted candidate.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Evidence {
     /// Sum of squares on the calibration window, and the number of residuals.
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub ssr: f64,
     pub residuals: usize,
     /// Effective samples of this fit's residual.
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub n_eff: f64,
     /// RMS on the validation window (NaN: the simulation failed).
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub validation_rms: f64,
     /// The effect's parameters: value, neutral value, standard error (uncorrected; NaN when
     /// not available), and whether it is a strength parameter.
@@ -50,7 +50,7 @@ pub struct Evidence {
 /// Where an effect acts on the model: the derivative of its state or its port (whatever
 /// signal it reads), or the output or input it changes: `der(mass.v)`, `port mass.Fext`,
 /// `output mass.x`, `input u`.
-pub fn place(effect: &crate::job::spec::EffectSpec) -> String {
+pub fn place(effect: &fmucal_shared::job::spec::EffectSpec) -> String {
     match (&effect.state, &effect.port, &effect.output, &effect.input) {
         (Some(s), _, _, _) => format!("der({s})"),
         (_, Some(p), _, _) => format!("port {p}"),
@@ -63,11 +63,11 @@ pub fn place(effect: &crate::job::spec::EffectSpec) -> String {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ParameterEvidence {
     pub name: String,
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub value: f64,
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub neutral: f64,
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub standard_error: f64,
     pub strength: bool,
 }
@@ -75,14 +75,14 @@ pub struct ParameterEvidence {
 /// The base fit the candidates are compared with.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Baseline {
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub ssr: f64,
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub n_eff: f64,
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub validation_rms: f64,
     /// Effective samples of the base residual on the validation window.
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub validation_n_eff: f64,
 }
 
@@ -97,17 +97,17 @@ pub struct Rule {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Verdict {
     /// Relative fall of the validation RMS (negative: it rose).
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub validation_gain: f64,
     /// n_v·ln(SSR_v₀/SSR_v₁) and the χ²_q quantile it must exceed.
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub validation_statistic: f64,
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub validation_threshold: f64,
-    #[serde(with = "crate::optim::serde_float")]
+    #[serde(with = "fmucal_shared::optim::serde_float")]
     pub delta_ic: f64,
     /// Per parameter: the half-width z·SE·√(m/n_eff) of its confidence interval.
-    #[serde(with = "crate::optim::serde_float::vec")]
+    #[serde(with = "fmucal_shared::optim::serde_float::vec")]
     pub half_widths: Vec<f64>,
     pub wins_on_validation: bool,
     pub improves_ic: bool,
