@@ -369,6 +369,26 @@ fn clock_ticks() -> f64 {
     })
 }
 
+/// CPU seconds of a process's threads, by thread name: the store writer (`fmucal-store`), the
+/// tokio runtime's threads (the scheduler task, the gRPC services) and the rest.
+fn cpu_by_thread(pid: u32) -> [f64; 3] {
+    let mut out = [0.0; 3];
+    let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) else { return out };
+    for t in tasks.flatten() {
+        let tid = t.file_name().to_string_lossy().into_owned();
+        let comm = std::fs::read_to_string(format!("/proc/{pid}/task/{tid}/comm")).unwrap_or_default();
+        let i = if comm.starts_with("fmucal-store") {
+            0
+        } else if comm.starts_with("tokio") {
+            1
+        } else {
+            2
+        };
+        out[i] += cpu_s(&format!("{pid}/task/{tid}"));
+    }
+    out
+}
+
 /// The machine's (busy, total) jiffies from /proc/stat.
 fn machine_jiffies() -> (f64, f64) {
     let stat = std::fs::read_to_string("/proc/stat").unwrap_or_default();
@@ -544,6 +564,7 @@ fn main() {
         let (polls0, empty0) = (counters.polls.load(Ordering::Relaxed), counters.empty_polls.load(Ordering::Relaxed));
         let t0 = Instant::now();
         let (cc0, bc0, m0) = (cpu_s(&pid.to_string()), cpu_s("self"), machine_jiffies());
+        let threads0 = cpu_by_thread(pid);
         let rss0 = rss_mb(pid, "VmRSS:");
         let mut samples: Vec<(f64, f64)> = vec![(0.0, rss0)];
         let mut file_max = 0u64;
@@ -571,6 +592,8 @@ fn main() {
         }
         let wall = t0.elapsed().as_secs_f64();
         let (cc1, bc1, m1) = (cpu_s(&pid.to_string()), cpu_s("self"), machine_jiffies());
+        let threads1 = cpu_by_thread(pid);
+        let threads: Vec<f64> = threads1.iter().zip(threads0).map(|(b, a)| b - a).collect();
         counters.recording.store(false, Ordering::Relaxed);
         let done = counters.results.load(Ordering::Relaxed) - r0;
         let simulated = counters.simulated.load(Ordering::Relaxed) - sim0;
@@ -593,6 +616,7 @@ fn main() {
             polls,
             empty,
             jobs_submitted,
+            threads,
         )
     });
     let (
@@ -608,6 +632,7 @@ fn main() {
         polls,
         empty,
         jobs_submitted,
+        threads,
     ) = report;
     // SIGKILL with the jobs running, as a crash would, and read what the store holds.
     let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
@@ -661,6 +686,12 @@ fn main() {
         100.0 * empty as f64 / polls.max(1) as f64
     );
     println!("| coordinator CPU | {:.1} µs per result, {:.2} cores |", 1e6 * coord_cpu / done as f64, coord_cpu / wall);
+    println!(
+        "| coordinator CPU by thread: store writer / tokio runtime (scheduler, gRPC) / other | {:.1} / {:.1} / {:.1} µs per result |",
+        1e6 * threads[0] / done as f64,
+        1e6 * threads[1] / done as f64,
+        1e6 * threads[2] / done as f64
+    );
     println!(
         "| CPU of the simulated slots (this process) / machine busy | {:.2} cores / {:.0} % of 2 cores |",
         bench_cpu / wall,
