@@ -283,19 +283,22 @@ async fn coordinator_killed_and_restarted_resumes_the_job() {
         kills += 1;
         // What the workers had logged by then; later lines are evaluations after the kill.
         let logged_before: Vec<usize> = logs.iter().map(|l| evaluated_points(l).len()).collect();
-        // What was on disk when the coordinator died: the points told by then, and the first
-        // point of the batch after the last saved state (the batches before it are complete).
+        // What was on disk when the coordinator died: the first point of the batch after the
+        // last saved state (the batches before it are complete), and the points of that open
+        // batch told since (the journal).
         let (told, first_open): (HashSet<u64>, u64) = {
             let store = fmucal_coordinator::store::Store::open(&data_dir).unwrap();
-            let told = store.evaluations(&job).unwrap().into_iter().map(|(point, _)| point).collect();
+            let told = store.evaluations(&job).unwrap().into_iter().map(|l| l.point).collect();
             let (_, _, mut state) = store.load_all().unwrap().into_iter().find(|(id, _, _)| *id == job).unwrap();
             (told, state.run.ask().iter().map(|c| c.id).min().expect("the job was running"))
         };
-        if told.len() >= 20 && first_open >= 20 {
+        // The journal holds only the open batch's told points (a saved state replaces the
+        // journal before it): enough was on disk once the saved state covers 20 points.
+        if first_open >= 20 {
             break (logged_before, told, first_open);
         }
-        assert!(kills < 5, "after {kills} kills, little was saved: {} points", told.len());
-        wanted = told.len() as u64 + 30;
+        assert!(kills < 5, "after {kills} kills, little was saved: the state up to point {first_open}");
+        wanted = first_open + 30;
         coord = start();
         tokio::time::sleep(Duration::from_millis(500)).await;
         c = client(&url, Some(TOKEN)).await;

@@ -58,7 +58,8 @@ storage_from!(
     redb::TableError,
     redb::StorageError,
     redb::CommitError,
-    serde_json::Error
+    serde_json::Error,
+    crate::journal::JournalError
 );
 
 /// Most characters of an error message sent back (it travels in the `grpc-message` header,

@@ -9,6 +9,7 @@ pub mod connections;
 pub mod diagnoses;
 pub mod error;
 pub mod fillable_disk;
+pub mod journal;
 pub mod metrics;
 pub mod models;
 pub mod salvage;

@@ -9,7 +9,7 @@
 //!    damaged allocator state makes redb panic or refuse);
 //! 3. as 2, on the other of redb's two commit slots (the commit before the last).
 //!
-//! A job is kept when its spec and state read back (its evaluation log as far as it reads);
+//! A job is kept when its spec and state read back (its journal as far as it reads);
 //! each read is on its own, so a damaged page loses the jobs on it, not those after it. Jobs are
 //! looked up by id, `job-000000` up to past the highest id seen, so a damaged branch page of the
 //! id index does not hide the jobs below it.
@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use redb::{Database, ReadableDatabase, ReadableTable};
 
 use crate::error::CoordinatorError;
-use crate::store::{EVALS, META, SPECS, STATES, Store};
+use crate::store::{EVALS, JOURNAL, META, SPECS, STATES, Store};
 
 /// redb's file magic number (its format's first 9 bytes) and the flags byte after it.
 const MAGIC: [u8; 9] = [b'r', b'e', b'd', b'b', 0x1A, 0x0A, 0xA9, 0x0D, 0x0A];
@@ -39,15 +39,17 @@ pub struct SalvageReport {
     pub kept: Vec<String>,
     /// Ids with a spec or state found but not readable.
     pub lost: Vec<String>,
+    /// Told points kept in the kept jobs' logs (the former JSON log's and the journal's).
     pub evaluations: u64,
 }
 
-/// One job as read: spec bytes, state JSON, evaluation log entries.
+/// One job as read: spec bytes, state JSON, the former log's entries, the journal's blocks.
 struct Readable {
     id: String,
     spec: Vec<u8>,
     state: String,
     evaluations: Vec<(u64, String)>,
+    journal: Vec<(u64, Vec<u8>)>,
 }
 
 /// Salvages `<data_dir>/jobs.redb` (the coordinator must be stopped).
@@ -123,8 +125,9 @@ pub fn salvage(data_dir: &Path) -> Result<SalvageReport, CoordinatorError> {
     let fresh = Store::open(&fresh_dir)?;
     let mut report = SalvageReport { damaged: damaged.clone(), method, ..Default::default() };
     for job in jobs {
-        fresh.restore_job(&job.id, &job.spec, &job.state, &job.evaluations)?;
-        report.evaluations += job.evaluations.len() as u64;
+        fresh.restore_job(&job.id, &job.spec, &job.state, &job.evaluations, &job.journal)?;
+        let journaled: usize = job.journal.iter().map(|(_, b)| crate::journal::decode(b).map_or(0, |p| p.len())).sum();
+        report.evaluations += (job.evaluations.len() + journaled) as u64;
         report.kept.push(job.id);
     }
     drop(fresh);
@@ -199,14 +202,24 @@ fn read_job(db: &Database, id: &str) -> Result<Option<Readable>, ()> {
             evaluations.push((k.value().1, v.value().to_owned()));
         }
     }
-    Ok(Some(Readable { id: id.to_owned(), spec, state, evaluations }))
+    let mut journal = vec![];
+    if let Ok(blocks) = tx.open_table(JOURNAL)
+        && let Ok(range) = blocks.range((id, 0)..=(id, u64::MAX))
+    {
+        for entry in range {
+            let Ok((k, v)) = entry else { break };
+            journal.push((k.value().1, v.value().to_vec()));
+        }
+    }
+    Ok(Some(Readable { id: id.to_owned(), spec, state, evaluations, journal }))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// A store of `n` jobs, each with a padded state and 5 logged evaluations, like a real one.
+    /// A store of `n` jobs, each with a padded state, 5 evaluations in the former JSON log and
+    /// 3 more in a journal block, like a real one (resumed from a store of the former version).
     fn store_with_jobs(dir: &Path, n: u64) {
         let store = Store::open(dir).unwrap();
         for seq in 0..n {
@@ -225,7 +238,9 @@ mod tests {
                     )
                 })
                 .collect();
-            store.restore_job(&id, b"spec bytes", &state, &evals).unwrap();
+            let e = fmucal_shared::job::Evaluation::failed("x");
+            let block = crate::journal::encode((5..8).map(|p| (p, [0.5, 1.5].as_slice(), &e)));
+            store.restore_job(&id, b"spec bytes", &state, &evals, &[(5, block)]).unwrap();
         }
     }
 
@@ -262,12 +277,14 @@ mod tests {
         let damaged = std::fs::read(dir.path().join("jobs.redb")).unwrap();
         let report = salvage(dir.path()).unwrap();
         assert_eq!(report.kept.len(), 40, "flipped byte {offset}: {report:?}");
-        assert_eq!(report.evaluations, 200);
+        assert_eq!(report.evaluations, 320);
         assert!(report.lost.is_empty(), "{report:?}");
         assert_eq!(std::fs::read(&report.damaged).unwrap(), damaged, "the damaged file was changed");
         let store = Store::open(dir.path()).unwrap();
         assert_eq!(store.job_ids().unwrap().len(), 40);
-        assert_eq!(store.evaluations("job-000039").unwrap().len(), 5);
+        let logged = store.evaluations("job-000039").unwrap();
+        assert_eq!(logged.iter().map(|l| l.point).collect::<Vec<_>>(), (0..8).collect::<Vec<_>>());
+        assert_eq!(logged[7].x.as_deref(), Some([0.5, 1.5].as_slice()));
         assert_eq!(store.next_seq().unwrap(), 40);
         assert!(!dir.path().join(".salvage").exists(), "the work folder was left behind");
     }

@@ -34,7 +34,7 @@ use tokio::sync::{mpsc, oneshot};
 use crate::error::{CoordinatorError, quote};
 use crate::metrics::{CoordinatorMetrics, Gauges};
 use crate::models::ModelStore;
-use crate::store::{JobState, Store, Write, Writer};
+use crate::store::{JobState, Store, Told, Write, Writer};
 use fmucal_proto::convert::{SubmittedJob, evaluation_from_proto, result_to_proto};
 
 type Reply<T> = oneshot::Sender<Result<T, CoordinatorError>>;
@@ -230,7 +230,7 @@ pub struct Scheduler {
     store: Arc<Store>,
     writer: Writer,
     /// Told points not yet sent to the writer (sent every tick and at batch ends).
-    unlogged: Vec<(String, u64, Evaluation)>,
+    unlogged: Vec<Told>,
     models: Arc<Mutex<ModelStore>>,
     timing: Timing,
     next_seq: u64,
@@ -253,9 +253,9 @@ fn is_running(status: JobStatus) -> bool {
     status == JobStatus::Running
 }
 
-/// The write of a job's `state`; an ended job's evaluation log goes with it ([`Write::State`]).
+/// The write of a job's `state`; the journal written before it goes with it ([`Write::State`]).
 fn state_write(id: &str, state: &JobState) -> Result<Write, serde_json::Error> {
-    Ok(Write::State { id: id.to_owned(), json: serde_json::to_string(state)?, ended: !is_running(state.status) })
+    Ok(Write::State { id: id.to_owned(), json: serde_json::to_string(state)? })
 }
 
 /// The protocol's number for `status`.
@@ -329,13 +329,17 @@ impl Scheduler {
             let job = Job::new(spec, job_spec, state);
             s.jobs.insert(id.clone(), job);
             if running {
-                // Tell the logged results of the open batch instead of evaluating them again.
-                let logged: HashMap<u64, Evaluation> = s.store.evaluations(&id)?.into_iter().collect();
+                // Tell the logged results of the open batch instead of evaluating them again,
+                // each only to the point it was logged for (an entry of the former log has no x).
+                let logged: HashMap<u64, _> = s.store.evaluations(&id)?.into_iter().map(|l| (l.point, l)).collect();
                 let job = s.jobs.get_mut(&id).expect("just inserted");
                 for c in job.state.run.ask() {
-                    if let Some(e) = logged.get(&c.id) {
-                        let _ = job.state.run.tell(c.id, &c.x, e, 0.0);
+                    let Some(l) = logged.get(&c.id) else { continue };
+                    if l.x.as_ref().is_some_and(|x| !same_bits(x, &c.x)) {
+                        tracing::warn!(job = %id, point = c.id, "the journal logged another x for this point: it is evaluated again");
+                        continue;
                     }
+                    let _ = job.state.run.tell(c.id, &c.x, &l.evaluation, 0.0);
                 }
                 tracing::info!(job = %id, rounds = job.state.run.optimizer().rounds(), "resuming job");
                 s.refill(&id)?;
@@ -626,7 +630,7 @@ impl Scheduler {
             }
         }
         // The ended state removes the job's log: its unwritten entries need not be written.
-        self.unlogged.retain(|(j, _, _)| j != id);
+        self.unlogged.retain(|t| t.job != id);
         self.flush_log();
         self.writer.send(write);
         tracing::info!(job = %id, ?status, "job finished");
@@ -640,7 +644,7 @@ impl Scheduler {
         let Some(p) = job.open.remove(&point) else { return };
         job.queue.retain(|q| *q != point);
         let told = job.state.run.tell(point, &p.x, &evaluation, job.batch_started.elapsed().as_secs_f64());
-        self.unlogged.push((id.to_owned(), point, evaluation));
+        self.unlogged.push(Told { job: id.to_owned(), point, x: p.x, evaluation });
         if let Some(why) = job.state.run.fatal_error() {
             tracing::warn!(job = %id, "{why}");
             if let Err(e) = self.finish(id, JobStatus::Failed, Some(&why)) {
@@ -1026,6 +1030,11 @@ impl Scheduler {
         self.parked = still;
         self.wake_parked();
     }
+}
+
+/// Whether two points are the same, bit for bit.
+fn same_bits(a: &[f64], b: &[f64]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(u, v)| u.to_bits() == v.to_bits())
 }
 
 /// 16 random hex digits from the operating system (a clock-derived fallback if it has none).

@@ -1,9 +1,14 @@
 //! Job persistence in redb under `<data-dir>/jobs.redb`: the submitted spec (protobuf bytes),
-//! the job state after every completed batch (optimizer included, as JSON), the evaluation log
-//! of a running job (one entry per told point; removed when the job ends), and the result. Submissions are written before they are
-//! acknowledged; states and log entries go through a [`Writer`] thread that commits whatever
-//! has queued up in one durable transaction, so the scheduler never waits for a disk flush. After a restart, running jobs resume from their
-//! last completed batch and the logged points of the open batch are told again rather than
+//! the job state after every completed batch (optimizer included, as JSON), the journal of a
+//! running job (the points told since its last saved state, in the binary blocks of
+//! [`crate::journal`]: each saved state removes the journal before it), and the result. Stores
+//! written before the journal kept one JSON entry per told point instead (table
+//! `evaluations`): they are still read, and resume as exactly.
+//!
+//! Submissions are written before they are acknowledged; states and journal blocks go through
+//! a [`Writer`] thread that commits whatever has queued up in one durable transaction, so the
+//! scheduler never waits for a disk flush. After a restart, running jobs resume from their
+//! last completed batch and the journaled points of the open batch are told again rather than
 //! re-evaluated; finished results stay queryable.
 //!
 //! A write that fails (a full disk) is reported to the scheduler ([`Writer::failures`]), which
@@ -22,10 +27,15 @@ use redb::{Database, ReadableDatabase, ReadableTable, TableDefinition};
 use serde::{Deserialize, Serialize};
 
 use crate::error::CoordinatorError;
+use crate::journal::{self, Logged};
 
 pub(crate) const SPECS: TableDefinition<&str, &[u8]> = TableDefinition::new("job_specs");
 pub(crate) const STATES: TableDefinition<&str, &str> = TableDefinition::new("job_states");
+/// The former evaluation log: (job, point) → the point's [`Evaluation`] as JSON. Read, and
+/// emptied with its job, but no longer written.
 pub(crate) const EVALS: TableDefinition<(&str, u64), &str> = TableDefinition::new("evaluations");
+/// The journal: (job, lowest point id of the block) → a block of told points ([`journal`]).
+pub(crate) const JOURNAL: TableDefinition<(&str, u64), &[u8]> = TableDefinition::new("journal");
 /// `next_seq`: past every job ever stored, deleted ones included, so ids are never reused.
 pub(crate) const META: TableDefinition<&str, u64> = TableDefinition::new("meta");
 
@@ -73,6 +83,7 @@ impl Store {
         tx.open_table(SPECS)?;
         tx.open_table(STATES)?;
         tx.open_table(EVALS)?;
+        tx.open_table(JOURNAL)?;
         tx.open_table(META)?;
         tx.commit()?;
         Ok(Store { db: Mutex::new(Some(db)), open })
@@ -134,13 +145,15 @@ impl Store {
         written
     }
 
-    /// Writes a job as salvaged from a damaged store: spec, state JSON, evaluation log.
+    /// Writes a job as salvaged from a damaged store: spec, state JSON, the former JSON log's
+    /// entries and the journal's blocks, as they were stored.
     pub(crate) fn restore_job(
         &self,
         id: &str,
         spec: &[u8],
         state_json: &str,
         evaluations: &[(u64, String)],
+        journal: &[(u64, Vec<u8>)],
     ) -> Result<(), CoordinatorError> {
         let seq = id.strip_prefix("job-").and_then(|n| n.parse::<u64>().ok()).unwrap_or(0);
         self.insert_job(id, spec, seq, state_json)?;
@@ -150,6 +163,10 @@ impl Store {
             let mut evals = tx.open_table(EVALS)?;
             for (point, json) in evaluations {
                 evals.insert((id, *point), json.as_str())?;
+            }
+            let mut blocks = tx.open_table(JOURNAL)?;
+            for (first, block) in journal {
+                blocks.insert((id, *first), block.as_slice())?;
             }
         }
         tx.commit()?;
@@ -193,15 +210,26 @@ impl Store {
         Ok(out)
     }
 
-    /// Logged evaluations of a job's points.
-    pub fn evaluations(&self, id: &str) -> Result<Vec<(u64, Evaluation)>, CoordinatorError> {
+    /// The told points a job's journal keeps: those of the former JSON log first (without
+    /// their x), then the journal's blocks in key order; a point told twice is listed twice,
+    /// the later telling last. A block that does not decode is reported and left out (its
+    /// points are evaluated again).
+    pub fn evaluations(&self, id: &str) -> Result<Vec<Logged>, CoordinatorError> {
         let db = self.db(false)?;
         let tx = db.as_ref().expect("opened").begin_read()?;
         let evals = tx.open_table(EVALS)?;
         let mut out = vec![];
         for entry in evals.range((id, 0)..=(id, u64::MAX))? {
             let (k, v) = entry?;
-            out.push((k.value().1, serde_json::from_str(v.value())?));
+            out.push(Logged { point: k.value().1, x: None, evaluation: serde_json::from_str(v.value())? });
+        }
+        let blocks = tx.open_table(JOURNAL)?;
+        for entry in blocks.range((id, 0)..=(id, u64::MAX))? {
+            let (k, v) = entry?;
+            match journal::decode(v.value()) {
+                Ok(points) => out.extend(points),
+                Err(e) => tracing::error!(job = %id, block = k.value().1, "{e}: its points are evaluated again"),
+            }
         }
         Ok(out)
     }
@@ -209,14 +237,25 @@ impl Store {
 
 /// A queued write.
 pub enum Write {
-    /// A job's state after a completed batch (JSON). Once the job has `ended`, its evaluation
-    /// log is removed with it: the log only serves to resume an open batch, and the result
-    /// holds the evaluated points (a points job's residuals would otherwise be stored twice).
-    State { id: String, json: String, ended: bool },
-    /// Told points: (job, point, evaluation).
-    Log(Vec<(String, u64, Evaluation)>),
-    /// Removes a job: its spec, state and evaluation log.
+    /// A job's state (JSON), after a completed batch or at its end. It removes the job's
+    /// journal written before it: the state holds every point told by then (and a finished
+    /// job's result its evaluated points), so the journal only ever holds the points told
+    /// since the last saved state, those of the open batch.
+    State { id: String, json: String },
+    /// Told points, in the order they were told.
+    Log(Vec<Told>),
+    /// Removes a job: its spec, state and journal.
     Delete { id: String },
+}
+
+/// A point told to its job's optimizer, for the journal.
+#[derive(Debug, Clone)]
+pub struct Told {
+    pub job: String,
+    pub point: u64,
+    /// The point as handed out.
+    pub x: Vec<f64>,
+    pub evaluation: Evaluation,
 }
 
 /// A group of writes that could not be committed: the jobs it concerned and why.
@@ -315,7 +354,7 @@ fn commit_group(
                 jobs.push(id.clone());
                 unwritten.insert(id.clone(), w);
             }
-            Write::Log(entries) => jobs.extend(entries.into_iter().map(|(id, _, _)| id)),
+            Write::Log(entries) => jobs.extend(entries.into_iter().map(|t| t.job)),
             Write::Delete { ref id } => {
                 unwritten.insert(id.clone(), w);
             }
@@ -347,21 +386,36 @@ impl Store {
             let mut specs = tx.open_table(SPECS)?;
             let mut states = tx.open_table(STATES)?;
             let mut evals = tx.open_table(EVALS)?;
+            let mut blocks = tx.open_table(JOURNAL)?;
             let mut meta = tx.open_table(META)?;
             for w in writes {
                 match w {
-                    Write::State { id, json, ended } => {
+                    Write::State { id, json } => {
                         // A state written after its job was deleted stays deleted.
                         if specs.get(id.as_str())?.is_some() {
                             states.insert(id.as_str(), json.as_str())?;
                         }
-                        if *ended {
-                            evals.retain_in((id.as_str(), 0)..=(id.as_str(), u64::MAX), |_, _| false)?;
-                        }
+                        evals.retain_in((id.as_str(), 0)..=(id.as_str(), u64::MAX), |_, _| false)?;
+                        blocks.retain_in((id.as_str(), 0)..=(id.as_str(), u64::MAX), |_, _| false)?;
                     }
                     Write::Log(entries) => {
-                        for (id, point, evaluation) in entries {
-                            evals.insert((id.as_str(), *point), serde_json::to_string(evaluation)?.as_str())?;
+                        // One block per job, keyed by its lowest point: the blocks of a job hold
+                        // disjoint points, unless a point is told again after a resume found its
+                        // logged x changed; then the new records go after the block's.
+                        let mut by_job: BTreeMap<&str, Vec<&Told>> = BTreeMap::new();
+                        for t in entries {
+                            by_job.entry(t.job.as_str()).or_default().push(t);
+                        }
+                        for (id, told) in by_job {
+                            let first = told.iter().map(|t| t.point).min().expect("a job listed has points");
+                            let mut block =
+                                journal::encode(told.iter().map(|t| (t.point, t.x.as_slice(), &t.evaluation)));
+                            if let Some(old) = blocks.get((id, first))? {
+                                let mut joined = old.value().to_vec();
+                                joined.extend_from_slice(&block[1..]);
+                                block = joined;
+                            }
+                            blocks.insert((id, first), block.as_slice())?;
                         }
                     }
                     Write::Delete { id } => {
@@ -373,6 +427,7 @@ impl Store {
                         specs.remove(id.as_str())?;
                         states.remove(id.as_str())?;
                         evals.retain_in((id.as_str(), 0)..=(id.as_str(), u64::MAX), |_, _| false)?;
+                        blocks.retain_in((id.as_str(), 0)..=(id.as_str(), u64::MAX), |_, _| false)?;
                     }
                 }
             }
@@ -401,6 +456,10 @@ mod tests {
         json.to_string()
     }
 
+    fn told(job: &str, point: u64) -> Told {
+        Told { job: job.into(), point, x: vec![1.0], evaluation: Evaluation::failed("x") }
+    }
+
     fn stored_state(store: &Store, id: &str) -> Option<String> {
         // Closed while the writer reopens it: nothing to read yet.
         let db = store.db(false).ok()?;
@@ -426,7 +485,7 @@ mod tests {
         store.insert_job("job-0", b"spec", 0, &state(0, JobStatus::Running, None)).unwrap();
         let writer = Writer::spawn(store.clone());
         disk.set_full(true);
-        writer.send(Write::State { id: "job-0".into(), json: state(0, JobStatus::Succeeded, None), ended: true });
+        writer.send(Write::State { id: "job-0".into(), json: state(0, JobStatus::Succeeded, None) });
         let mut failures = vec![];
         wait_for(|| {
             failures.extend(writer.failures());
@@ -436,7 +495,7 @@ mod tests {
         assert!(failures[0].error.contains("No space left on device"), "{:?}", failures[0].error);
         // The scheduler fails the job; that state cannot be written either, for now.
         let failed = state(0, JobStatus::Failed, Some("the job's state could not be saved"));
-        writer.send(Write::State { id: "job-0".into(), json: failed.clone(), ended: true });
+        writer.send(Write::State { id: "job-0".into(), json: failed.clone() });
         std::thread::sleep(Duration::from_millis(300));
         let second = state(1, JobStatus::Running, None);
         assert!(store.insert_job("job-1", b"spec", 1, &second).is_err(), "a write went through on a full disk");
@@ -464,9 +523,9 @@ mod tests {
         let store = Arc::new(store_on(&disk));
         store.insert_job("job-7", b"spec", 7, &state(7, JobStatus::Running, None)).unwrap();
         let writer = Writer::spawn(store.clone());
-        writer.send(Write::Log(vec![("job-7".into(), 0, Evaluation::failed("x"))]));
+        writer.send(Write::Log(vec![told("job-7", 0)]));
         writer.send(Write::Delete { id: "job-7".into() });
-        writer.send(Write::State { id: "job-7".into(), json: state(7, JobStatus::Failed, None), ended: true });
+        writer.send(Write::State { id: "job-7".into(), json: state(7, JobStatus::Failed, None) });
         drop(writer);
         assert!(store.job_ids().unwrap().is_empty());
         assert!(stored_state(&store, "job-7").is_none());
@@ -474,26 +533,91 @@ mod tests {
         assert_eq!(store.next_seq().unwrap(), 8);
     }
 
-    /// A running job's states keep its evaluation log (a restart tells the logged points of
-    /// the open batch again); the state it ends with removes the log, and no other job's.
+    /// A saved state removes its job's journal written before it (the state holds those
+    /// points), and no other job's; what is told after it stays, in the former log's table
+    /// too, until the next state; an ended job keeps none.
     #[test]
-    fn an_ended_job_keeps_no_evaluation_log() {
+    fn a_saved_state_removes_the_journal_before_it_and_only_its_jobs() {
         let disk = FillableDisk::default();
         let store = Arc::new(store_on(&disk));
         for (id, seq) in [("job-1", 1), ("job-2", 2)] {
             store.insert_job(id, b"spec", seq, &state(seq, JobStatus::Running, None)).unwrap();
         }
+        let points = |id: &str| store.evaluations(id).unwrap().into_iter().map(|l| l.point).collect::<Vec<_>>();
         let writer = Writer::spawn(store.clone());
-        let logged = |id: &str| (0..3).map(|p| (id.to_owned(), p, Evaluation::failed("x"))).collect::<Vec<_>>();
-        writer.send(Write::Log([logged("job-1"), logged("job-2")].concat()));
-        writer.send(Write::State { id: "job-1".into(), json: state(1, JobStatus::Running, None), ended: false });
+        let logged = |id: &str, from: u64| (from..from + 3).map(|p| told(id, p)).collect::<Vec<_>>();
+        writer.send(Write::Log([logged("job-1", 0), logged("job-2", 0)].concat()));
+        writer.send(Write::State { id: "job-1".into(), json: state(1, JobStatus::Running, None) });
+        writer.send(Write::Log(logged("job-1", 3)));
         drop(writer);
-        assert_eq!(store.evaluations("job-1").unwrap().len(), 3);
+        assert_eq!(points("job-1"), [3, 4, 5]);
+        assert_eq!(points("job-2"), [0, 1, 2]);
+        // An entry of the former JSON log goes the same way.
+        restore_former_entry(&store, "job-1", 6);
+        assert_eq!(points("job-1"), [6, 3, 4, 5]);
         let writer = Writer::spawn(store.clone());
-        writer.send(Write::State { id: "job-1".into(), json: state(1, JobStatus::Succeeded, None), ended: true });
+        writer.send(Write::State { id: "job-1".into(), json: state(1, JobStatus::Succeeded, None) });
         drop(writer);
-        assert!(store.evaluations("job-1").unwrap().is_empty());
-        assert_eq!(store.evaluations("job-2").unwrap().len(), 3);
+        assert!(points("job-1").is_empty());
+        assert_eq!(points("job-2"), [0, 1, 2]);
         assert_eq!(stored_state(&store, "job-1"), Some(state(1, JobStatus::Succeeded, None)));
+    }
+
+    /// The journal's size in redb's pages (stored bytes, metadata and fragmentation) per point,
+    /// with `jobs` running jobs of `dims` parameters whose told points are flushed in blocks
+    /// of `per_block` (as the scheduler flushes a job's points every tick and at batch ends).
+    fn journal_bytes_per_point(jobs: u64, dims: usize, per_block: u64, blocks_per_job: u64) -> f64 {
+        use redb::ReadableTableMetadata;
+        let disk = FillableDisk::default();
+        let store = Arc::new(store_on(&disk));
+        for seq in 0..jobs {
+            store.insert_job(&format!("job-{seq:06}"), b"spec", seq, &state(seq, JobStatus::Running, None)).unwrap();
+        }
+        let writer = Writer::spawn(store.clone());
+        let x: Vec<f64> = (0..dims).map(|i| 0.1 + i as f64 / 3.0).collect();
+        for b in 0..blocks_per_job {
+            // Every job's block of this flush, as one scheduler tick sends them.
+            let mut flush = vec![];
+            for seq in 0..jobs {
+                for p in b * per_block..(b + 1) * per_block {
+                    let evaluation = Evaluation {
+                        value: Some(1.0 / (p + seq + 1) as f64),
+                        residuals: Some(vec![]),
+                        error: None,
+                        wall: Duration::from_millis(50),
+                    };
+                    flush.push(Told { job: format!("job-{seq:06}"), point: p, x: x.clone(), evaluation });
+                }
+            }
+            writer.send(Write::Log(flush));
+        }
+        drop(writer);
+        let db = store.db(false).unwrap();
+        let tx = db.as_ref().unwrap().begin_read().unwrap();
+        let table = tx.open_table(JOURNAL).unwrap();
+        let s = table.stats().unwrap();
+        let points = jobs * per_block * blocks_per_job;
+        (s.stored_bytes() + s.metadata_bytes() + s.fragmented_bytes()) as f64 / points as f64
+    }
+
+    /// With up to 4 parameters the journal takes at most 100 bytes per told point on disk, for
+    /// the blocks Nelder–Mead (1 to 4 points per batch, each flushed apart: the worst case) and
+    /// DE or CMA-ES (a population's share per tick) give, over many running jobs.
+    #[test]
+    fn the_journal_takes_at_most_100_bytes_per_point_with_four_parameters() {
+        for (what, per_block, blocks) in [("one point per block", 1, 4), ("4 per block", 4, 2), ("10 per block", 10, 2)]
+        {
+            let bytes = journal_bytes_per_point(300, 4, per_block, blocks);
+            assert!(bytes <= 100.0, "{what}: {bytes:.1} bytes per point");
+        }
+    }
+
+    /// Writes point `point` of `id` in the former JSON log, as coordinators before the journal did.
+    fn restore_former_entry(store: &Store, id: &str, point: u64) {
+        let db = store.db(false).unwrap();
+        let tx = db.as_ref().unwrap().begin_write().unwrap();
+        let json = serde_json::to_string(&Evaluation::failed("x")).unwrap();
+        tx.open_table(EVALS).unwrap().insert((id, point), json.as_str()).unwrap();
+        tx.commit().unwrap();
     }
 }

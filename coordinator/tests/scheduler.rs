@@ -469,12 +469,70 @@ async fn a_job_cancelled_before_its_first_batch_survives_a_restart() {
     assert_cancelled(&s.get(&job).await, 0, &[1.0]);
 }
 
+/// How the told points are stored when the scheduler dies.
+#[derive(Clone, Copy, PartialEq)]
+enum Logged {
+    /// As this version writes them: the binary journal.
+    Journal,
+    /// As coordinators before the journal wrote them: one JSON evaluation per point.
+    FormerJson,
+    /// The journal, with the x of its lowest point changed: that point is not told from the
+    /// journal but evaluated again.
+    JournalOtherX,
+}
+
+/// The former log's table: (job, point) → the point's `Evaluation` as JSON.
+const FORMER_LOG: redb::TableDefinition<(&str, u64), &str> = redb::TableDefinition::new("evaluations");
+const JOURNAL: redb::TableDefinition<(&str, u64), &[u8]> = redb::TableDefinition::new("journal");
+
+/// Rewrites what the journal of `dir`'s store holds as `how` says (the scheduler is stopped);
+/// returns the points it held.
+fn rewrite_log(dir: &Path, how: Logged) -> Vec<u64> {
+    let store = Store::open(dir).unwrap();
+    let logged: Vec<(String, Vec<fmucal_coordinator::journal::Logged>)> =
+        store.job_ids().unwrap().into_iter().map(|id| (id.clone(), store.evaluations(&id).unwrap())).collect();
+    drop(store);
+    let points = logged.iter().flat_map(|(_, l)| l.iter().map(|l| l.point)).collect();
+    let db = redb::Database::create(dir.join("jobs.redb")).unwrap();
+    let tx = db.begin_write().unwrap();
+    match how {
+        Logged::Journal => {}
+        Logged::FormerJson => {
+            // A store of the former version has no journal table at all.
+            assert!(tx.delete_table(JOURNAL).unwrap());
+            let mut former = tx.open_table(FORMER_LOG).unwrap();
+            for (id, entries) in &logged {
+                for l in entries {
+                    let json = serde_json::to_string(&l.evaluation).unwrap();
+                    former.insert((id.as_str(), l.point), json.as_str()).unwrap();
+                }
+            }
+        }
+        Logged::JournalOtherX => {
+            let mut journal = tx.open_table(JOURNAL).unwrap();
+            journal.retain(|_, _| false).unwrap();
+            for (id, entries) in &logged {
+                let mut xs: Vec<Vec<f64>> = entries.iter().map(|l| l.x.clone().unwrap()).collect();
+                let lowest = (0..entries.len()).min_by_key(|&i| entries[i].point).unwrap();
+                xs[lowest][0] += 0.125;
+                let block = fmucal_coordinator::journal::encode(
+                    entries.iter().zip(&xs).map(|(l, x)| (l.point, x.as_slice(), &l.evaluation)),
+                );
+                journal.insert((id.as_str(), entries[0].point), block.as_slice()).unwrap();
+            }
+        }
+    }
+    tx.commit().unwrap();
+    points
+}
+
 /// Runs a 6-point, 3-generation DE job on one worker, killing the scheduler in the second
 /// batch after the worker answered `answered` of its points, and resuming on the same data
-/// directory with a new worker. The job's point `failing` fails on every attempt (3 before
-/// the kill, for the lone worker). Checks that answered points are not handed out again, and
-/// that the result and every hand-out match an uninterrupted run's.
-async fn resume_mid_batch(answered: usize, failing: Option<u64>) {
+/// directory with a new worker, the told points stored as `logged` says. The job's point
+/// `failing` fails on every attempt (3 before the kill, for the lone worker). Checks that
+/// answered points are not handed out again (but the one whose logged x changed), and that the
+/// result and every hand-out match an uninterrupted run's.
+async fn resume_mid_batch(answered: usize, failing: Option<u64>, logged: Logged) {
     const POP: u32 = 6;
     let answer = |p: &pb::Assignment| if Some(p.point_id) == failing { failed(p) } else { ok(p) };
     let spec = |dir: &Path| de_job(dir, POP as usize, 2);
@@ -513,12 +571,22 @@ async fn resume_mid_batch(answered: usize, failing: Option<u64>) {
     s.pass(Duration::from_millis(100), &[&a]).await;
     assert_eq!(s.get(&job).await.status, RUNNING);
     s.kill().await;
+    let mut told = rewrite_log(dir.path(), logged);
+    told.sort_unstable();
+    let mut answered_ids = ids(done);
+    answered_ids.sort_unstable();
+    assert_eq!(told, answered_ids, "the log holds the answered points of the open batch, and only those");
+    // The point whose logged x changed is evaluated again, first (ids in order).
+    let (again, expected): (&[pb::Assignment], Vec<pb::Assignment>) = match logged {
+        Logged::JournalOtherX => (&done[..1], [&done[..1], open].concat()),
+        _ => (&[], open.to_vec()),
+    };
 
     let s = Sched::start(dir.path());
     let b = s.register("b", 1).await;
     let resent = s.take(&b, POP).await;
-    assert_eq!(ids(&resent), ids(open), "after the restart, only the unanswered points of the batch");
-    assert_eq!(by_id(&resent), by_id(open));
+    assert_eq!(ids(&resent), ids(&expected), "after the restart, only the unanswered points of the batch");
+    assert_eq!(by_id(&resent), by_id(&expected));
     s.answer(&b, resent.iter().map(answer).collect()).await;
     let (got, handed) = s.drive(&job, &[&b], |_, p| answer(p)).await;
     assert_eq!(got.status, SUCCEEDED, "{got:?}");
@@ -526,23 +594,41 @@ async fn resume_mid_batch(answered: usize, failing: Option<u64>) {
     // The points open at the kill were handed out before it and again after it.
     let mut all: Vec<pb::Assignment> = [&batch1[..], done, &resent].concat();
     all.extend(handed.into_iter().map(|(_, p)| p));
-    let mut seen = HashSet::new();
-    assert!(
-        all.iter().filter(|p| Some(p.point_id) != failing).all(|p| seen.insert(p.point_id)),
-        "a point was handed out twice"
-    );
+    // Each point once; the one whose logged x changed twice (before the kill and after it).
+    let mut times: BTreeMap<u64, usize> = BTreeMap::new();
+    for p in all.iter().filter(|p| Some(p.point_id) != failing) {
+        *times.entry(p.point_id).or_default() += 1;
+    }
+    let twice: Vec<u64> = times.iter().filter(|(_, n)| **n == 2).map(|(p, _)| *p).collect();
+    assert!(times.values().all(|n| *n <= 2), "a point was handed out more than twice: {times:?}");
+    assert_eq!(twice, ids(again), "points handed out twice");
     assert_eq!(by_id(&all), want_points, "other points than in an uninterrupted run");
 }
 
 #[tokio::test(start_paused = true)]
 async fn a_resumed_job_skips_answered_points_and_ends_as_an_uninterrupted_one() {
-    resume_mid_batch(3, None).await;
+    resume_mid_batch(3, None, Logged::Journal).await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_job_resumed_from_the_former_json_log_skips_its_answered_points_and_ends_the_same() {
+    resume_mid_batch(3, None, Logged::FormerJson).await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_job_resumed_from_the_former_json_log_counts_its_failed_points() {
+    resume_mid_batch(3, Some(6), Logged::FormerJson).await;
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_journal_entry_for_another_x_is_not_told_but_evaluated_again() {
+    resume_mid_batch(3, None, Logged::JournalOtherX).await;
 }
 
 #[tokio::test(start_paused = true)]
 async fn a_resumed_job_counts_the_failed_points_it_tells_from_the_log() {
     // Point 6 is the first of the second batch.
-    resume_mid_batch(3, Some(6)).await;
+    resume_mid_batch(3, Some(6), Logged::Journal).await;
 }
 
 #[tokio::test(start_paused = true)]
@@ -581,11 +667,7 @@ async fn a_job_whose_state_cannot_be_read_is_left_out_and_its_id_not_reused() {
     {
         let store = Arc::new(Store::open(dir.path()).unwrap());
         let writer = fmucal_coordinator::store::Writer::spawn(store);
-        writer.send(fmucal_coordinator::store::Write::State {
-            id: old.clone(),
-            json: "{\"status\":2}".into(),
-            ended: true,
-        });
+        writer.send(fmucal_coordinator::store::Write::State { id: old.clone(), json: "{\"status\":2}".into() });
     }
     let s = Sched::start(dir.path());
     let gone = s.call(|reply| Command::Get { job_id: old.clone(), reply }).await;
