@@ -160,8 +160,13 @@ pub fn run(args: Args) -> Result<()> {
                 }
             }
             None => {
-                super::local_cluster::run(threads, async |client: Client| driver::diagnose(client, &ctx, spec).await)
-                    .await
+                let (outcome, stopping) =
+                    super::local_cluster::run(threads, (&ctx.model, &ctx.fmu), async |client: Client| {
+                        driver::diagnose(client, &ctx, spec).await
+                    })
+                    .await?;
+                stopping.wait().await;
+                Ok(outcome)
             }
         }
     })?;
