@@ -16,7 +16,6 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context, Result};
-use fmucal_shared::fmu::Fmu;
 use fmucal_shared::job::{ExperimentErrors, JobSpec, ParameterRange, PreparedJob, report, tolerance};
 use fmucal_shared::quote::quote_user_text;
 
@@ -129,7 +128,8 @@ pub fn run(args: Args) -> Result<()> {
     spec.model.path = Some(model.clone());
     let data = fmucal_shared::job::data::read_all(&spec)?;
     // Check everything locally first: bad jobs fail before any process starts.
-    let fmu = Arc::new(Fmu::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
+    let fmu =
+        Arc::new(super::known_archives::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
     let prepared = Arc::new(PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), &data)?);
     fmucal_shared::job::optimizer::build(&spec)?;
     step(t0, "job checked against the model and data");
@@ -299,10 +299,16 @@ pub fn run(args: Args) -> Result<()> {
         result.warnings = fmucal_shared::job::warnings::check(&spec, &result, model_start, data_start);
         result.warnings.extend(misfit_warning);
         step(t0, "warnings checked");
-        super::outputs::write(&args.out, &result, &fit)?;
-        step(t0, "result.json and CSVs written");
-        crate::report::draw_all(&args.out, &fit, &result.history, &result.parameters, result.errors.as_ref())?;
-        step(t0, "plots drawn");
+        // The files and the plots are independent: written side by side.
+        let (written, drawn) = std::thread::scope(|s| {
+            let written = s.spawn(|| super::outputs::write(&args.out, &result, &fit));
+            let drawn =
+                crate::report::draw_all(&args.out, &fit, &result.history, &result.parameters, result.errors.as_ref());
+            (written.join().unwrap_or_else(|_| Err(anyhow::anyhow!("writing the results panicked"))), drawn)
+        });
+        written?;
+        drawn?;
+        step(t0, "result.json, CSVs and plots written");
     } else {
         for (e, (fit, errors)) in prepared.experiments.iter().zip(&fits) {
             let dir = args.out.join(&e.name);

@@ -130,7 +130,8 @@ pub fn run(args: Args) -> Result<()> {
     spec.model.path = Some(model.clone());
     let data = fmucal_shared::job::data::read_all(&spec)?.pop().context("data: the job has no data")?;
     let windows = checks::windows(&mut spec, &data, &settings)?;
-    let fmu = Arc::new(Fmu::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
+    let fmu =
+        Arc::new(super::known_archives::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
     let places = checks::job_and_candidates(&spec, &settings, &fmu, &data)?;
     // Removed again if the run fails before writing anything into it.
     let _out = super::outputs::OutDir::create(&args.out)?;
