@@ -99,8 +99,14 @@ fn a_local_run_neither_uploads_nor_unpacks_the_model_again() {
     assert!(result["evaluations"].as_u64().unwrap() >= 4, "{result}");
     assert!(saw_store, "never saw the run's job store under {}", tmp.display());
     assert!(models_seen.is_empty(), "the run copied or unpacked the model: {models_seen:?}");
-    // The one unpacked copy is the CLI's, in the user's cache.
-    let unpacked: Vec<_> = std::fs::read_dir(&cache).unwrap().flatten().map(|e| e.file_name()).collect();
+    // The one unpacked copy is the CLI's, in the user's cache (beside the CLI's record of the
+    // archive's SHA-256, a dot folder).
+    let unpacked: Vec<_> = std::fs::read_dir(&cache)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .filter(|n| !n.to_string_lossy().starts_with('.'))
+        .collect();
     assert_eq!(unpacked.len(), 1, "{unpacked:?}");
     let sha = unpacked[0].to_string_lossy().into_owned();
     let archive = std::fs::read(common::example("decay")).unwrap();
