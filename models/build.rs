@@ -45,6 +45,7 @@
 //! | SpringMassExportedOneSidedFriction.fmu | SpringMassExported | `HIDDEN_ONE_SIDED_FRICTION=0.1` | −0.1·tanh(v/1e-3)·(1 + tanh(x/0.01))/2 N, friction only for x > 0 (no effect kind) | 11.8 % |
 //! | SpringMassExportedGrowingMass.fmu | SpringMassExported | `HIDDEN_GROWING_MASS=0.5` | mass m·(1 + 0.5·t/20 s) (no effect kind) | 15.9 % |
 //! | SpringMassExportedLooseTolerance.fmu | SpringMassExported | its description with `tolerance="0.0001"`, Dymola's default | none | |
+//! | SpringMassExportedDocumented.fmu | SpringMassExported | its archive plus `documentation/` (HTML and 12 MB of images), as tools package it | none | |
 //!
 //! FMI 3.0 fixtures (`<Identifier>Fmi3.fmu`): the same model source compiled with `-DFMUCAL_FMI3`,
 //! which makes models/c/fmu_framework.c export the FMI 3.0 API (fmu_framework3.c) instead of
@@ -322,6 +323,10 @@ fn main() {
         package(&root, model, Fmi::V2, xml.as_bytes(), &so, &out.join(format!("{name}.fmu")));
     }
 
+    // Fixture: SpringMassExported packaged as commercial tools package an FMU, with HTML
+    // documentation and images under `documentation/` that make up most of the archive.
+    documented(&out.join("SpringMassExported.fmu"), &out.join("SpringMassExportedDocumented.fmu"));
+
     // Fixture: the bouncing ball described as tools export it, with `derivative` attributes on
     // aliases and on variables that are not continuous states (FMI 2.0 allows them; only
     // ModelStructure/Derivatives defines the states).
@@ -367,6 +372,53 @@ fn package(root: &Path, model: &Model, fmi: Fmi, xml: &[u8], so: &Path, fmu: &Pa
     }
     for res in model.resources {
         add(format!("resources/{res}"), &fs::read(root.join("resources").join(res)).unwrap());
+    }
+    zip.finish().unwrap();
+}
+
+/// Images in [`documented`]'s `documentation/images/`, and the bytes of each.
+const DOC_IMAGES: usize = 12;
+const DOC_IMAGE_BYTES: usize = 1 << 20;
+
+/// Writes `fmu` as `base` with a `documentation/` folder as Dymola and OpenModelica write it:
+/// `index.html` (the entry point FMI 2.0 names), `_main.html` with the model's diagram and
+/// plots, a license page, and [`DOC_IMAGES`] PNG images of [`DOC_IMAGE_BYTES`] each whose
+/// pixels (pseudo-random, fixed seed) do not compress, as photos and rendered plots barely do:
+/// about 13 MB in all, almost all of it documentation.
+fn documented(base: &Path, fmu: &Path) {
+    let mut archive = zip::ZipArchive::new(File::open(base).unwrap()).unwrap();
+    let mut zip = zip::ZipWriter::new(File::create(fmu).unwrap());
+    for i in 0..archive.len() {
+        zip.raw_copy_file(archive.by_index_raw(i).unwrap()).unwrap();
+    }
+    let opts = SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    let mut add = |name: &str, bytes: &[u8]| {
+        zip.start_file(name, opts).unwrap();
+        zip.write_all(bytes).unwrap();
+    };
+    let images: Vec<String> = (0..DOC_IMAGES).map(|k| format!("images/plot{k:02}.png")).collect();
+    let figures: String = images.iter().map(|i| format!("<p><img src=\"{i}\" alt=\"{i}\"></p>\n")).collect();
+    add(
+        "documentation/index.html",
+        b"<html><head><title>SpringMass</title></head><body><a href=\"_main.html\">SpringMass</a></body></html>\n",
+    );
+    add(
+        "documentation/_main.html",
+        format!("<html><body><h1>SpringMass</h1><p>A mass on a spring with a damper.</p>\n{figures}</body></html>\n")
+            .as_bytes(),
+    );
+    add("documentation/licenses/license.html", b"<html><body>Licensed to the fmucal test suite.</body></html>\n");
+    // xorshift64*: a fixed stream of bytes that deflate cannot shrink.
+    let mut state: u64 = 0x9e37_79b9_7f4a_7c15;
+    for name in &images {
+        let mut bytes = b"\x89PNG\r\n\x1a\n".to_vec();
+        while bytes.len() < DOC_IMAGE_BYTES {
+            state ^= state >> 12;
+            state ^= state << 25;
+            state ^= state >> 27;
+            bytes.extend_from_slice(&state.wrapping_mul(0x2545_f491_4f6c_dd1d).to_le_bytes());
+        }
+        add(&format!("documentation/{name}"), &bytes);
     }
     zip.finish().unwrap();
 }

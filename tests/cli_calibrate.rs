@@ -1,7 +1,7 @@
 //! `fmucal calibrate` through the real binary: a local run (in-process coordinator and worker
 //! processes) writes result.json, convergence.csv and fit.csv; the summary and result.json hold
 //! each output's RMS error in its unit and its fit %, as recomputed from fit.csv; `--coordinator
-//! URL` gives the same result on a separately started coordinator; a bad job is one clean
+//! URL` gives the same result, bit for bit, on a separately started coordinator; a bad job is one clean
 //! error line.
 
 mod common;
@@ -260,7 +260,11 @@ fn coordinator_url_gives_the_same_result() {
     // SIGTERM both servers: they shut down cleanly.
     assert!(servers.stop(), "a server did not exit cleanly on SIGTERM");
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert_eq!(result(&dir.path().join("local"))["x_opt"], result(&dir.path().join("remote"))["x_opt"]);
+    // Bit for bit: the local run's model is the CLI's unpacked copy, the remote one an upload.
+    let (local, remote) = (result(&dir.path().join("local")), result(&dir.path().join("remote")));
+    for key in ["x_opt", "f_opt", "evaluations"] {
+        assert_eq!(local[key], remote[key], "{key}");
+    }
     // The wall time the CLI measured, not a coordinator's 0.
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains(" s\n") && !stdout.contains(" in 0.00 s"), "{stdout}");

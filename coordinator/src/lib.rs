@@ -187,6 +187,32 @@ pub async fn run_with_ready(
     shutdown: impl Future<Output = ()> + Send + 'static,
     ready: impl FnOnce(std::net::SocketAddr),
 ) -> Result<(), CoordinatorError> {
+    serve(config, &[], listener, shutdown, ready).await
+}
+
+/// [`run`] for a local run, with `local` models registered in the model store first
+/// ([`models::ModelStore::register_local`]): models the calling process has unpacked and
+/// checked, which clients then name by their SHA-256 without uploading them. Only this call
+/// registers them; no request can.
+///
+/// # Errors
+/// As [`run`], and INVALID_ARGUMENT if a local model does not describe.
+pub async fn run_with_local_models(
+    config: Config,
+    local: &[models::LocalModel],
+    listener: TcpListener,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), CoordinatorError> {
+    serve(config, local, listener, shutdown, |_| {}).await
+}
+
+async fn serve(
+    config: Config,
+    local: &[models::LocalModel],
+    listener: TcpListener,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+    ready: impl FnOnce(std::net::SocketAddr),
+) -> Result<(), CoordinatorError> {
     let addr = listener.local_addr()?;
     check_tokens(config.token.as_deref(), config.worker_token.as_deref())?;
     config.timing.check()?;
@@ -199,8 +225,11 @@ pub async fn run_with_ready(
         )),
         other => other,
     };
-    let models =
-        Arc::new(Mutex::new(models::ModelStore::open(&config.data_dir, config.max_store_bytes).map_err(in_data_dir)?));
+    let mut model_store = models::ModelStore::open(&config.data_dir, config.max_store_bytes).map_err(in_data_dir)?;
+    for model in local {
+        model_store.register_local(model)?;
+    }
+    let models = Arc::new(Mutex::new(model_store));
     let data_dir = config.data_dir.clone();
     let (store, models2, timing) =
         (tokio::task::spawn_blocking(move || store::Store::open(&data_dir)), models.clone(), config.timing.clone());

@@ -3,6 +3,12 @@
 //! its model description, and moved into place only when accepted: a rejected upload leaves
 //! nothing behind. The store's total size (archives and unpacked files) is capped; opening the
 //! store removes what an interrupted upload left. The coordinator never loads FMU binaries.
+//!
+//! A local run's own model ([`LocalModel`]: an archive its process has already unpacked and
+//! checked) is registered through [`ModelStore::register_local`], a Rust call of the process
+//! that runs the coordinator: it is described from its unpacked folder and neither copied nor
+//! unpacked again. No request names a path: a client names a model only by the id it got back
+//! from an upload, or that a registration gave it.
 
 use std::collections::HashMap;
 use std::io::Read;
@@ -18,10 +24,21 @@ use crate::error::CoordinatorError;
 /// Default cap on the model store's total size: 20 GiB.
 pub const DEFAULT_MAX_STORE_BYTES: u64 = 20 << 30;
 
+/// A model a local run has unpacked and checked already: its archive, the folder it was
+/// unpacked into and the archive's SHA-256 (hex), which is its id.
+#[derive(Debug, Clone)]
+pub struct LocalModel {
+    pub archive: PathBuf,
+    pub dir: PathBuf,
+    pub sha256: String,
+}
+
 pub struct ModelStore {
     dir: PathBuf,
     opts: LoadOptions,
     described: HashMap<String, Described>,
+    /// Archives of the models registered with [`ModelStore::register_local`], by id.
+    local: HashMap<String, PathBuf>,
     /// Cap on archives plus unpacked files, in bytes.
     max_bytes: u64,
     /// What they take now.
@@ -57,7 +74,7 @@ impl ModelStore {
         std::fs::create_dir_all(&dir)?;
         let opts = LoadOptions { cache_dir: data_dir.join("unpacked"), ..Default::default() };
         std::fs::create_dir_all(&opts.cache_dir)?;
-        let mut store = ModelStore { dir, opts, described: HashMap::new(), max_bytes, used: 0 };
+        let mut store = ModelStore { dir, opts, described: HashMap::new(), local: HashMap::new(), max_bytes, used: 0 };
         store.remove_leftovers()?;
         store.used = tree_size(&store.dir) + tree_size(&store.opts.cache_dir);
         tracing::debug!(used = store.used, max = max_bytes, "model store opened");
@@ -84,6 +101,33 @@ impl ModelStore {
 
     fn path(&self, id: &str) -> PathBuf {
         self.dir.join(format!("{id}.fmu"))
+    }
+
+    /// Registers a model the calling process has unpacked and checked already (a local run's),
+    /// under its SHA-256: described from its folder, with nothing copied into the store or
+    /// unpacked again, and not counted against the store's cap. Returns (id, model name).
+    ///
+    /// # Errors
+    /// INVALID_ARGUMENT if the SHA-256 is not 64 hex digits or the folder holds no usable
+    /// model description.
+    pub fn register_local(&mut self, model: &LocalModel) -> Result<(String, String), CoordinatorError> {
+        if !is_model_id(&model.sha256) {
+            return Err(CoordinatorError::InvalidArgument(format!(
+                "sha256: {} is not 64 hex digits",
+                crate::error::quote(&model.sha256)
+            )));
+        }
+        let d = fmu::describe_unpacked(&model.dir, model.sha256.clone())
+            .map_err(|e| CoordinatorError::InvalidArgument(format!("{}: {e}", model.dir.display())))?;
+        let name = d.description.model_name.clone();
+        self.described.insert(model.sha256.clone(), d);
+        self.local.insert(model.sha256.clone(), model.archive.clone());
+        Ok((model.sha256.clone(), name))
+    }
+
+    /// The archive of a model by id: a registered local model's own file, else the store's.
+    fn archive_path(&self, id: &str) -> PathBuf {
+        self.local.get(id).cloned().unwrap_or_else(|| self.path(id))
     }
 
     /// Bytes the store may still take.
@@ -192,7 +236,7 @@ impl ModelStore {
     /// INVALID_ARGUMENT for an unknown id or an archive that is not a usable FMU.
     pub fn archive(&mut self, id: &str) -> Result<PathBuf, CoordinatorError> {
         self.describe(id)?;
-        Ok(self.path(id))
+        Ok(self.archive_path(id))
     }
 
     /// The bytes of a stored model.
@@ -200,7 +244,7 @@ impl ModelStore {
         if !is_model_id(id) {
             return Err(CoordinatorError::NotFound(format!("model {}", crate::error::quote(id))));
         }
-        std::fs::read(self.path(id))
+        std::fs::read(self.archive_path(id))
             .map(Arc::new)
             .map_err(|_| CoordinatorError::NotFound(format!("model {}", crate::error::quote(id))))
     }

@@ -275,6 +275,11 @@ pub enum Fixture {
     /// [`Fixture::SpringMassExported`] as Dymola exports it unless told otherwise: its
     /// `DefaultExperiment` says `tolerance="0.0001"` (the same binary and description otherwise).
     SpringMassExportedLooseTolerance,
+    /// [`Fixture::SpringMassExported`] packaged as commercial tools package FMUs: the same
+    /// files plus HTML documentation and images under `documentation/` (about 13 MB of the
+    /// archive, which do not compress), as Dymola and OpenModelica add them. A cheap model in a
+    /// large archive, for what unpacking costs.
+    SpringMassExportedDocumented,
     /// Exported shape (Dymola's FMI 2.0 description) of the Furuta example, without the
     /// injection ports `armJoint.tauExt` and `pendulumJoint.tauExt`: states `armJoint.phi`
     /// \[rad\] (start 0), `armJoint.w` \[rad/s\] (0), `pendulumJoint.phi` \[rad\] (1, away from
@@ -353,6 +358,7 @@ impl Fixture {
             Fixture::SpringMassExportedOneSidedFriction => "SpringMassExportedOneSidedFriction.fmu",
             Fixture::SpringMassExportedGrowingMass => "SpringMassExportedGrowingMass.fmu",
             Fixture::SpringMassExportedLooseTolerance => "SpringMassExportedLooseTolerance.fmu",
+            Fixture::SpringMassExportedDocumented => "SpringMassExportedDocumented.fmu",
             Fixture::FurutaExported => "FurutaExported.fmu",
             Fixture::FurutaExportedHiddenCoulomb => "FurutaExportedHiddenCoulomb.fmu",
             Fixture::ExhaustPipeExported => "ExhaustPipeExported.fmu",

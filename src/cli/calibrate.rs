@@ -16,7 +16,6 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context, Result};
-use fmucal_shared::fmu::Fmu;
 use fmucal_shared::job::{ExperimentErrors, JobSpec, ParameterRange, PreparedJob, report, tolerance};
 use fmucal_shared::quote::quote_user_text;
 
@@ -109,7 +108,15 @@ pub(super) fn model_path(spec: &JobSpec) -> Result<PathBuf> {
     Ok(p.clone())
 }
 
+/// Logs (at debug level, with the log's timestamp) that a step of the run has ended, and the
+/// milliseconds since the command started: `FMUCAL_LOG=fmucal=debug` shows where a run's time
+/// goes.
+fn step(since: std::time::Instant, step: &str) {
+    tracing::debug!(step, ms = format_args!("{:.1}", since.elapsed().as_secs_f64() * 1e3), "calibrate");
+}
+
 pub fn run(args: Args) -> Result<()> {
+    let t0 = std::time::Instant::now();
     let json = json_progress()?;
     let mut spec = JobSpec::from_toml_file(&args.job)?;
     spec.validate()?;
@@ -121,9 +128,11 @@ pub fn run(args: Args) -> Result<()> {
     spec.model.path = Some(model.clone());
     let data = fmucal_shared::job::data::read_all(&spec)?;
     // Check everything locally first: bad jobs fail before any process starts.
-    let fmu = Arc::new(Fmu::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
+    let fmu =
+        Arc::new(super::known_archives::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
     let prepared = Arc::new(PreparedJob::new(&spec, &fmu.description, &fmu.interfaces(), &data)?);
     fmucal_shared::job::optimizer::build(&spec)?;
+    step(t0, "job checked against the model and data");
     // Removed again if the run fails before writing anything into it.
     let _out = super::outputs::OutDir::create(&args.out)?;
 
@@ -143,6 +152,7 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         (prepared, vec![])
     };
+    step(t0, "tolerance guard at the start point");
 
     let rt = tokio::runtime::Runtime::new()?;
     let started = std::time::Instant::now();
@@ -170,6 +180,7 @@ pub fn run(args: Args) -> Result<()> {
             }
             () = super::servers::terminate_signal() => return Ok(Err(stopper.interrupt().await?)),
         };
+        step(t0, "calibrated");
         // The guard at the optimum: if the integration error there is not small against the
         // noise, refit from the optimum at the tolerance that makes it so.
         let mut job = prepared.clone();
@@ -202,25 +213,32 @@ pub fn run(args: Args) -> Result<()> {
                 job = t.job;
             }
         }
+        step(t0, "tolerance guard at the optimum");
         let guard = guarded.then(|| {
             let mut all = start_checks.clone();
             all.extend(checks);
             tolerance::Guard { tolerance: tolerance::effective_tolerance(&job.spec, &fmu), checks: all, refit }
         });
         tokio::select! {
-            identified = client.identify(&job, &result, &data, &model) => Ok(Ok((result, identified, job, guard))),
+            identified = client.identify(&job, &result, &data, &model) => {
+                step(t0, "identifiability points evaluated");
+                Ok(Ok((result, identified, job, guard)))
+            }
             () = super::servers::terminate_signal() => Ok(Err(stopper.interrupt().await?)),
         }
     };
-    let outcome = rt.block_on(async {
+    let (outcome, stopping) = rt.block_on(async {
         match &args.coordinator {
             Some(url) => {
                 let token = super::token::load(args.token_file.as_deref())?;
-                work(Client::connect(url, token.as_deref(), args.tls.load()?.as_ref()).await?).await
+                Ok((work(Client::connect(url, token.as_deref(), args.tls.load()?.as_ref()).await?).await?, None))
             }
-            None => super::local_cluster::run(threads, work).await,
+            None => super::local_cluster::run(threads, (&model, &fmu), work).await.map(|(o, s)| (o, Some(s))),
         }
     })?;
+    // A local cluster stops while the outputs are written; it is waited for before the command
+    // returns, on every path.
+    let cluster = WaitOnDrop(&rt, stopping);
     // The wall time as the user saw it (a coordinator's result may not carry its own).
     let wall_s = started.elapsed().as_secs_f64();
     let (mut result, identified, prepared, guard) = match outcome {
@@ -250,6 +268,7 @@ pub fn run(args: Args) -> Result<()> {
     for (k, table) in data.iter().enumerate() {
         fits.push(report::compare(&fmu, &prepared, k, table, &x_opt)?);
     }
+    step(t0, "start and optimum compared with the data");
     // What `fmucal plot` needs to label a redrawn plot: the order and bounds of each history
     // point's best x, and the outputs' units.
     let (names, _, lower, upper) = spec.parameter_vectors();
@@ -279,8 +298,17 @@ pub fn run(args: Args) -> Result<()> {
         result.errors = Some(errors);
         result.warnings = fmucal_shared::job::warnings::check(&spec, &result, model_start, data_start);
         result.warnings.extend(misfit_warning);
-        super::outputs::write(&args.out, &result, &fit)?;
-        crate::report::draw_all(&args.out, &fit, &result.history, &result.parameters, result.errors.as_ref())?;
+        step(t0, "warnings checked");
+        // The files and the plots are independent: written side by side.
+        let (written, drawn) = std::thread::scope(|s| {
+            let written = s.spawn(|| super::outputs::write(&args.out, &result, &fit));
+            let drawn =
+                crate::report::draw_all(&args.out, &fit, &result.history, &result.parameters, result.errors.as_ref());
+            (written.join().unwrap_or_else(|_| Err(anyhow::anyhow!("writing the results panicked"))), drawn)
+        });
+        written?;
+        drawn?;
+        step(t0, "result.json, CSVs and plots written");
     } else {
         for (e, (fit, errors)) in prepared.experiments.iter().zip(&fits) {
             let dir = args.out.join(&e.name);
@@ -296,6 +324,8 @@ pub fn run(args: Args) -> Result<()> {
         result.warnings = fmucal_shared::job::warnings::check(&spec, &result, model_start, data_start);
         super::outputs::write_result(&args.out, &result)?;
     }
+    drop(cluster);
+    step(t0, "workers and coordinator stopped");
     let budget = if fmucal_shared::job::warnings::ended_on_budget(&result.termination) {
         " (a budget, not convergence, ended the run)"
     } else {
@@ -359,6 +389,17 @@ pub fn run(args: Args) -> Result<()> {
         return Err(Warned(result.warnings.len()).into());
     }
     Ok(())
+}
+
+/// A stopping local cluster ([`super::local_cluster::Stopping`]), waited for when dropped.
+struct WaitOnDrop<'a>(&'a tokio::runtime::Runtime, Option<super::local_cluster::Stopping>);
+
+impl Drop for WaitOnDrop<'_> {
+    fn drop(&mut self) {
+        if let Some(s) = self.1.take() {
+            self.0.block_on(s.wait());
+        }
+    }
 }
 
 /// The pair of different parameters with the largest |correlation|, and that correlation with

@@ -160,6 +160,13 @@ impl Client {
         Ok(identifiability::from_residuals(&job.parameter_names, &plan, &residuals)?)
     }
 
+    /// Names `model` on the coordinator by `id`, without uploading it: for a model the
+    /// coordinator was given otherwise (a local run's, registered in-process).
+    pub fn registered(self, model: &Path, id: String) -> Self {
+        self.uploaded.lock().expect("not poisoned").insert(model.to_owned(), id);
+        self
+    }
+
     /// The id of `model` on the coordinator: uploaded on first use by this client or a clone
     /// (the coordinator keeps uploads on disk), so a diagnosis's dozens of jobs send it once.
     async fn upload(&mut self, model: &Path) -> Result<String> {

@@ -4,6 +4,11 @@
 //! run), and N `fmucal worker` processes of this executable, each replaced when it dies (an
 //! FMU may crash it) and each dying with this process. [`run`] hands a connected [`Client`]
 //! to the work and stops everything when the work ends.
+//!
+//! The run's model is the archive this process has already unpacked into the user's FMU
+//! cache and checked: it is registered with the coordinator in-process
+//! ([`fmucal_coordinator::run_with_local_models`]) and handed to each worker process on its
+//! command line as `SHA256=FOLDER`, so it is neither uploaded, fetched nor unpacked again.
 
 use std::time::Duration;
 
@@ -28,8 +33,22 @@ pub fn worker_count(flag: Option<usize>, spec: &fmucal_shared::job::JobSpec) -> 
 }
 
 /// Starts the coordinator and `workers` worker processes, runs `work` on a client connected to
-/// them while supervising the workers, then stops them all and returns the work's result.
-pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>) -> Result<T> {
+/// them while supervising the workers, then stops them all and returns the work's result with
+/// the cluster [`Stopping`] (which the caller waits for once its own outputs are written).
+/// `model` is the run's model, loaded from the archive the work names: the client names it
+/// by its SHA-256 with no upload.
+pub async fn run<T>(
+    workers: usize,
+    model: (&std::path::Path, &fmucal_shared::fmu::Fmu),
+    work: impl AsyncFnOnce(Client) -> Result<T>,
+) -> Result<(T, Stopping)> {
+    let (archive, fmu) = model;
+    let local = fmucal_coordinator::models::LocalModel {
+        archive: archive.to_owned(),
+        dir: fmu.dir.clone(),
+        sha256: fmu.sha256.clone(),
+    };
+    let unpacked = format!("{}={}", local.sha256, local.dir.display());
     let (token, worker_token) = (super::token::generate()?, super::token::generate()?);
     let state = super::run_dir::RunDir::create()?;
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
@@ -47,15 +66,21 @@ pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>)
         diagnose_program: None,
         metrics: None,
     };
-    let server = tokio::spawn(fmucal_coordinator::run(config, listener, async {
-        let _ = stop_rx.await;
-    }));
+    let local_models = [local.clone()];
+    let server = tokio::spawn(async move {
+        fmucal_coordinator::run_with_local_models(config, &local_models, listener, async {
+            let _ = stop_rx.await;
+        })
+        .await
+    });
     let exe = std::env::current_exe()?;
     let cache = state.path().join("worker-cache");
     let spawn = |k: usize| {
         let mut cmd = tokio::process::Command::new(&exe);
         cmd.args(["worker", "--coordinator", &url, "--cache-dir"])
             .arg(&cache)
+            .arg(super::servers::UNPACKED_MODEL_FLAG)
+            .arg(&unpacked)
             .env("FMUCAL_WORKER_TOKEN", &worker_token)
             .env_remove("FMUCAL_TOKEN")
             .env("HOSTNAME", format!("local{k}"))
@@ -68,7 +93,7 @@ pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>)
     };
     let mut children =
         (0..workers).map(&spawn).collect::<std::io::Result<Vec<_>>>().context("cannot start worker processes")?;
-    let client = Client::connect(&url, Some(&token), None).await?;
+    let client = Client::connect(&url, Some(&token), None).await?.registered(archive, local.sha256.clone());
     let work = work(client);
     tokio::pin!(work);
     // Supervise: a worker that dies (an FMU may crash it) is replaced.
@@ -94,6 +119,34 @@ pub async fn run<T>(workers: usize, work: impl AsyncFnOnce(Client) -> Result<T>)
         let _ = c.start_kill();
     }
     let _ = stop_tx.send(());
-    let _ = server.await;
-    result
+    // The coordinator closes its store and the run's folder goes while the caller writes its
+    // outputs; [`Stopping::wait`] waits for both.
+    let stopping = Stopping(tokio::spawn(async move {
+        let _ = server.await;
+        for mut c in children {
+            let _ = c.wait().await;
+        }
+        drop(state);
+        tracing::debug!("local cluster: stopped, its folder removed");
+    }));
+    match result {
+        Ok(r) => Ok((r, stopping)),
+        Err(e) => {
+            stopping.wait().await;
+            Err(e)
+        }
+    }
+}
+
+/// A local cluster whose work has ended, stopping: its workers killed, its coordinator
+/// closing its store, its folder about to be removed.
+#[must_use = "wait for the cluster to stop before the process ends"]
+pub struct Stopping(tokio::task::JoinHandle<()>);
+
+impl Stopping {
+    /// Waits until the coordinator has stopped, the workers have exited and the run's
+    /// folder is removed.
+    pub async fn wait(self) {
+        let _ = self.0.await;
+    }
 }

@@ -8,6 +8,7 @@ mod diagnose;
 mod export;
 mod health;
 mod inspect;
+mod known_archives;
 mod local_cluster;
 mod metrics_http;
 mod model_arg;

@@ -89,8 +89,38 @@ pub struct WorkerArgs {
     /// served.
     #[arg(long)]
     metrics_listen: Option<SocketAddr>,
+    /// `SHA256=DIR`: the model whose archive has this SHA-256 is already unpacked in DIR; use
+    /// it there instead of fetching and unpacking it. A local run passes its model so.
+    #[arg(long, hide = true, value_name = "SHA256=DIR")]
+    unpacked_model: Vec<String>,
     #[command(flatten)]
     tls: super::tls::ClientArgs,
+}
+
+/// The flag that hands a worker a model already unpacked ([`unpacked_models`]).
+pub const UNPACKED_MODEL_FLAG: &str = "--unpacked-model";
+
+/// The `--unpacked-model SHA256=DIR` values as a map.
+///
+/// # Errors
+/// In one line naming the flag: no `=`, a SHA-256 that is not 64 hex digits, or a folder
+/// without `modelDescription.xml`.
+fn unpacked_models(values: &[String]) -> Result<std::collections::HashMap<String, PathBuf>> {
+    let mut map = std::collections::HashMap::new();
+    for v in values {
+        let quoted = || fmucal_shared::quote::quote_user_text(v);
+        let (sha, dir) =
+            v.split_once('=').with_context(|| format!("{UNPACKED_MODEL_FLAG}: {} is not SHA256=DIR", quoted()))?;
+        if sha.len() != 64 || !sha.bytes().all(|b| b.is_ascii_hexdigit()) {
+            anyhow::bail!("{UNPACKED_MODEL_FLAG}: {} does not start with 64 hex digits", quoted());
+        }
+        let dir = PathBuf::from(dir);
+        if !dir.join("modelDescription.xml").is_file() {
+            anyhow::bail!("{UNPACKED_MODEL_FLAG}: {} holds no modelDescription.xml", dir.display());
+        }
+        map.insert(sha.to_ascii_lowercase(), dir);
+    }
+    Ok(map)
 }
 
 pub async fn terminate_signal() {
@@ -203,6 +233,7 @@ fn worker_with(args: WorkerArgs) -> Result<()> {
         slots: args.slots as usize,
         name,
         cache_dir,
+        unpacked_models: unpacked_models(&args.unpacked_model)?,
         health_listen: args.health_listen,
         tls: args.tls.load()?,
         evaluation_deadline: args.evaluation_deadline.map(|s| seconds("--evaluation-deadline", s)).transpose()?,

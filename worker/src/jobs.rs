@@ -1,5 +1,6 @@
 //! Per-job context fetched once: the spec and data (`FetchJob`), the model bytes
-//! (`FetchModel`, stored by hash), the loaded FMU and the prepared objective.
+//! (`FetchModel`, stored by hash) unless the worker was given the model unpacked, the loaded
+//! FMU and the prepared objective.
 
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -23,12 +24,14 @@ pub struct JobContext {
 
 pub struct JobCache {
     dir: PathBuf,
+    /// Folders of models given unpacked, by SHA-256 ([`crate::Config::unpacked_models`]).
+    unpacked: HashMap<String, PathBuf>,
     jobs: Mutex<HashMap<String, Arc<JobContext>>>,
 }
 
 impl JobCache {
-    pub fn new(dir: PathBuf) -> Self {
-        JobCache { dir, jobs: Mutex::new(HashMap::new()) }
+    pub fn new(dir: PathBuf, unpacked: HashMap<String, PathBuf>) -> Self {
+        JobCache { dir, unpacked, jobs: Mutex::new(HashMap::new()) }
     }
 
     /// Whether a cached job's model may be instantiated only once per process.
@@ -50,8 +53,13 @@ impl JobCache {
             .spec
             .ok_or("the coordinator sent a job without a spec")?;
         let model_id = spec.model_id.clone();
+        // An id is a SHA-256, never a path: no coordinator names a file or folder here.
+        if model_id.len() != 64 || !model_id.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return Err(format!("job {job_id}: model id {model_id:?} is not a SHA-256"));
+        }
         let path = self.dir.join("models").join(format!("{model_id}.fmu"));
-        if !path.is_file() {
+        let unpacked = self.unpacked.get(&model_id).cloned();
+        if unpacked.is_none() && !path.is_file() {
             let mut stream = client
                 .fetch_model(pb::FetchModelRequest { model_id: model_id.clone() })
                 .await
@@ -74,7 +82,11 @@ impl JobCache {
         let opts = LoadOptions { cache_dir: self.dir.join("unpacked"), ..Default::default() };
         let ctx = tokio::task::spawn_blocking(move || -> Result<JobContext, String> {
             let submitted = SubmittedJob::try_from(spec).map_err(|e| e.to_string())?;
-            let fmu = Fmu::load_with(&path, &opts).map_err(|e| e.to_string())?;
+            let fmu = match unpacked {
+                Some(dir) => Fmu::open_unpacked(&dir, model_id),
+                None => Fmu::load_with(&path, &opts),
+            }
+            .map_err(|e| e.to_string())?;
             let job = PreparedJob::new(&submitted.spec, &fmu.description, &fmu.interfaces(), &submitted.data)
                 .map_err(|e| e.to_string())?;
             let info = match job.interface {

@@ -3,7 +3,8 @@
 //! its previous points and evaluates them on its own thread of the warm-evaluator pool, which
 //! keeps a warm FMU instance for each of its last 4 jobs (FMU instances are not `Send`). Points
 //! of an FMU that may be instantiated only once per process all go to thread 0. Models and job data are fetched
-//! once per job and cached; unpacked models are cached by hash. On shutdown the slots finish
+//! once per job and cached; unpacked models are cached by hash, and a model the worker was
+//! started with already unpacked ([`Config::unpacked_models`]) is opened where it is. On shutdown the slots finish
 //! their current point and hand its result back before the worker exits, within a grace period
 //! after which the worker leaves whatever is still running (the coordinator re-sends it).
 //!
@@ -50,6 +51,11 @@ pub struct Config {
     pub name: String,
     /// Where fetched models are stored and unpacked.
     pub cache_dir: PathBuf,
+    /// Models already unpacked on this machine, by the SHA-256 of their archive: the folder
+    /// each was unpacked into, used as it is (neither fetched nor unpacked again). A local
+    /// run passes its own model here; the coordinator names models only by their SHA-256, so
+    /// it can never make the worker open any other folder. Default: none.
+    pub unpacked_models: std::collections::HashMap<String, PathBuf>,
     /// Serve gRPC health (NOT_SERVING until registered) on this address.
     pub health_listen: Option<SocketAddr>,
     /// How to reach an `https://` coordinator.
@@ -153,7 +159,7 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
         });
     }
 
-    let jobs = Arc::new(jobs::JobCache::new(config.cache_dir.clone()));
+    let jobs = Arc::new(jobs::JobCache::new(config.cache_dir.clone(), config.unpacked_models.clone()));
     let pool = EvaluatorPool::new(config.slots.max(1), "fmucal-slot")
         .map_err(|e| WorkerError::Config(format!("cannot start evaluation threads: {e}")))?;
     let pool = Arc::new(pool);

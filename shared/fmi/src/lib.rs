@@ -234,6 +234,16 @@ pub struct Described {
 /// As [`Fmu::load_with`], except binary errors.
 pub fn describe(path: &Path, opts: &LoadOptions) -> Result<Described, FmuError> {
     let unpacked = archive::unpack(path, &opts.cache_dir, &opts.limits)?;
+    describe_unpacked(&unpacked.dir, unpacked.sha256)
+}
+
+/// [`describe`] of an archive already unpacked into `dir` (by [`archive::unpack`], whose
+/// SHA-256 `sha256` was): nothing is unpacked again and no native code is loaded.
+///
+/// # Errors
+/// As [`describe`], except archive errors.
+pub fn describe_unpacked(dir: &Path, sha256: String) -> Result<Described, FmuError> {
+    let unpacked = archive::Unpacked { dir: dir.to_path_buf(), sha256 };
     let md_path = unpacked.dir.join("modelDescription.xml");
     let xml = std::fs::read(&md_path).map_err(|e| FmuError::Read { path: md_path.clone(), message: e.to_string() })?;
     let xml =

@@ -137,7 +137,8 @@ pub fn run(args: Args) -> Result<()> {
     spec.model.path = Some(model.clone());
     let data = fmucal_shared::job::data::read_all(&spec)?.pop().context("data: the job has no data")?;
     let windows = checks::windows(&mut spec, &data, &settings)?;
-    let fmu = Arc::new(Fmu::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
+    let fmu =
+        Arc::new(super::known_archives::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
     let places = checks::job_and_candidates(&spec, &settings, &fmu, &data)?;
     // Removed again if the run fails before writing anything into it.
     let _out = super::outputs::OutDir::create(&args.out)?;
@@ -167,8 +168,13 @@ pub fn run(args: Args) -> Result<()> {
                 }
             }
             None => {
-                super::local_cluster::run(threads, async |client: Client| driver::diagnose(client, &ctx, spec).await)
-                    .await
+                let (outcome, stopping) =
+                    super::local_cluster::run(threads, (&ctx.model, &ctx.fmu), async |client: Client| {
+                        driver::diagnose(client, &ctx, spec).await
+                    })
+                    .await?;
+                stopping.wait().await;
+                Ok(outcome)
             }
         }
     })?;
