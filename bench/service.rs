@@ -65,16 +65,8 @@ async fn run(spec: &JobSpec, data: &MeasurementTable, workers: usize, sample_at:
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let url = format!("http://{}", listener.local_addr().unwrap());
     let config = fmucal_coordinator::Config {
-        data_dir: dir.path().join("c"),
         token: Some(TOKEN.into()),
-        worker_token: None,
-        timing: Default::default(),
-        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
-        connections: Default::default(),
-        keep_finished_jobs: None,
-        tls: None,
-        diagnose_program: None,
-        metrics: None,
+        ..fmucal_coordinator::Config::new(dir.path().join("c"))
     };
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
     let server = tokio::spawn(fmucal_coordinator::run(config, listener, async {

@@ -83,16 +83,9 @@ async fn start_coordinator(data_dir: &Path) -> Coordinator {
         evaluation_timeout: Duration::from_secs(60),
     };
     let config = fmucal_coordinator::Config {
-        data_dir: data_dir.to_owned(),
         token: Some(TOKEN.into()),
-        worker_token: None,
         timing,
-        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
-        connections: Default::default(),
-        keep_finished_jobs: None,
-        tls: None,
-        diagnose_program: None,
-        metrics: None,
+        ..fmucal_coordinator::Config::new(data_dir.to_owned())
     };
     let task = tokio::spawn(fmucal_coordinator::run(config, listener, async {
         let _ = rx.await;

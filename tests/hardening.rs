@@ -50,7 +50,6 @@ async fn start_coordinator(data_dir: &Path, worker_token: Option<&str>) -> Coord
 /// fast heartbeats.
 fn config(data_dir: &Path, worker_token: Option<&str>) -> fmucal_coordinator::Config {
     fmucal_coordinator::Config {
-        data_dir: data_dir.to_owned(),
         token: Some(TOKEN.into()),
         worker_token: worker_token.map(str::to_owned),
         timing: fmucal_coordinator::Timing {
@@ -58,12 +57,7 @@ fn config(data_dir: &Path, worker_token: Option<&str>) -> fmucal_coordinator::Co
             worker_expiry: Duration::from_secs(30),
             evaluation_timeout: Duration::from_secs(60),
         },
-        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
-        connections: Default::default(),
-        keep_finished_jobs: None,
-        tls: None,
-        diagnose_program: None,
-        metrics: None,
+        ..fmucal_coordinator::Config::new(data_dir.to_owned())
     }
 }
 

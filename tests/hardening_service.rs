@@ -173,16 +173,8 @@ async fn coordinator_in_process(data_dir: &Path) -> (String, tokio::sync::onesho
     let url = format!("http://{}", listener.local_addr().unwrap());
     let (tx, rx) = tokio::sync::oneshot::channel::<()>();
     let config = fmucal_coordinator::Config {
-        data_dir: data_dir.to_owned(),
         token: Some(TOKEN.into()),
-        worker_token: None,
-        timing: Default::default(),
-        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
-        connections: Default::default(),
-        keep_finished_jobs: None,
-        tls: None,
-        diagnose_program: None,
-        metrics: None,
+        ..fmucal_coordinator::Config::new(data_dir.to_owned())
     };
     tokio::spawn(fmucal_coordinator::run(config, listener, async {
         let _ = rx.await;

@@ -49,21 +49,15 @@ async fn a_job_runs_over_mutual_tls_and_plaintext_is_refused() {
     let url = format!("https://localhost:{}", listener.local_addr().unwrap().port());
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
     let config = fmucal_coordinator::Config {
-        data_dir: dir.path().join("coord"),
         token: Some(TOKEN.into()),
         worker_token: Some(WORKER_TOKEN.into()),
-        timing: Default::default(),
-        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
-        connections: Default::default(),
-        keep_finished_jobs: None,
         tls: Some(ServerTls {
             cert_pem: read(&certs, "coordinator.pem"),
             key_pem: read(&certs, "coordinator-key.pem"),
             client_ca_pem: Some(read(&certs, "ca.pem")),
             ca_pem: Some(read(&certs, "ca.pem")),
         }),
-        diagnose_program: None,
-        metrics: None,
+        ..fmucal_coordinator::Config::new(dir.path().join("coord"))
     };
     let server = tokio::spawn(fmucal_coordinator::run(config, listener, async {
         let _ = stopped.await;

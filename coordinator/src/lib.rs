@@ -58,6 +58,27 @@ pub struct Config {
     pub metrics: Option<metrics::CoordinatorMetrics>,
 }
 
+impl Config {
+    /// A coordinator keeping its state in `data_dir`, with every other setting at its default:
+    /// no token (set one: [`run`] refuses to start without), the default [`Timing`], store cap
+    /// ([`models::DEFAULT_MAX_STORE_BYTES`]) and connection limits, every finished job kept,
+    /// plaintext, no diagnoses, no metrics.
+    pub fn new(data_dir: impl Into<PathBuf>) -> Config {
+        Config {
+            data_dir: data_dir.into(),
+            token: None,
+            worker_token: None,
+            timing: Timing::default(),
+            max_store_bytes: models::DEFAULT_MAX_STORE_BYTES,
+            connections: connections::ConnectionLimits::default(),
+            keep_finished_jobs: None,
+            tls: None,
+            diagnose_program: None,
+            metrics: None,
+        }
+    }
+}
+
 impl Default for Timing {
     fn default() -> Self {
         Timing {

@@ -49,6 +49,9 @@ impl Optimizer for AnyOptimizer {
     fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<(), OptimError> {
         self.inner_mut().tell(id, outcome)
     }
+    fn is_open(&self, id: CandidateId) -> bool {
+        self.inner().is_open(id)
+    }
     fn status(&self) -> Status {
         self.inner().status()
     }

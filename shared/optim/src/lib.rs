@@ -243,6 +243,10 @@ pub trait Optimizer {
     /// [`OptimError::UnknownCandidate`] if `id` is not awaiting a result.
     fn tell(&mut self, id: CandidateId, outcome: Outcome) -> Result<(), OptimError>;
 
+    /// Whether candidate `id` awaits a result (what [`Optimizer::tell`] accepts), without
+    /// copying the batch as [`Optimizer::ask`] does.
+    fn is_open(&self, id: CandidateId) -> bool;
+
     /// Running, or done with the reason.
     fn status(&self) -> Status;
 

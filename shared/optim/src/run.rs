@@ -147,6 +147,10 @@ impl<A: Step> Optimizer for BatchOptimizer<A> {
         Ok(())
     }
 
+    fn is_open(&self, id: CandidateId) -> bool {
+        self.algorithm.done().is_none() && self.run.batch.awaiting(id).is_ok()
+    }
+
     fn status(&self) -> Status {
         match self.algorithm.done() {
             Some(t) => Status::Done(t),
@@ -215,6 +219,20 @@ pub(crate) fn population_space(
 #[cfg(test)]
 mod tests {
     use crate::{AnyOptimizer, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, Optimizer, Outcome};
+
+    /// `is_open` answers what `tell` would accept: the asked candidates until each is told,
+    /// and nothing else.
+    #[test]
+    fn is_open_is_what_tell_accepts() {
+        let de = DifferentialEvolution::new(&[0.0], &[1.0], None, DeSettings::new(1)).unwrap();
+        let mut opt = AnyOptimizer::DifferentialEvolution(de);
+        let asked = opt.ask();
+        let beyond = asked.iter().map(|c| c.id).max().unwrap() + 1;
+        assert!(asked.iter().all(|c| opt.is_open(c.id)) && !opt.is_open(beyond));
+        opt.tell(asked[0].id, Outcome::Value(1.0)).unwrap();
+        assert!(!opt.is_open(asked[0].id) && opt.is_open(asked[1].id));
+        assert!(opt.tell(asked[0].id, Outcome::Value(1.0)).is_err());
+    }
 
     /// DE and GA keep their generator state as a `u128`: it must come back exactly, and the
     /// run go on as if never stopped.

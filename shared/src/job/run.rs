@@ -6,8 +6,8 @@
 //! every round and resumes from it.
 //!
 //! A run hands out [`WorkItem`]s: one simulation each, a candidate point on one fitted
-//! experiment. Item `c·K + k` is candidate `c` on the `k`-th of the K fitted experiments, so a
-//! one-experiment job's items are its candidates. Once all K items of a candidate are told, the
+//! experiment ([`WorkItemId`]: candidate `c` on the `k`-th of the K fitted experiments is item
+//! `c·K + k` on the wire, so a one-experiment job's items are its candidates). Once all K items of a candidate are told, the
 //! optimizer is told the candidate's total ([`Evaluation::combine`]): its residual vector for a
 //! least-squares optimizer, else its value. Parameters with `scale = "log"` are optimized as
 //! their logarithm; items, results and progress are in user units.
@@ -29,10 +29,33 @@ use super::result::{CalibrationResult, EvaluatedPoint, HistoryPoint};
 use super::spec::JobSpec;
 use crate::optim::{AnyOptimizer, CandidateId, OptimError, Optimizer, Outcome, Status};
 
+/// Which simulation a work item is: `candidate` on the `part`-th fitted experiment. The one
+/// place its number (the `id` of a [`WorkItem`], what workers and the store see) is made and
+/// read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WorkItemId {
+    pub candidate: CandidateId,
+    /// The fitted experiment's position among the run's `parts` fitted experiments.
+    pub part: usize,
+}
+
+impl WorkItemId {
+    /// The item's number in a run with `parts` fitted experiments: `candidate·parts + part`.
+    pub fn encode(self, parts: usize) -> u64 {
+        self.candidate * parts.max(1) as u64 + self.part as u64
+    }
+
+    /// The item numbered `id` in a run with `parts` fitted experiments.
+    pub fn decode(id: u64, parts: usize) -> WorkItemId {
+        let k = parts.max(1) as u64;
+        WorkItemId { candidate: id / k, part: (id % k) as usize }
+    }
+}
+
 /// One simulation to run: a candidate point (user units) on one experiment.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WorkItem {
-    /// Unique within the run; see the module docs.
+    /// Unique within the run: a [`WorkItemId`] encoded.
     pub id: u64,
     /// The experiment's index in the job.
     pub experiment: usize,
@@ -130,14 +153,15 @@ impl JobRun {
 
     /// The items of the current round still awaiting a result; empty once the run is done.
     pub fn ask(&mut self) -> Vec<WorkItem> {
-        let k = self.experiments.len() as u64;
+        let parts = self.experiments.len();
         let mut items = vec![];
         for c in self.optimizer.ask() {
             let told = self.partial.get(&c.id);
             let x = self.to_user(c.x);
             for (j, &experiment) in self.experiments.iter().enumerate() {
                 if told.is_none_or(|parts| parts[j].is_none()) {
-                    items.push(WorkItem { id: c.id * k + j as u64, experiment, x: x.clone() });
+                    let id = WorkItemId { candidate: c.id, part: j }.encode(parts);
+                    items.push(WorkItem { id, experiment, x: x.clone() });
                 }
             }
         }
@@ -158,16 +182,16 @@ impl JobRun {
         evaluation: &Evaluation,
         round_wall_s: f64,
     ) -> Result<Option<HistoryPoint>, OptimError> {
-        let k = self.experiments.len().max(1) as u64;
-        let (candidate, part) = (id / k, (id % k) as usize);
+        let k = self.experiments.len().max(1);
+        let WorkItemId { candidate, part } = WorkItemId::decode(id, k);
         let combined;
         let evaluation = if k == 1 {
             evaluation
         } else {
-            if !self.optimizer.ask().iter().any(|c| c.id == candidate) {
+            if !self.optimizer.is_open(candidate) {
                 return Err(OptimError::UnknownCandidate(id));
             }
-            let parts = self.partial.entry(candidate).or_insert_with(|| vec![None; k as usize]);
+            let parts = self.partial.entry(candidate).or_insert_with(|| vec![None; k]);
             if parts[part].is_some() {
                 return Err(OptimError::UnknownCandidate(id));
             }
@@ -328,4 +352,22 @@ fn is_same_point(x: &[f64], start: &[f64]) -> bool {
     !start.is_empty()
         && x.len() == start.len()
         && x.iter().zip(start).all(|(a, b)| a == b || (a - b).abs() <= 1e-12 * a.abs().max(b.abs()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::WorkItemId;
+
+    #[test]
+    fn a_work_item_id_is_candidate_times_parts_plus_part_and_reads_back() {
+        for parts in [1usize, 3] {
+            for candidate in [0u64, 7, 1 << 40] {
+                for part in 0..parts {
+                    let id = WorkItemId { candidate, part };
+                    assert_eq!(id.encode(parts), candidate * parts as u64 + part as u64);
+                    assert_eq!(WorkItemId::decode(id.encode(parts), parts), id);
+                }
+            }
+        }
+    }
 }

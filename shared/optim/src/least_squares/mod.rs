@@ -257,6 +257,10 @@ impl Optimizer for LeastSquares {
         }
     }
 
+    fn is_open(&self, id: CandidateId) -> bool {
+        !matches!(self.phase, Phase::Done(_)) && self.batch.awaiting(id).is_ok()
+    }
+
     fn status(&self) -> Status {
         match self.phase {
             Phase::Done(t) => Status::Done(t),
