@@ -540,7 +540,8 @@ pub async fn killed_diagnosis(dir: &Path) {
         (Ok(s), Ok(d)) => (s, d),
         _ => return report(case, false, "cannot read examples/diagnose"),
     };
-    let Some(Ok(settings)) = spec.diagnose.take().map(|t| fmucal_diagnose::spec::DiagnoseSpec::from_table(Some(&t))) else {
+    let Some(Ok(settings)) = spec.diagnose.take().map(|t| fmucal_diagnose::spec::DiagnoseSpec::from_table(Some(&t)))
+    else {
         return report(case, false, "no [diagnose] in the example");
     };
     let req = pb::DiagnoseRequest {

@@ -11,12 +11,12 @@ mod common;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use fmucal_diagnose::report::Diagnosis;
 use fmucal_proto::auth::AttachToken;
 use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::diagnose::diagnose_to_proto;
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::calibration_client::CalibrationClient;
-use fmucal_diagnose::report::Diagnosis;
 use fmucal_shared::job::{JobSpec, MeasurementTable};
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;

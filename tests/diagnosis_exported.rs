@@ -32,8 +32,8 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use fmucal_models::Fixture;
 use fmucal_diagnose::report::{Conclusion, Diagnosis};
+use fmucal_models::Fixture;
 use fmucal_shared::job::{JobSpec, MeasurementTable, PreparedJob};
 use fmucal_shared::sim::{OutputTimes, SimResult, SimSpec, simulate};
 

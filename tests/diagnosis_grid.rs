@@ -15,8 +15,8 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use fmucal_models::Fixture;
 use fmucal_diagnose::report::Diagnosis;
+use fmucal_models::Fixture;
 use fmucal_shared::sim::{OutputTimes, SimResult, SimSpec, simulate};
 
 /// Which model a case uses, and how its job and data look.

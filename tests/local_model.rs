@@ -139,18 +139,8 @@ async fn a_client_cannot_make_the_coordinator_read_a_path_or_a_model_it_was_not_
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let url = format!("http://{}", listener.local_addr().unwrap());
     let data_dir = dir.path().join("coordinator");
-    let config = fmucal_coordinator::Config {
-        data_dir: data_dir.clone(),
-        token: Some(TOKEN.into()),
-        worker_token: None,
-        timing: Default::default(),
-        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
-        connections: Default::default(),
-        keep_finished_jobs: None,
-        tls: None,
-        diagnose_program: None,
-        metrics: None,
-    };
+    let config =
+        fmucal_coordinator::Config { token: Some(TOKEN.into()), ..fmucal_coordinator::Config::new(data_dir.clone()) };
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
     let server = tokio::spawn(async move {
         fmucal_coordinator::run_with_local_models(config, &[local], listener, async {

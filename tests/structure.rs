@@ -8,9 +8,9 @@ use std::path::Path;
 
 use fmucal_models::Fixture;
 use fmucal_shared::effects::Domain;
-use fmucal_shared::structure::{Pairing, Quantity, Role, Structure};
 use fmucal_shared::fmu::schema::ModelDescription;
 use fmucal_shared::fmu::{ArchiveLimits, LoadOptions, describe};
+use fmucal_shared::structure::{Pairing, Quantity, Role, Structure};
 
 fn description(fmu: &Path, cache: &Path) -> ModelDescription {
     let opts = LoadOptions { cache_dir: cache.to_owned(), limits: ArchiveLimits::default() };

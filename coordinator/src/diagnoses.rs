@@ -21,11 +21,11 @@ use std::process::Stdio;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use fmucal_diagnose::report::Diagnosis;
+use fmucal_diagnose::spec::DiagnoseSpec;
 use fmucal_proto::convert::effect_to_proto;
 use fmucal_proto::tls::ServerTls;
 use fmucal_proto::v1 as pb;
-use fmucal_diagnose::report::Diagnosis;
-use fmucal_diagnose::spec::DiagnoseSpec;
 use fmucal_shared::job::{JobSpec, MeasurementTable};
 use tokio::io::{AsyncBufReadExt, AsyncReadExt, BufReader};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore, mpsc};

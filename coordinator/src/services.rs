@@ -3,9 +3,9 @@
 
 use std::sync::{Arc, Mutex};
 
+use fmucal_diagnose::spec::DiagnoseSpec;
 use fmucal_proto::convert::SubmittedJob;
 use fmucal_proto::v1 as pb;
-use fmucal_diagnose::spec::DiagnoseSpec;
 use fmucal_shared::job::{JobKind, JobRun};
 use tokio::io::AsyncWriteExt;
 use tokio::sync::{mpsc, oneshot};

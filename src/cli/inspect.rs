@@ -12,9 +12,9 @@
 //! to it with an ellipsis ([`WIDTHS`]), and line breaks in a cell print as spaces.
 
 use anyhow::{Context, Result};
-use fmucal_shared::structure::Structure;
 use fmucal_shared::fmu::schema::{Causality, ModelDescription, ScalarVariable};
 use fmucal_shared::fmu::{Described, LoadOptions, describe, platform_folder};
+use fmucal_shared::structure::Structure;
 
 #[derive(clap::Args)]
 pub struct Args {

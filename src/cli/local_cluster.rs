@@ -55,16 +55,9 @@ pub async fn run<T>(
     let url = format!("http://{}", listener.local_addr()?);
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
     let config = fmucal_coordinator::Config {
-        data_dir: state.path().join("coordinator"),
         token: Some(token.clone()),
         worker_token: Some(worker_token.clone()),
-        timing: Default::default(),
-        max_store_bytes: fmucal_coordinator::models::DEFAULT_MAX_STORE_BYTES,
-        connections: Default::default(),
-        keep_finished_jobs: None,
-        tls: None,
-        diagnose_program: None,
-        metrics: None,
+        ..fmucal_coordinator::Config::new(state.path().join("coordinator"))
     };
     let local_models = [local.clone()];
     let server = tokio::spawn(async move {

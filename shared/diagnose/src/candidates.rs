@@ -22,14 +22,14 @@ use std::collections::BTreeMap;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use fmucal_shared::effects::{self, Domain, Found};
-use fmucal_shared::effects::guess::{Guess, Guesses, Scales, SignalRole, SignalStats};
 use super::places::Places;
-use fmucal_shared::residuals::chi_squared_survival;
 use super::spec::{DiagnoseSpec, PortDomain};
-use fmucal_shared::structure::Role;
+use fmucal_shared::effects::guess::{Guess, Guesses, Scales, SignalRole, SignalStats};
+use fmucal_shared::effects::{self, Domain, Found};
 use fmucal_shared::job::identifiability::relative_step;
 use fmucal_shared::job::spec::{Bounds, EffectSpec, JobSpec};
+use fmucal_shared::residuals::chi_squared_survival;
+use fmucal_shared::structure::Role;
 
 /// One candidate effect.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

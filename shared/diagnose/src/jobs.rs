@@ -180,7 +180,9 @@ top = 3
             input: None,
             parameters: Default::default(),
         };
-        effect.parameters.insert("force".into(), fmucal_shared::job::spec::Bounds { start: 0.0, lower: 0.0, upper: 0.1 });
+        effect
+            .parameters
+            .insert("force".into(), fmucal_shared::job::spec::Bounds { start: 0.0, lower: 0.0, upper: 0.1 });
         Candidate {
             effect,
             guesses: vec![Guess { neutral: 0.0, step: Some(0.01), lower: 0.0, upper: 0.1 }],

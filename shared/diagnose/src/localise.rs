@@ -44,7 +44,6 @@ pub struct Localisation {
     pub outputs: Vec<OutputResidual>,
 }
 
-
 /// Analyses `residuals` (per output: variable and simulated − measured on `time`, NaN where
 /// missing) against `signals` (name and values on `time`), in `window_count` windows.
 pub fn localise(

@@ -5,10 +5,10 @@
 //! hand say where to look: then only they, and the states `states` names. What cannot be
 //! tried, and why, is kept as notes for the summary.
 
-use fmucal_shared::effects::Domain;
 use super::spec::{DiagnoseSpec, PortDomain, PortSpec};
-use fmucal_shared::structure::{Role, Structure};
+use fmucal_shared::effects::Domain;
 use fmucal_shared::job::JobSpec;
+use fmucal_shared::structure::{Role, Structure};
 
 /// A port a diagnosis may add terms to, with the job field (or model input) it comes from.
 #[derive(Debug, Clone, PartialEq)]

@@ -8,8 +8,8 @@ use serde::{Deserialize, Serialize};
 use super::candidates::{Candidate, Screened};
 use super::decision::{Baseline, Evidence, Verdict, elsewhere};
 use super::localise::Localisation;
-use fmucal_shared::residuals::Misfit;
 use fmucal_shared::job::spec::EffectSpec;
+use fmucal_shared::residuals::Misfit;
 
 /// What a diagnosis concludes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -303,8 +303,8 @@ impl Guesses for ActuatorSaturation {
 
 #[cfg(test)]
 mod tests {
-    use crate::effects::{Found, find, port_kinds, series_kinds};
     use super::*;
+    use crate::effects::{Found, find, port_kinds, series_kinds};
 
     fn scales() -> Scales {
         Scales {

@@ -15,12 +15,12 @@ use super::{JobError, JobKind, limits};
 use crate::effects;
 use crate::effects::Domain;
 use crate::effects::guess::SignalRole;
-use crate::structure::{Quantity, Role, Structure};
 use crate::fmu::schema::{Causality, VarType};
 use crate::fmu::{Interface, ModelDescription};
 use crate::quote::quote_user_text;
 use crate::sim::plan::Plan;
 use crate::sim::{InputTable, OutputTimes, PortTerm, SimResult, SimSpec, StateTerm};
+use crate::structure::{Quantity, Role, Structure};
 
 /// A job checked against its model and data.
 #[derive(Debug, Clone)]

@@ -26,8 +26,8 @@ use super::JobError;
 use super::data::MeasurementTable;
 use super::prepared::PreparedJob;
 use super::spec::JobSpec;
-use crate::residuals::noise_sigma;
 use crate::fmu::{Fmu, Interface};
+use crate::residuals::noise_sigma;
 use crate::sim::{SimResult, simulate};
 
 /// The largest integration error allowed, as a fraction of the noise estimate.

@@ -9,14 +9,14 @@ use std::collections::BTreeMap;
 
 use anyhow::{Result, bail};
 use fmucal_diagnose::candidates::{Sizes, generate};
-use fmucal_shared::effects::guess::SignalStats;
 use fmucal_diagnose::places::Places;
 use fmucal_diagnose::report::Windows;
 use fmucal_diagnose::spec::{DEFAULT_HOLDOUT, DiagnoseSpec};
-use fmucal_shared::structure::Structure;
+use fmucal_shared::effects::guess::SignalStats;
 use fmucal_shared::fmu::{Fmu, Interface};
 use fmucal_shared::job::{JobError, JobSpec, MeasurementTable, PreparedJob};
 use fmucal_shared::quote::quote_user_text;
+use fmucal_shared::structure::Structure;
 
 /// The windows of the diagnosis. With a validation window in the job, fits use the job's
 /// calibration window and decisions its validation window; without one, the last `holdout`

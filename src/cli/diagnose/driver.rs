@@ -10,11 +10,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, Result};
 use fmucal_diagnose::candidates::{Candidate, Screening, Sizes, generate, ranking};
-use fmucal_diagnose::decision::{
-    Baseline, Evidence, ParameterEvidence, Rule, choose, equally_supported, judge,
-};
-use fmucal_shared::effects;
-use fmucal_shared::effects::guess::SignalStats;
+use fmucal_diagnose::decision::{Baseline, Evidence, ParameterEvidence, Rule, choose, equally_supported, judge};
 use fmucal_diagnose::jobs::{
     candidate_job, decision_f_tol, decision_optimizer, gauss_newton, noise_ssr, polish_step, same_place, stopped_early,
 };
@@ -22,6 +18,8 @@ use fmucal_diagnose::localise::localise;
 use fmucal_diagnose::report::{
     CandidateFit, Conclusion, Diagnosis, NamedEffect, PhaseTime, RankedCandidate, Round, value_with_interval,
 };
+use fmucal_shared::effects;
+use fmucal_shared::effects::guess::SignalStats;
 use fmucal_shared::job::choices::Algorithm;
 use fmucal_shared::job::identifiability::{self, Identifiability};
 use fmucal_shared::job::{CalibrationResult, JobSpec, MeasurementTable, PreparedJob};

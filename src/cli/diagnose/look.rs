@@ -8,8 +8,8 @@ use std::sync::Arc;
 use anyhow::{Context as _, Result};
 use fmucal_diagnose::decision::effective_samples;
 use fmucal_diagnose::report::RmsPair;
-use fmucal_shared::residuals::Misfit;
 use fmucal_shared::job::{FitTable, PreparedJob, report};
+use fmucal_shared::residuals::Misfit;
 use fmucal_shared::sim::simulate;
 
 use super::Context;

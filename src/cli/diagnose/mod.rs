@@ -24,9 +24,9 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context as _, Result, bail};
-use fmucal_shared::fmu::Fmu;
 use fmucal_diagnose::jobs::polish_step;
 use fmucal_diagnose::spec::DiagnoseSpec;
+use fmucal_shared::fmu::Fmu;
 use fmucal_shared::job::choices::Algorithm;
 use fmucal_shared::job::{JobSpec, MeasurementTable};
 
