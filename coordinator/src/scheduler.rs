@@ -549,6 +549,7 @@ impl Scheduler {
         self.next_seq += 1;
         let id = format!("job-{seq:06}");
         let state = JobState {
+            format: crate::store::STATE_FORMAT,
             seq,
             status: JobStatus::Running,
             run,

@@ -39,9 +39,16 @@ pub(crate) const JOURNAL: TableDefinition<(&str, u64), &[u8]> = TableDefinition:
 /// `next_seq`: past every job ever stored, deleted ones included, so ids are never reused.
 pub(crate) const META: TableDefinition<&str, u64> = TableDefinition::new("meta");
 
+/// The layout of a stored [`JobState`]. A state without the field (0) was written before it
+/// existed, in the layout of 1; a state of a later layout is left out, not misread.
+pub const STATE_FORMAT: u32 = 1;
+
 /// Everything about a job except its spec.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct JobState {
+    /// [`STATE_FORMAT`] when written.
+    #[serde(default)]
+    pub format: u32,
     /// Submission order, for listing.
     pub seq: u64,
     pub status: JobStatus,
@@ -197,7 +204,12 @@ impl Store {
         for entry in states.iter()? {
             let (k, v) = entry?;
             let id = k.value().to_owned();
-            let state: JobState = match serde_json::from_str(v.value()) {
+            let state: JobState = match serde_json::from_str::<JobState>(v.value()) {
+                Ok(s) if s.format > STATE_FORMAT => {
+                    let why = format!("format {} is newer than this version reads ({STATE_FORMAT})", s.format);
+                    tracing::error!(job = %id, "the stored job state cannot be read, leaving the job out: {why}");
+                    continue;
+                }
                 Ok(s) => s,
                 Err(e) => {
                     tracing::error!(job = %id, "the stored job state cannot be read, leaving the job out: {e}");

@@ -678,6 +678,37 @@ async fn a_job_whose_state_cannot_be_read_is_left_out_and_its_id_not_reused() {
     assert_eq!(listed.jobs.iter().map(|j| j.job_id.clone()).collect::<Vec<_>>(), vec![new]);
 }
 
+#[tokio::test(start_paused = true)]
+async fn a_state_of_a_later_format_is_left_out_and_one_without_a_format_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Sched::start(dir.path());
+    let (later, earlier) = (s.submit(de_job(dir.path(), 4, 2)).await, s.submit(de_job(dir.path(), 4, 2)).await);
+    s.kill().await;
+    {
+        let store = Arc::new(Store::open(dir.path()).unwrap());
+        let states = store.load_all().unwrap();
+        let writer = fmucal_coordinator::store::Writer::spawn(store);
+        // Edited as text: a DE state holds a u128, which serde_json's `Value` cannot.
+        let format = format!("\"format\":{},", fmucal_coordinator::store::STATE_FORMAT);
+        for (id, _, state) in states {
+            let json = serde_json::to_string(&state).unwrap();
+            assert!(json.starts_with(&format!("{{{format}")), "a state is written with its format: {json:.40}");
+            let json = if id == later {
+                json.replacen(&format, &format!("\"format\":{},", fmucal_coordinator::store::STATE_FORMAT + 1), 1)
+            } else {
+                // As the version before the field wrote it.
+                json.replacen(&format, "", 1)
+            };
+            writer.send(fmucal_coordinator::store::Write::State { id, json });
+        }
+    }
+    let s = Sched::start(dir.path());
+    let gone = s.call(|reply| Command::Get { job_id: later.clone(), reply }).await;
+    assert!(matches!(gone, Err(CoordinatorError::NotFound(_))), "{gone:?}");
+    let kept = s.call(|reply| Command::Get { job_id: earlier.clone(), reply }).await;
+    assert!(kept.is_ok(), "{kept:?}");
+}
+
 /// A point handed back unevaluated (a stopping worker) is sent again, first, and does not
 /// count as an attempt: the job ends as if it had never been handed out.
 #[tokio::test(start_paused = true)]

@@ -202,26 +202,6 @@ pub struct Misfit {
 }
 
 impl Misfit {
-    /// How far the optimized model of `fit` is from its noise, per output: residuals up to
-    /// `calibration_stop` against those after it (the validation window, if the table has one).
-    pub fn of_fit(fit: &crate::job::FitTable, calibration_stop: f64) -> Misfit {
-        let rows = fit.time.partition_point(|t| *t <= calibration_stop);
-        let outputs = fit
-            .outputs
-            .iter()
-            .map(|o| {
-                let r: Vec<f64> =
-                    o.measured.iter().zip(&o.optimized).map(|(m, s)| s.map_or(f64::NAN, |s| s - m)).collect();
-                let cut = rows.min(r.len());
-                let finite = o.measured.iter().copied().filter(|m| m.is_finite());
-                let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| (a.min(m), b.max(m)));
-                let range = if hi >= lo { hi - lo } else { 0.0 };
-                OutputMisfit::new(&o.variable, &r[..cut], &r[cut..], range)
-            })
-            .collect();
-        Misfit { outputs }
-    }
-
     /// Whether any output is far from its noise ([`OutputMisfit::far`]).
     pub fn far(&self) -> bool {
         self.outputs.iter().any(OutputMisfit::far)

@@ -288,7 +288,7 @@ pub fn run(args: Args) -> Result<()> {
         let (fit, errors) = fits.pop().context("one experiment")?;
         // The same test of "far from the noise" as a diagnosis's conclusion.
         let stop = spec.simulation.stop_time.or_else(|| data.first().and_then(|d| d.time.last().copied()));
-        let misfit = fmucal_shared::residuals::Misfit::of_fit(&fit, stop.unwrap_or(f64::INFINITY));
+        let misfit = fit.misfit(stop.unwrap_or(f64::INFINITY));
         if misfit.far() {
             misfit_warning = Some(format!(
                 "the fit leaves more than noise ({}): the model may miss something; `fmucal diagnose` looks for what",

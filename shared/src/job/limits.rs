@@ -25,8 +25,9 @@ pub const MAX_FEVALS: u64 = 100_000_000;
 pub const MAX_POINTS: usize = 100_000;
 /// Rows of one measurement table.
 pub const MAX_DATA_ROWS: usize = 10_000_000;
-/// Values (rows × columns) of one measurement table: 800 MB of numbers.
-pub const MAX_DATA_VALUES: usize = 100_000_000;
+/// Values (rows × columns) of one measurement table: 800 MB of numbers (the time series'
+/// own cap, [`crate::series::MAX_VALUES`]).
+pub const MAX_DATA_VALUES: usize = crate::series::MAX_VALUES;
 /// `[simulation] set` entries.
 pub const MAX_SET_VALUES: usize = 100_000;
 /// Values one round hands out: points × fitted experiments × calibrated values (80 MB), so

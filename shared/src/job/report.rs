@@ -16,6 +16,7 @@ use super::objective::Objective;
 use super::prepared::PreparedJob;
 use super::result::{ErrorReport, OutputErrors, OutputWindowErrors, WindowError};
 use crate::fmu::{Fmu, ModelDescription};
+use crate::residuals::{Misfit, OutputMisfit};
 use crate::sim::SimResult;
 
 /// One output's columns of a [`FitTable`], each with one entry per time.
@@ -43,6 +44,26 @@ pub struct FitTable {
 }
 
 impl FitTable {
+    /// How far the optimized model is from its noise ([`Misfit`]), per output: residuals up to
+    /// `calibration_stop` against those after it (the validation window, if the table has one).
+    pub fn misfit(&self, calibration_stop: f64) -> Misfit {
+        let rows = self.time.partition_point(|t| *t <= calibration_stop);
+        let outputs = self
+            .outputs
+            .iter()
+            .map(|o| {
+                let r: Vec<f64> =
+                    o.measured.iter().zip(&o.optimized).map(|(m, s)| s.map_or(f64::NAN, |s| s - m)).collect();
+                let cut = rows.min(r.len());
+                let finite = o.measured.iter().copied().filter(|m| m.is_finite());
+                let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), m| (a.min(m), b.max(m)));
+                let range = if hi >= lo { hi - lo } else { 0.0 };
+                OutputMisfit::new(&o.variable, &r[..cut], &r[cut..], range)
+            })
+            .collect();
+        Misfit { outputs }
+    }
+
     /// The table of `objective`'s targets against two simulations on its time grid (`None`: the
     /// simulation failed).
     pub fn new(objective: &Objective, nominal: Option<&SimResult>, optimized: Option<&SimResult>) -> Self {

@@ -34,9 +34,7 @@ struct Matrix<'a> {
     real: &'a [u8],
 }
 
-/// Values a result file's selection may hold before it is refused: as many as a measurement
-/// table may hold.
-const MAX_VALUES: usize = crate::job::limits::MAX_DATA_VALUES;
+use super::MAX_VALUES;
 
 /// Whether `bytes` starts as a v4 file does: a known type code in either byte order.
 pub(super) fn looks_like_v4(bytes: &[u8]) -> bool {

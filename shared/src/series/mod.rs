@@ -15,6 +15,10 @@ pub use read::{
 };
 pub use write::write_csv;
 
+/// Values (rows × columns) one table read from a file may hold: 800 MB of numbers. The jobs'
+/// measurement tables have the same cap (`job::limits::MAX_DATA_VALUES`).
+pub const MAX_VALUES: usize = 100_000_000;
+
 /// Samples of named signals at common time stamps.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct TimeSeries {

@@ -34,7 +34,7 @@ pub struct Look {
 impl Look {
     /// How far this fit is from its noise, per output, on the calibration and validation windows.
     pub fn misfit(&self, calibration_stop: f64) -> Misfit {
-        Misfit::of_fit(&self.fit, calibration_stop)
+        self.fit.misfit(calibration_stop)
     }
 }
 
