@@ -113,7 +113,7 @@ def job_message(spec: JobSpec, tables: list[Table], model_id: str) -> pb.JobSpec
             validation_stop_time=s.validation_stop_time,
         ),
         optimizer=pb.OptimizerSpec(
-            algorithm=o.algorithm,
+            algorithm=o.algorithm or "",
             parallel=o.parallel,
             x_tol=o.x_tol,
             f_tol=o.f_tol,

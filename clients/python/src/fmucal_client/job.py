@@ -126,7 +126,8 @@ class Simulation:
 class Optimizer:
     """``[optimizer]``; ``None`` leaves a setting at the optimizer's default."""
 
-    algorithm: str = "nelder-mead"
+    #: ``None``: the default algorithm (Nelder–Mead), sent as none, as the CLI does.
+    algorithm: str | None = None
     parallel: bool = True
     x_tol: float | None = None
     f_tol: float | None = None
@@ -367,7 +368,7 @@ def _optimizer(t: Table | None) -> Optimizer:
     if t is None:
         return Optimizer()
     return Optimizer(
-        algorithm=_choice(t, "algorithm", ALGORITHMS) or "nelder-mead",
+        algorithm=_choice(t, "algorithm", ALGORITHMS),
         parallel=t.flag("parallel", True),
         x_tol=t.number("x_tol"),
         f_tol=t.number("f_tol"),
