@@ -143,7 +143,9 @@ fn simulation() -> impl Strategy<Value = SimulationSpec> {
 /// A port effect of a few kinds, every parameter with finite, ordered bounds around its start.
 fn effect() -> impl Strategy<Value = EffectSpec> {
     let kind = prop_oneof![Just("viscous_damping"), Just("linear_spring"), Just("stribeck_friction")];
-    (kind, name(), name(), finite(), 0.0..1e3f64).prop_map(|(kind, port, signal, start, width)| {
+    // An effect on a port reads another signal (a job is refused otherwise).
+    let places = (name(), name()).prop_filter("the signal is not the port", |(port, signal)| port != signal);
+    (kind, places, finite(), 0.0..1e3f64).prop_map(|(kind, (port, signal), start, width)| {
         let names = match effects::find(kind) {
             Ok(found) => found.kind().parameters(),
             Err(e) => panic!("{e}"),
