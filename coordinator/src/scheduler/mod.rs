@@ -19,12 +19,12 @@
 //! number of workers.
 //!
 //! The state is split by concern, each part a struct of its own that knows nothing of
-//! protobuf: [`jobs`] (the job table, each job's open batch, its watchers, retention),
-//! [`leases`] (the worker registry, the points each holds and gave up, leasing),
-//! [`parking`] (long polls waiting for work) and [`persist`] (the store's writes and reads).
+//! protobuf: `jobs` (the job table, each job's open batch, its watchers, retention),
+//! `leases` (the worker registry, the points each holds and gave up, leasing),
+//! `parking` (long polls waiting for work) and `persist` (the store's writes and reads).
 //! This module composes them: each change that concerns several parts (a point told, a job
 //! finished, a worker expired) is one method here, and the metrics are read from the parts.
-//! [`commands`] is the protobuf edge: one method per [`Command`], converting the request into
+//! `commands` is the protobuf edge: one method per [`Command`], converting the request into
 //! these methods' domain values and their answers back.
 
 mod commands;
