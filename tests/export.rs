@@ -236,6 +236,71 @@ fn state_effects_run_inside_both_interfaces_and_instances_are_independent() {
 }
 
 #[test]
+fn a_joint_friction_with_its_reaction_runs_inside_the_exported_fmu_and_its_strengths_are_parameters() {
+    // The Furuta pendulum as Dymola exports it: a Coulomb friction on the pendulum's
+    // acceleration and its reaction on the arm's, both reading the pendulum's velocity.
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data.csv");
+    write_data(&data);
+    let job = common::job_toml(
+        &Fixture::FurutaExported.path(),
+        Some(&data),
+        &[("armJoint.phi", "x")],
+        &[],
+        &[("armFriction", 0.012, 0.0, 0.05)],
+        r#"
+[[effects]]
+kind = "coulomb_friction"
+state = "pendulumJoint.w"
+reaction = "armJoint.w"
+parameters = { force = { start = 0.8, lower = 0.0, upper = 2.0 }, reaction = { start = -0.15, lower = -1.0, upper = 1.0 } }
+"#,
+    );
+    let fmu = export(dir.path(), &job, "corrected.fmu");
+    let exported = common::load(&fmu, &dir.path().join("cache"));
+    let original = common::load(&Fixture::FurutaExported.path(), &dir.path().join("cache"));
+    let md = &exported.description;
+    for name in ["effects[0].force", "effects[0].reaction"] {
+        let v = md.variable(name).unwrap_or_else(|| panic!("{name} missing"));
+        assert_eq!(md.unit_of(v), Some("rad/s2"), "{name}: a strength in der(w)'s unit");
+    }
+    let outputs = ["armJoint.phi", "pendulumJoint.phi", "armJoint.w", "pendulumJoint.w"];
+    let terms = |force: f64, reaction: f64| {
+        vec![
+            StateTerm {
+                kind: "coulomb_friction".into(),
+                state: "pendulumJoint.w".into(),
+                signal: "pendulumJoint.w".into(),
+                parameters: vec![force],
+            },
+            StateTerm {
+                kind: "coulomb_friction".into(),
+                state: "armJoint.w".into(),
+                signal: "pendulumJoint.w".into(),
+                parameters: vec![reaction],
+            },
+        ]
+    };
+    for (set, (force, reaction)) in [(vec![], (0.8, -0.15)), (vec![("effects[0].reaction", -0.4)], (0.8, -0.4))] {
+        let mut want = spec(Interface::ModelExchange, 1e-8, None, &outputs, &[("armFriction", 0.012)]);
+        want.state_terms = terms(force, reaction);
+        let want = simulate(&original, &want).unwrap();
+        let got = simulate(&exported, &spec(Interface::ModelExchange, 1e-8, None, &outputs, &set)).unwrap();
+        for name in outputs {
+            let d = common::rel_max_diff(column(&got, name), column(&want, name));
+            assert!(d < 1e-9, "{set:?} {name}: {d:e}");
+        }
+    }
+    // The reaction moves the arm: without it the arm turns otherwise.
+    let mut plain = spec(Interface::ModelExchange, 1e-8, None, &outputs, &[("armFriction", 0.012)]);
+    plain.state_terms = terms(0.8, 0.0);
+    let plain = simulate(&original, &plain).unwrap();
+    let me = simulate(&exported, &spec(Interface::ModelExchange, 1e-8, None, &outputs, &[])).unwrap();
+    let moved = common::rel_max_diff(column(&me, "armJoint.phi"), column(&plain, "armJoint.phi"));
+    assert!(moved > 1e-3, "the reaction moves the arm by {moved:e} only");
+}
+
+#[test]
 fn a_co_simulation_only_original_exports_co_simulation_with_its_port_effect() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data.csv");

@@ -274,6 +274,12 @@ kind = "viscous_damping"
 state = "armJoint.w"
 parameters = { c = { start = 0.0, lower = 0.0, upper = 0.1 } }
 
+[[effects]]
+kind = "coulomb_friction"
+state = "pendulumJoint.w"
+reaction = "armJoint.w"
+parameters = { force = { start = 0.0, lower = 0.0, upper = 1 }, reaction = { start = 0.0, lower = -1, upper = 1 } }
+
 [simulation]
 start_time = 0.5
 stop_time = 9
@@ -397,6 +403,7 @@ fn python_client_suite_passes_against_a_coordinator_and_workers() {
     assert_eq!(every.experiments[1].inputs.as_ref().map(|l| l.items.len()), Some(0));
     assert_eq!(every.simulation.as_ref().unwrap().set["negzero"], "-0");
     assert!(every.effects.iter().any(|e| e.state.as_deref() == Some("armJoint.w")), "a state effect");
+    assert!(every.effects.iter().any(|e| e.reaction.as_deref() == Some("armJoint.w")), "a reaction");
 
     let servers = common::Servers::start(dir.path(), 2);
     let worker = ExtraWorker::start(&servers.url, &dir.path().join("worker2-cache"));

@@ -209,6 +209,7 @@ fn bad_state_effects_in_a_job_are_one_line_naming_the_field() {
     let dir = tempfile::tempdir().unwrap();
     let spring = Fixture::SpringMassExported.path();
     let c = r#"parameters = { force = { start = 0.0, lower = 0.0, upper = 1.0 } }"#;
+    let cr = r#"parameters = { force = { start = 0.0, lower = 0.0, upper = 1.0 }, reaction = { start = 0.0, lower = -1.0, upper = 1.0 } }"#;
     let cases = [
         (
             format!("kind = \"coulomb_friction\"\nstate = \"k\"\n{c}"),
@@ -230,6 +231,34 @@ fn bad_state_effects_in_a_job_are_one_line_naming_the_field() {
             format!("kind = \"coulomb_friction\"\nstate = \"mass.x\"\n{c}"),
             "effects[0].kind: coulomb_friction acts on a velocity; state \"mass.x\" is a translational position (m)",
         ),
+        (
+            format!("kind = \"coulomb_friction\"\nstate = \"mass.v\"\nreaction = \"mass.x\"\n{cr}"),
+            "effects[0].reaction: a reaction acts on a velocity; state \"mass.x\" is a translational position (m)",
+        ),
+        (
+            format!("kind = \"coulomb_friction\"\nstate = \"mass.v\"\nreaction = \"k\"\n{cr}"),
+            "effects[0].reaction: \"k\" is not a continuous state of the model",
+        ),
+        (
+            format!("kind = \"coulomb_friction\"\nstate = \"mass.v\"\nreaction = \"mass.v\"\n{cr}"),
+            "effects[0].reaction: \"mass.v\" is the effect's own state",
+        ),
+        (
+            format!("kind = \"coulomb_friction\"\nport = \"F\"\nsignal = \"mass.v\"\nreaction = \"mass.v\"\n{cr}"),
+            "effects[0].reaction: a reaction is a second state's derivative: give the effect a state first",
+        ),
+        (
+            "kind = \"stribeck_friction\"\nstate = \"mass.v\"\nreaction = \"mass.v\"\nparameters = { coulomb = { start = 0.0, lower = 0.0, upper = 1.0 }, static = { start = 0.0, lower = 0.0, upper = 1.0 }, stribeck_velocity = { start = 0.1, lower = 0.01, upper = 1.0 }, reaction = { start = 0.0, lower = -1.0, upper = 1.0 } }".to_owned(),
+            "effects[0].reaction: stribeck_friction has two strengths",
+        ),
+        (
+            format!("kind = \"coulomb_friction\"\nstate = \"mass.v\"\nreaction = \"mass.v\"\n{c}"),
+            "effects[0].parameters: coulomb_friction with a reaction state needs parameter \"reaction\"",
+        ),
+        (
+            format!("kind = \"coulomb_friction\"\nstate = \"mass.v\"\n{cr}"),
+            "effects[0].parameters: coulomb_friction has a parameter \"reaction\" only with a reaction state",
+        ),
     ];
     for (effect, want) in cases {
         let (ok, err) = calibrate_with(&spring, "mass.x", "k", &effect, dir.path());
@@ -246,4 +275,51 @@ fn bad_state_effects_in_a_job_are_one_line_naming_the_field() {
         dir.path(),
     );
     assert!(!ok && err.contains("effects[0].state: the FMU offers Co-Simulation only"), "{err}");
+}
+
+#[test]
+fn a_reaction_adds_the_same_term_at_its_own_strength_to_the_coupled_velocity() {
+    // The Furuta pendulum as Dymola exports it: pendulumJoint.w and armJoint.w are coupled
+    // (each derivative depends on the other velocity), which the structure reports.
+    let dir = tempfile::tempdir().unwrap();
+    let fmu = fixture(Fixture::FurutaExported, dir.path());
+    let structure = fmucal_shared::structure::Structure::read(&fmu.description, &[]);
+    assert_eq!(structure.state("pendulumJoint.w").unwrap().coupled, ["armJoint.w"]);
+    assert_eq!(structure.state("armJoint.w").unwrap().coupled, ["pendulumJoint.w"]);
+    assert!(structure.state("armJoint.phi").unwrap().coupled.is_empty(), "positions are not coupled");
+
+    let rows: String = (0..=20).map(|k| format!("{},{}\n", k as f64 * 0.1, 0.0)).collect();
+    let data_path = dir.path().join("data.csv");
+    std::fs::write(&data_path, format!("time,y\n{rows}")).unwrap();
+    let text = format!(
+        "[model]\npath = {:?}\n[data]\npath = {:?}\n[[outputs]]\nvariable = \"armJoint.phi\"\ncolumn = \"y\"\n\
+         [[parameters]]\nname = \"armFriction\"\nstart = 0.012\nlower = 0.0\nupper = 0.05\n[[effects]]\n\
+         kind = \"quadratic_drag\"\nstate = \"pendulumJoint.w\"\nreaction = \"armJoint.w\"\n\
+         parameters = {{ c = {{ start = 0.5, lower = 0.0, upper = 1.0 }}, reaction = {{ start = -0.1, lower = -1.0, upper = 1.0 }} }}\n",
+        Fixture::FurutaExported.path(),
+        data_path
+    );
+    let job = fmucal_shared::job::JobSpec::from_toml(&text, dir.path()).unwrap();
+    assert_eq!(job.parameter_vectors().0, ["armFriction", "effects[0].c", "effects[0].reaction"]);
+    let data = fmucal_shared::job::MeasurementTable::read(&data_path, "time").unwrap();
+    let prepared =
+        fmucal_shared::job::PreparedJob::new(&job, &fmu.description, &fmu.interfaces(), std::slice::from_ref(&data))
+            .unwrap();
+    let sim = prepared.single().sim_spec(&[0.012, 0.7, -0.2]);
+    assert_eq!(
+        sim.state_terms,
+        [
+            state("quadratic_drag", "pendulumJoint.w", "pendulumJoint.w", vec![0.7]),
+            state("quadratic_drag", "armJoint.w", "pendulumJoint.w", vec![-0.2]),
+        ]
+    );
+    // The arm's acceleration gets −(−0.2)·w|w| of the pendulum's velocity: against the same
+    // simulation without the reaction, the arm moves otherwise.
+    let outputs = ["armJoint.phi"];
+    let mut with = spec(2.0, 0.01, common::table(vec![0.0, 2.0], vec![]), &outputs, &[]);
+    with.state_terms = sim.state_terms.clone();
+    let mut without = with.clone();
+    without.state_terms.truncate(1);
+    let (a, b) = (simulate(&fmu, &with).unwrap(), simulate(&fmu, &without).unwrap());
+    assert!(max_abs_diff(a.column("armJoint.phi").unwrap(), b.column("armJoint.phi").unwrap()) > 1e-4);
 }

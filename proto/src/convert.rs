@@ -217,6 +217,7 @@ impl From<pb::EffectSpec> for EffectSpec {
         EffectSpec {
             kind: e.kind,
             state: e.state,
+            reaction: e.reaction,
             port: e.port,
             signal: e.signal,
             output: e.output,
@@ -235,6 +236,7 @@ pub fn effect_to_proto(e: &EffectSpec) -> pb::EffectSpec {
     pb::EffectSpec {
         kind: e.kind.clone(),
         state: e.state.clone(),
+        reaction: e.reaction.clone(),
         port: e.port.clone(),
         signal: e.signal.clone(),
         output: e.output.clone(),

@@ -153,6 +153,7 @@ fn effect() -> impl Strategy<Value = EffectSpec> {
         EffectSpec {
             kind: kind.into(),
             state: None,
+            reaction: None,
             port: Some(port),
             signal: Some(signal),
             output: None,

@@ -8,6 +8,13 @@
 //! - [`SeriesEffect`]: a change to a whole measured output (sensor effects) or measured input
 //!   (actuator effects), applied to its time series.
 //!
+//! A mechanical state effect may also name a `reaction`: a second velocity state whose
+//! derivative receives the same term at its own strength, the `reaction` parameter
+//! ([`REACTION`]). A torque in one joint of a multibody model reaches every coupled joint's
+//! acceleration through the inverse mass matrix; a term on the joint's own acceleration alone
+//! cannot express it, the pair can with a constant ratio (exact where the mass matrix is
+//! constant, an approximation where it depends on the configuration).
+//!
 //! Adding a kind is one type implementing the trait and [`Guesses`] (how a diagnosis sizes it),
 //! listed in [`port_kinds`] or [`series_kinds`], with its test. Parameters are in the order [`Kind::parameters`] lists them.
 //!
@@ -26,6 +33,7 @@
 //! | `heat_loss` | thermal | −q | q |
 //! | `linear_relaxation` | generic (states only) | −k·(x − x₀) | k, x0 |
 //! | `constant_rate` | generic (states only) | b | rate |
+//! | any mechanical kind but Stribeck's, on a velocity state, with `reaction` | mechanical (states only) | the term with its strength replaced by `reaction`, on der(reaction state) | + reaction |
 //! | `sensor_offset` / `actuator_offset` | sensor / actuator | y + b | offset |
 //! | `sensor_gain` / `actuator_gain` | sensor / actuator | k·y | gain |
 //! | `sensor_lag` | sensor | τ·ẏ_s = y − y_s, y_s(t₀) = y(t₀) | time_constant |
@@ -87,10 +95,14 @@ pub enum Scale {
     Other,
 }
 
+/// The parameter a state effect with a `reaction` has after its kind's: the strength of the
+/// same term on the reaction state's derivative, in that derivative's units.
+pub const REACTION: &str = "reaction";
+
 /// The scale of parameter `name` of any kind (the names are shared across kinds).
 pub fn parameter_scale(name: &str) -> Scale {
     match name {
-        "force" | "coulomb" | "static" | "load" | "q" | "rate" | "offset" | "lower" | "upper" => Scale::Load,
+        "force" | "coulomb" | "static" | "load" | "q" | "rate" | "offset" | "lower" | "upper" | REACTION => Scale::Load,
         "x0" | "width" | "t_ambient" | "stribeck_velocity" => Scale::Signal,
         _ => Scale::Other,
     }
@@ -115,6 +127,13 @@ pub trait PortEffect: Kind + Guesses {
     /// the strength, and the term vanishes when it is 0.
     fn vanishes(&self, p: &[f64]) -> bool {
         p.first() == Some(&0.0)
+    }
+
+    /// Whether the term is its first parameter (the strength) times a shape the others set, so
+    /// that the same term at another strength r is the term with r as first parameter: what a
+    /// `reaction` needs. True of every kind but Stribeck friction, which has two levels.
+    fn proportional(&self) -> bool {
+        true
     }
 }
 
@@ -214,6 +233,10 @@ impl PortEffect for StribeckFriction {
     /// Both levels are strengths.
     fn vanishes(&self, p: &[f64]) -> bool {
         p[0] == 0.0 && p[1] == 0.0
+    }
+
+    fn proportional(&self) -> bool {
+        false
     }
 
     fn term(&self, p: &[f64], v: f64) -> f64 {

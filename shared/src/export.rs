@@ -73,10 +73,24 @@ pub struct RuntimeEffect {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(rename_all = "snake_case")]
 pub enum Target {
-    Port { port: String, signal: String },
-    State { state: String, signal: String },
-    Sensor { output: String },
-    Actuator { input: String },
+    Port {
+        port: String,
+        signal: String,
+    },
+    State {
+        state: String,
+        signal: String,
+        /// A second velocity state whose derivative gets the same term at the `reaction`
+        /// parameter's strength (the effect's last parameter).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        reaction: Option<String>,
+    },
+    Sensor {
+        output: String,
+    },
+    Actuator {
+        input: String,
+    },
 }
 
 /// An effect parameter as a variable of the exported FMU.
@@ -123,12 +137,7 @@ fn target_units(md: &ModelDescription, target: &Target) -> (Option<String>, Opti
     };
     match target {
         Target::Port { port, signal } => (unit(port), unit(signal)),
-        Target::State { state, signal } => {
-            let der = md.states().into_iter().find(|(s, _)| s.name == *state).and_then(|(s, d)| {
-                md.unit_of(d).map(str::to_owned).or_else(|| md.unit_of(s).map(|u| format!("{u}/s")))
-            });
-            (der, unit(signal))
-        }
+        Target::State { state, signal, .. } => (crate::structure::derivative_unit(md, state), unit(signal)),
         Target::Sensor { output } => (unit(output), None),
         Target::Actuator { input } => (unit(input), None),
     }
@@ -137,6 +146,7 @@ fn target_units(md: &ModelDescription, target: &Target) -> (Option<String>, Opti
 fn describe(kind: &str, target: &Target) -> String {
     match target {
         Target::Port { port, signal } => format!("{kind} of {signal} on {port}"),
+        Target::State { state, reaction: Some(r), .. } => format!("{kind} on der({state}) and der({r})"),
         Target::State { state, .. } => format!("{kind} on der({state})"),
         Target::Sensor { output } => format!("{kind} on output {output}"),
         Target::Actuator { input } => format!("{kind} on input {input}"),
@@ -211,7 +221,7 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
                     )));
                 }
                 let signal = e.state_signal.clone().unwrap_or_else(|| state.clone());
-                Target::State { state: state.clone(), signal }
+                Target::State { state: state.clone(), signal, reaction: e.spec.reaction.clone() }
             }
             (_, _, _, Some(output), _) => Target::Sensor { output: output.clone() },
             (_, _, _, _, Some(input)) => Target::Actuator { input: input.clone() },
@@ -230,13 +240,17 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
             )));
         }
         if let Found::Port(kind) = &found {
-            kinks += kind.kinks(values).len();
+            // A reaction is a second term with the same kinks.
+            kinks += kind.kinks(values).len() * if e.spec.reaction.is_some() { 2 } else { 1 };
         }
         let (load_unit, signal_unit) = target_units(original, &target);
         let what = describe(&e.spec.kind, &target);
         let mut parameters = vec![];
-        for (name, value) in found.kind().parameters().iter().zip(values) {
+        for (name, value) in e.spec.parameter_names().iter().zip(values) {
             let unit = match effects::parameter_scale(name) {
+                _ if *name == effects::REACTION => {
+                    e.spec.reaction.as_deref().and_then(|r| crate::structure::derivative_unit(original, r))
+                }
                 Scale::Load => load_unit.clone(),
                 Scale::Signal => signal_unit.clone(),
                 Scale::Other => None,
@@ -290,16 +304,18 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
         match &e.target {
             Target::Port { port, .. } => via.extend(index_of(port)),
             Target::Actuator { input } => via.extend(index_of(input)),
-            Target::State { state, .. } => {
-                if let Some((_, der)) = original.states().into_iter().find(|(s, _)| s.name == *state) {
-                    let vr = der.value_reference;
-                    reached.extend(
-                        md.variables
-                            .iter()
-                            .enumerate()
-                            .filter(|(_, v)| v.value_reference == vr && v.var_type == VarType::Real)
-                            .map(|(i, _)| i + 1),
-                    );
+            Target::State { state, reaction, .. } => {
+                for state in std::iter::once(state).chain(reaction) {
+                    if let Some((_, der)) = original.states().into_iter().find(|(s, _)| s.name == *state) {
+                        let vr = der.value_reference;
+                        reached.extend(
+                            md.variables
+                                .iter()
+                                .enumerate()
+                                .filter(|(_, v)| v.value_reference == vr && v.var_type == VarType::Real)
+                                .map(|(i, _)| i + 1),
+                        );
+                    }
                 }
             }
             Target::Sensor { .. } => {}

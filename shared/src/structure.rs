@@ -113,6 +113,10 @@ pub struct State {
     pub derivative_aliases: Vec<String>,
     /// The other names of the state variable itself (its aliases, not negated).
     pub aliases: Vec<String>,
+    /// For a velocity: the other velocity states it is coupled with, each derivative depending
+    /// on the other velocity (`ModelStructure/Derivatives`; none where a list is not given). A
+    /// force or torque on its joint reaches theirs through the mass matrix.
+    pub coupled: Vec<String>,
 }
 
 /// A continuous Real input whose unit makes it an injection port.
@@ -299,6 +303,15 @@ fn identity<'a>(md: &'a ModelDescription, v: &'a ScalarVariable) -> Option<&'a s
     (!v.negated).then(|| md.base_of(v).name.as_str())
 }
 
+/// The unit of der(`state`): the derivative's own, else the state's per second (what a state
+/// effect's strength is measured in).
+pub fn derivative_unit(md: &ModelDescription, state: &str) -> Option<String> {
+    md.states()
+        .into_iter()
+        .find(|(s, _)| s.name == state)
+        .and_then(|(s, d)| md.unit_of(d).map(str::to_owned).or_else(|| md.unit_of(s).map(|u| format!("{u}/s"))))
+}
+
 fn position_of(md: &ModelDescription, v: &ScalarVariable) -> Option<usize> {
     md.variables.iter().position(|w| std::ptr::eq(w, v))
 }
@@ -426,6 +439,7 @@ impl Structure {
                     paired_by,
                     derivative_aliases: derivative_aliases.into_iter().map(|w| w.name.clone()).collect(),
                     aliases,
+                    coupled: vec![],
                 }
             })
             .collect();
@@ -450,6 +464,32 @@ impl Structure {
                     _ => Role::Other,
                 }
             };
+        }
+
+        // Velocities coupled both ways: der(u) depends on v, and der(v) on u.
+        let depends: Vec<Vec<usize>> = raw
+            .iter()
+            .map(|(_, der)| {
+                let k = position_of(md, der);
+                let u = md.model_structure.derivatives.iter().find(|u| Some(u.index - 1) == k);
+                u.and_then(|u| u.dependencies.as_deref())
+                    .unwrap_or_default()
+                    .iter()
+                    .filter_map(|d| md.variables.get(d.wrapping_sub(1)).and_then(|dep| identity(md, dep)))
+                    .filter_map(state_of)
+                    .collect()
+            })
+            .collect();
+        for v in 0..n {
+            if states[v].role != Role::Velocity {
+                continue;
+            }
+            states[v].coupled = (0..n)
+                .filter(|&u| {
+                    u != v && states[u].role == Role::Velocity && depends[u].contains(&v) && depends[v].contains(&u)
+                })
+                .map(|u| vars[u].name.clone())
+                .collect();
         }
 
         let mapped = |v: &ScalarVariable| {
@@ -546,11 +586,14 @@ impl Structure {
             ));
             for st in &self.states {
                 let how = st.paired_by.map(|h| format!(" ({})", h.text())).unwrap_or_default();
-                let pair = match (&st.velocity, &st.position) {
+                let mut pair = match (&st.velocity, &st.position) {
                     (Some(v), _) => format!("velocity {v}{how}"),
                     (None, Some(p)) => format!("position {p}{how}"),
                     (None, None) => "-".to_owned(),
                 };
+                if !st.coupled.is_empty() {
+                    pair.push_str(&format!("; coupled with {}", st.coupled.join(", ")));
+                }
                 let aliases =
                     if st.derivative_aliases.is_empty() { "-".to_owned() } else { st.derivative_aliases.join(", ") };
                 s.push_str(&format!(

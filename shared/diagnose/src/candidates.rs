@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use super::places::Places;
 use super::spec::{DiagnoseSpec, PortDomain};
-use fmucal_shared::effects::guess::{Guess, Guesses, Scales, SignalRole, SignalStats};
+use fmucal_shared::effects::guess::{self, Guess, Guesses, Scales, SignalRole, SignalStats};
 use fmucal_shared::effects::{self, Domain, Found};
 use fmucal_shared::job::identifiability::relative_step;
 use fmucal_shared::job::spec::{Bounds, EffectSpec, JobSpec};
@@ -49,9 +49,13 @@ impl Candidate {
         match (&e.port, &e.signal, &e.output, &e.input) {
             _ if e.state.is_some() => {
                 let state = e.state.as_deref().unwrap_or_default();
-                match e.signal.as_deref() {
+                let words = match e.signal.as_deref() {
                     Some(s) if s != state => format!("{} of {s} on der({state})", e.kind),
                     _ => format!("{} on der({state})", e.kind),
+                };
+                match &e.reaction {
+                    Some(r) => format!("{words} and its reaction on der({r})"),
+                    None => words,
                 }
             }
             (Some(p), Some(s), _, _) => format!("{} on {s} through {p}", e.kind),
@@ -66,9 +70,9 @@ impl Candidate {
         super::decision::place(&self.effect)
     }
 
-    /// The kind's parameter names, in order.
-    pub fn parameter_names(&self) -> &'static [&'static str] {
-        effects::find(&self.effect.kind).map(|f| f.kind().parameters()).unwrap_or_default()
+    /// The effect's parameter names, in order ([`EffectSpec::parameter_names`]).
+    pub fn parameter_names(&self) -> Vec<&'static str> {
+        self.effect.parameter_names()
     }
 
     /// The candidate with each strength parameter's bounds narrowed around `estimate`: within
@@ -125,6 +129,7 @@ fn effect(
     EffectSpec {
         kind: kind.to_owned(),
         state: None,
+        reaction: None,
         port: port.map(str::to_owned),
         signal: signal.map(str::to_owned),
         output: output.map(str::to_owned),
@@ -203,7 +208,23 @@ pub fn generate(job: &JobSpec, diagnose: &DiagnoseSpec, places: &Places, sizes: 
                 Scales { load, signal: *stats, duration: sizes.duration, sample: sizes.sample, ambient: 293.15 };
             let mut e = effect(kind.name(), None, Some(signal), None, None);
             e.state = Some(place.state.clone());
-            out.push(candidate(e, *kind, &scales, format!("model state {}", place.state)));
+            let source = format!("model state {}", place.state);
+            out.push(candidate(e.clone(), *kind, &scales, source.clone()));
+            // Friction, damping and drag of a coupled joint: the same term on each coupled
+            // velocity's derivative too, at a strength of its own (the mass matrix's share).
+            if kind.signal_role() == SignalRole::Velocity && kind.proportional() {
+                for coupled in &place.coupled {
+                    let Some(&load) = sizes.state_scales.get(coupled) else { continue };
+                    let mut e = e.clone();
+                    e.reaction = Some(coupled.clone());
+                    let mut c = candidate(e, *kind, &scales, source.clone());
+                    let g = guess::reaction(*kind, &Scales { load, ..scales });
+                    let bounds = Bounds { start: g.neutral, lower: g.lower, upper: g.upper };
+                    c.effect.parameters.insert(effects::REACTION.to_owned(), bounds);
+                    c.guesses.push(g);
+                    out.push(c);
+                }
+            }
         }
     }
     if diagnose.series {
@@ -601,6 +622,7 @@ mod tests {
             state: state.into(),
             role,
             position: position.map(str::to_owned),
+            coupled: vec![],
         };
         let places = Places {
             states: vec![
@@ -637,6 +659,58 @@ mod tests {
         // Strength steps come from the state's derivative scale: a constant rate's is a tenth.
         let rate = all.iter().find(|c| c.effect.kind == "constant_rate").unwrap();
         assert_eq!(rate.guesses[0].step, Some(0.05));
+    }
+
+    #[test]
+    fn a_coupled_velocity_gets_friction_damping_and_drag_with_a_reaction_of_either_sign() {
+        use crate::places::StatePlace;
+        let text =
+            "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n";
+        let base = JobSpec::from_toml(text, std::path::Path::new("/")).unwrap();
+        let stats = SignalStats::of(&[-1.0, 1.0]);
+        let sizes = Sizes {
+            signals: ["v", "w"].iter().map(|n| (n.to_string(), stats)).collect(),
+            // The coupled joint's derivative moves the outputs at a tenth of the scale.
+            state_scales: [("v".to_owned(), 0.5), ("w".to_owned(), 5.0)].into(),
+            duration: 1.0,
+            sample: 0.1,
+            ..Default::default()
+        };
+        let places = Places {
+            states: vec![StatePlace {
+                state: "v".into(),
+                role: Role::Velocity,
+                position: None,
+                coupled: vec!["w".into()],
+            }],
+            ..Default::default()
+        };
+        let all = generate(&base, &DiagnoseSpec { series: false, ..Default::default() }, &places, &sizes);
+        let words: Vec<String> = all.iter().map(Candidate::describe).collect();
+        assert_eq!(
+            words,
+            [
+                "viscous_damping on der(v)",
+                "viscous_damping on der(v) and its reaction on der(w)",
+                "coulomb_friction on der(v)",
+                "coulomb_friction on der(v) and its reaction on der(w)",
+                "stribeck_friction on der(v)",
+                "quadratic_drag on der(v)",
+                "quadratic_drag on der(v) and its reaction on der(w)",
+                "constant_load on der(v)",
+            ]
+        );
+        let coulomb = &all[3];
+        assert_eq!(coulomb.parameter_names(), ["force", "reaction"]);
+        assert_eq!(coulomb.place(), "der(v)");
+        // The reaction is sized by w's scale, of either sign, neutral at 0.
+        let (own, reaction) = (coulomb.guesses[0], coulomb.guesses[1]);
+        assert_eq!((reaction.neutral, reaction.lower, reaction.upper), (0.0, -10.0 * own.upper, 10.0 * own.upper));
+        assert_eq!(coulomb.effect.parameters["reaction"].lower, reaction.lower);
+        // The job it makes is valid.
+        let mut job = base.clone();
+        job.effects.push(coulomb.effect.clone());
+        assert_eq!(job.effects[0].ordered_parameters(0).unwrap().len(), 2);
     }
 
     #[test]

@@ -174,6 +174,7 @@ top = 3
         let mut effect = EffectSpec {
             kind: "coulomb_friction".into(),
             state: None,
+            reaction: None,
             port: Some("p".into()),
             signal: Some("v".into()),
             output: None,

@@ -30,6 +30,9 @@ pub struct StatePlace {
     pub role: Role,
     /// For a velocity: the position whose derivative it is (what springs read).
     pub position: Option<String>,
+    /// For a velocity: the velocities coupled with it ([`fmucal_shared::structure::State::coupled`])
+    /// that are not excluded, where its friction's reaction may act.
+    pub coupled: Vec<String>,
 }
 
 /// Every place of one diagnosis.
@@ -148,7 +151,12 @@ impl Places {
                 // A position gets its terms through its velocity's derivative.
                 .filter(|s| s.role != Role::Position)
                 .filter(|s| !covered.contains(&s.name.as_str()))
-                .map(|s| StatePlace { state: s.name.clone(), role: s.role, position: s.position.clone() })
+                .map(|s| StatePlace {
+                    state: s.name.clone(),
+                    role: s.role,
+                    position: s.position.clone(),
+                    coupled: s.coupled.iter().filter(|c| !excluded(c)).cloned().collect(),
+                })
                 .collect(),
         };
         // A state `states` names that is no place says why.
@@ -188,6 +196,7 @@ mod tests {
             paired_by: None,
             derivative_aliases: vec![],
             aliases: vec![format!("{name}_alias")],
+            coupled: vec![],
         }
     }
 

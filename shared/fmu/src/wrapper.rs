@@ -42,6 +42,9 @@ enum Mode {
 enum Use {
     Port(usize),
     State(usize),
+    /// A state effect with a reaction: its own term and the reaction's, which shares every
+    /// parameter but the strength; the effect's last parameter is the reaction's strength.
+    Reacting(usize, usize),
     Series(usize),
 }
 
@@ -145,15 +148,14 @@ impl Corrected {
                     });
                     Use::Port(spec.port_terms.len() - 1)
                 }
-                Target::State { state, signal } => {
-                    spec.state_terms.push(StateTerm {
-                        kind: e.kind.clone(),
-                        state: state.clone(),
-                        signal: signal.clone(),
-                        parameters: values,
-                    });
-                    Use::State(spec.state_terms.len() - 1)
+                Target::State { state, signal, reaction } => {
+                    let terms = StateTerm::of_effect(&e.kind, state, signal, reaction.as_deref(), &values);
+                    let first = spec.state_terms.len();
+                    let reacting = terms.len() == 2;
+                    spec.state_terms.extend(terms);
+                    if reacting { Use::Reacting(first, first + 1) } else { Use::State(first) }
                 }
+
                 Target::Sensor { output: name } | Target::Actuator { input: name } => {
                     let Ok(Found::Series(kind)) = effects::find(&e.kind) else {
                         return Err(format!("effects[{}]: {} is not a sensor or actuator effect", e.index, e.kind));
@@ -329,6 +331,17 @@ impl Corrected {
         match place {
             Use::Port(i) => self.plan.port_terms[i].parameters[j] = v,
             Use::State(i) => self.plan.state_terms[i].parameters[j] = v,
+            Use::Reacting(own, reaction) => {
+                let n = self.plan.state_terms[own].parameters.len();
+                if j == n {
+                    self.plan.state_terms[reaction].parameters[0] = v;
+                } else {
+                    self.plan.state_terms[own].parameters[j] = v;
+                    if j > 0 {
+                        self.plan.state_terms[reaction].parameters[j] = v;
+                    }
+                }
+            }
             Use::Series(i) => self.series[i].parameters[j] = v,
         }
     }
@@ -337,6 +350,10 @@ impl Corrected {
         match place {
             Use::Port(i) => self.plan.port_terms[i].parameters[j],
             Use::State(i) => self.plan.state_terms[i].parameters[j],
+            Use::Reacting(own, reaction) => match self.plan.state_terms[own].parameters.get(j) {
+                Some(v) => *v,
+                None => self.plan.state_terms[reaction].parameters[0],
+            },
             Use::Series(i) => self.series[i].parameters[j],
         }
     }

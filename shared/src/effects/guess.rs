@@ -130,6 +130,15 @@ pub trait Guesses {
     fn guesses(&self, s: &Scales) -> Vec<Guess>;
 }
 
+/// The guess of a reaction's strength ([`crate::effects::REACTION`]): the kind's strength guess
+/// with `s.load` the reaction state's derivative scale, of either sign (the mass matrix's share
+/// may be negative).
+pub fn reaction(kind: &dyn Guesses, s: &Scales) -> Guess {
+    let g = kind.guesses(s).first().copied().unwrap_or(Guess::strength(0.0, 0.0, 0.0, 0.0));
+    let reach = g.upper.abs().max(g.lower.abs());
+    Guess { neutral: 0.0, step: g.step, lower: -reach, upper: reach }
+}
+
 impl Guesses for ViscousDamping {
     fn signal_role(&self) -> SignalRole {
         SignalRole::Velocity

@@ -187,6 +187,27 @@ fn state_signal(
             format!("{} acts on {wants}; state {} is {}", e.kind, quote_user_text(state), describe_state(s)),
         ));
     }
+    if let Some(reaction) = &e.reaction {
+        match structure.state(reaction) {
+            Some(r) if r.role == Role::Velocity => {}
+            Some(r) => {
+                return Err(JobError::invalid(
+                    field("reaction"),
+                    format!(
+                        "a reaction acts on a velocity; state {} is {}",
+                        quote_user_text(reaction),
+                        describe_state(r)
+                    ),
+                ));
+            }
+            None => {
+                return Err(JobError::invalid(
+                    field("reaction"),
+                    format!("{} is not a continuous state of the model", quote_user_text(reaction)),
+                ));
+            }
+        }
+    }
     if let Some(signal) = &e.signal {
         if structure.state(signal).is_none() {
             return Err(JobError::invalid(
@@ -353,9 +374,11 @@ impl PreparedExperiment {
         // first each port effect on its own (to name it), then the whole experiment.
         let check = experiment.sim_spec(x0);
         for (k, effect) in experiment.effects.iter().enumerate() {
-            let one = match (effect.port_term(x0), effect.state_term(x0)) {
+            let one = match (effect.port_term(x0), effect.state_terms(x0)) {
                 (Some(term), _) => Some(SimSpec { port_terms: vec![term], state_terms: vec![], ..check.clone() }),
-                (_, Some(term)) => Some(SimSpec { port_terms: vec![], state_terms: vec![term], ..check.clone() }),
+                (_, terms) if !terms.is_empty() => {
+                    Some(SimSpec { port_terms: vec![], state_terms: terms, ..check.clone() })
+                }
                 _ => None,
             };
             if let Some(one) = one {
@@ -405,8 +428,8 @@ impl PreparedExperiment {
             let p = e.values(x);
             if let Some(term) = e.port_term(x) {
                 s.port_terms.push(term);
-            } else if let Some(term) = e.state_term(x) {
-                s.state_terms.push(term);
+            } else if e.spec.state.is_some() {
+                s.state_terms.extend(e.state_terms(x));
             } else if let (Some(input), Some(table), Ok(effects::Found::Series(kind))) =
                 (&e.spec.input, s.inputs.as_mut(), effects::find(&e.spec.kind))
                 && p.len() == e.count
@@ -549,13 +572,9 @@ impl PreparedEffect {
         })
     }
 
-    /// The state term at `x`, for an effect on a state.
-    fn state_term(&self, x: &[f64]) -> Option<StateTerm> {
-        Some(StateTerm {
-            kind: self.spec.kind.clone(),
-            state: self.spec.state.clone()?,
-            signal: self.state_signal.clone()?,
-            parameters: self.values(x).to_vec(),
-        })
+    /// The state terms at `x`, for an effect on a state ([`StateTerm::of_effect`]).
+    fn state_terms(&self, x: &[f64]) -> Vec<StateTerm> {
+        let (Some(state), Some(signal)) = (&self.spec.state, &self.state_signal) else { return vec![] };
+        StateTerm::of_effect(&self.spec.kind, state, signal, self.spec.reaction.as_deref(), self.values(x))
     }
 }

@@ -198,13 +198,18 @@ impl ParameterSpec {
 /// `state` instead of a port: its term is added to der(state), in the derivative's units (an
 /// acceleration on a velocity), and reads the state itself (friction, damping, drag, thermal
 /// and generic kinds) or the position whose derivative it is (springs); `signal` may name
-/// another state. Each parameter is calibrated as `effects[K].NAME`, after the `[[parameters]]`.
+/// another state. A mechanical state effect may name a `reaction`, another velocity state whose
+/// derivative gets the same term at the strength of parameter `reaction` (a joint torque that
+/// the mass matrix passes to a coupled joint; see [`crate::effects`]). Each parameter is
+/// calibrated as `effects[K].NAME`, after the `[[parameters]]`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EffectSpec {
     pub kind: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub state: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reaction: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub port: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -234,10 +239,40 @@ impl EffectSpec {
         let found =
             effects::find(&self.kind).map_err(|e| JobError::invalid(format!("effects[{k}].kind"), e.to_string()))?;
         let kind = found.kind();
-        let given: Vec<(String, f64)> = self.parameters.keys().map(|n| (n.clone(), 0.0)).collect();
-        effects::parameter_values(kind, &given)
-            .map_err(|e| JobError::invalid(format!("effects[{k}].parameters"), e.to_string()))?;
-        Ok(kind.parameters().iter().map(|n| (*n, self.parameters[*n])).collect())
+        let field = format!("effects[{k}].parameters");
+        let given: Vec<(String, f64)> = self
+            .parameters
+            .keys()
+            .filter(|n| self.reaction.is_none() || n.as_str() != effects::REACTION)
+            .map(|n| (n.clone(), 0.0))
+            .collect();
+        if self.reaction.is_none() && self.parameters.contains_key(effects::REACTION) {
+            return Err(JobError::invalid(
+                field,
+                format!(
+                    "{} has a parameter \"reaction\" only with a reaction state (effects[{k}].reaction)",
+                    self.kind
+                ),
+            ));
+        }
+        effects::parameter_values(kind, &given).map_err(|e| JobError::invalid(field.clone(), e.to_string()))?;
+        if self.reaction.is_some() && !self.parameters.contains_key(effects::REACTION) {
+            return Err(JobError::invalid(
+                field,
+                format!("{} with a reaction state needs parameter \"reaction\"", self.kind),
+            ));
+        }
+        Ok(self.parameter_names().into_iter().map(|n| (n, self.parameters[n])).collect())
+    }
+
+    /// The effect's parameter names in order: its kind's, then `reaction` when it has a
+    /// reaction state. Empty for an unknown kind.
+    pub fn parameter_names(&self) -> Vec<&'static str> {
+        let mut names = effects::find(&self.kind).map(|f| f.kind().parameters().to_vec()).unwrap_or_default();
+        if self.reaction.is_some() {
+            names.push(effects::REACTION);
+        }
+        names
     }
 
     /// What the effect acts on.
@@ -790,6 +825,23 @@ impl JobSpec {
             let optional = on_state && name == "signal";
             if value.is_some() && !optional && !needed.iter().any(|(n, _)| *n == name) {
                 return Err(JobError::invalid(field(name), format!("{} takes no {name}", e.kind)));
+            }
+        }
+        if let Some(reaction) = &e.reaction {
+            let proportional = matches!(effects::find(&e.kind), Ok(effects::Found::Port(p)) if p.proportional());
+            let why = if e.state.is_none() {
+                Some("a reaction is a second state's derivative: give the effect a state first".to_owned())
+            } else if domain != Some(Domain::Mechanical) {
+                Some(format!("{} is not mechanical: a reaction passes a force or torque to a coupled velocity", e.kind))
+            } else if !proportional {
+                Some(format!("{} has two strengths: a reaction needs a kind with one (coulomb_friction, say)", e.kind))
+            } else if e.state.as_ref() == Some(reaction) {
+                Some(format!("{} is the effect's own state: a reaction acts on another one", quote_user_text(reaction)))
+            } else {
+                None
+            };
+            if let Some(why) = why {
+                return Err(JobError::invalid(field("reaction"), why));
             }
         }
         if let (Some(port), Some(signal)) = (&e.port, &e.signal)

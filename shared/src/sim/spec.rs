@@ -117,6 +117,30 @@ pub struct StateTerm {
     pub parameters: Vec<f64>,
 }
 
+impl StateTerm {
+    /// The terms of one state effect whose parameter values are `values` (its kind's, then the
+    /// reaction's strength when it has a `reaction` state): its own on der(`state`), and the
+    /// same term with the reaction's strength as first parameter on der(`reaction`).
+    pub fn of_effect(kind: &str, state: &str, signal: &str, reaction: Option<&str>, values: &[f64]) -> Vec<StateTerm> {
+        let term = |state: &str, parameters: Vec<f64>| StateTerm {
+            kind: kind.to_owned(),
+            state: state.to_owned(),
+            signal: signal.to_owned(),
+            parameters,
+        };
+        match (reaction, values.split_last()) {
+            (Some(reaction), Some((r, own))) => {
+                let mut at_reaction = own.to_vec();
+                if let Some(strength) = at_reaction.first_mut() {
+                    *strength = *r;
+                }
+                vec![term(state, own.to_vec()), term(reaction, at_reaction)]
+            }
+            _ => vec![term(state, values.to_vec())],
+        }
+    }
+}
+
 /// Counters of one simulation.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct SimStats {

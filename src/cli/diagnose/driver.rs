@@ -23,6 +23,7 @@ use fmucal_shared::effects::guess::SignalStats;
 use fmucal_shared::job::choices::Algorithm;
 use fmucal_shared::job::identifiability::{self, Identifiability};
 use fmucal_shared::job::{CalibrationResult, JobSpec, MeasurementTable, PreparedJob};
+use fmucal_shared::structure::derivative_unit;
 
 use super::Context;
 use super::look::{Look, look, signals};
@@ -621,16 +622,14 @@ fn name(ctx: &Context, candidate: &Candidate, fit: &CandidateFit, job: &JobSpec)
     let md = &ctx.fmu.description;
     // A port's strength is in the port's unit; a state's in its derivative's (an acceleration
     // on a velocity), which is the state's unit per second when the derivative has none.
-    let unit =
-        match (&candidate.effect.state, &candidate.effect.port) {
-            (Some(state), _) => md.states().into_iter().find(|(s, _)| &s.name == state).and_then(|(s, d)| {
-                md.unit_of(d).map(str::to_owned).or_else(|| md.unit_of(s).map(|u| format!("{u}/s")))
-            }),
-            (_, Some(port)) => md.variable(port).and_then(|v| md.unit_of(v)).map(str::to_owned),
-            _ => None,
-        }
-        .map(|u| format!(" {u}"))
-        .unwrap_or_default();
+    let words = |u: Option<String>| u.map(|u| format!(" {u}")).unwrap_or_default();
+    let unit = words(match (&candidate.effect.state, &candidate.effect.port) {
+        (Some(state), _) => derivative_unit(md, state),
+        (_, Some(port)) => md.variable(port).and_then(|v| md.unit_of(v)).map(str::to_owned),
+        _ => None,
+    });
+    // A reaction's strength is in its own state's derivative's unit.
+    let reaction_unit = words(candidate.effect.reaction.as_deref().and_then(|r| derivative_unit(md, r)));
     let names = candidate.parameter_names();
     let fitted: Vec<f64> =
         names.iter().map(|n| fit.x_opt.get(&format!("effects[{k}].{n}")).copied().unwrap_or(f64::NAN)).collect();
@@ -643,7 +642,13 @@ fn name(ctx: &Context, candidate: &Candidate, fit: &CandidateFit, job: &JobSpec)
             // Only the loads (a force, a strength): the port's or the derivative's unit.
             let load =
                 effects::parameter_scale(n) == effects::Scale::Load && !matches!(*n, "offset" | "lower" | "upper");
-            let u = if load { unit.as_str() } else { "" };
+            let u = if *n == effects::REACTION {
+                reaction_unit.as_str()
+            } else if load {
+                unit.as_str()
+            } else {
+                ""
+            };
             format!("{n} {}{u}", value_with_interval(*v, w))
         })
         .collect();

@@ -134,7 +134,8 @@ def job_message(spec: JobSpec, tables: list[Table], model_id: str) -> pb.JobSpec
         kind=pb.JOB_KIND_CALIBRATION,
         effects=[
             pb.EffectSpec(
-                kind=e.kind, state=e.state, port=e.port, signal=e.signal, output=e.output, input=e.input,
+                kind=e.kind, state=e.state, reaction=e.reaction, port=e.port, signal=e.signal, output=e.output,
+                input=e.input,
                 parameters={
                     n: pb.Bounds(start=_plain(b.start), lower=_plain(b.lower), upper=_plain(b.upper))
                     for n, b in e.parameters.items()

@@ -99,7 +99,8 @@ class Bounds:
 class Effect:
     """An ``[[effects]]`` entry: a kind of fmucal's library, what it acts on (a continuous
     ``state`` in Model Exchange, a ``port`` and ``signal``, a mapped ``output`` or ``input``), its
-    parameters."""
+    parameters. A mechanical state effect may name a ``reaction``: a coupled velocity state whose
+    derivative gets the same term at the strength of parameter ``reaction``."""
 
     kind: str
     port: str | None
@@ -108,6 +109,7 @@ class Effect:
     input: str | None
     parameters: dict[str, Bounds]
     state: str | None = None
+    reaction: str | None = None
 
 
 @dataclass(frozen=True)
@@ -226,8 +228,8 @@ def parse_job(table: Mapping[str, Any], base_dir: Path) -> JobSpec:
         outputs=[_output(t) for t in outputs],
         inputs=[_input(t) for t in top.tables("inputs", ("column", "variable")) or []],
         parameters=[_parameter(t) for t in top.tables("parameters", PARAMETER_FIELDS) or []],
-        effects=[_effect(t) for t in top.tables("effects", ("kind", "state", "port", "signal", "output",
-                                                             "input", "parameters")) or []],
+        effects=[_effect(t) for t in top.tables("effects", ("kind", "state", "reaction", "port", "signal",
+                                                             "output", "input", "parameters")) or []],
         simulation=_simulation(top.table("simulation", SIMULATION_FIELDS), base_dir),
         optimizer=_optimizer(top.table("optimizer", OPTIMIZER_FIELDS)),
         experiments=[_experiment(t, base_dir) for t in top.tables("experiments", EXPERIMENT_FIELDS) or []],
@@ -306,6 +308,7 @@ def _effect(t: Table) -> Effect:
         input=t.text("input"),
         parameters=parameters,
         state=t.text("state"),
+        reaction=t.text("reaction"),
     )
 
 
@@ -434,7 +437,8 @@ def job_table(spec: JobSpec) -> dict[str, Any]:
             for p in spec.parameters
         ],
         "effects": [
-            some(kind=e.kind, state=e.state, port=e.port, signal=e.signal, output=e.output, input=e.input,
+            some(kind=e.kind, state=e.state, reaction=e.reaction, port=e.port, signal=e.signal, output=e.output,
+                 input=e.input,
                  parameters={k: some(start=b.start, lower=b.lower, upper=b.upper) for k, b in e.parameters.items()})
             for e in spec.effects
         ],

@@ -250,7 +250,7 @@ class InputList(_message.Message):
     def __init__(self, items: _Optional[_Iterable[_Union[InputMap, _Mapping]]] = ...) -> None: ...
 
 class EffectSpec(_message.Message):
-    __slots__ = ("kind", "port", "signal", "output", "input", "parameters", "state")
+    __slots__ = ("kind", "port", "signal", "output", "input", "parameters", "state", "reaction")
     class ParametersEntry(_message.Message):
         __slots__ = ("key", "value")
         KEY_FIELD_NUMBER: _ClassVar[int]
@@ -265,6 +265,7 @@ class EffectSpec(_message.Message):
     INPUT_FIELD_NUMBER: _ClassVar[int]
     PARAMETERS_FIELD_NUMBER: _ClassVar[int]
     STATE_FIELD_NUMBER: _ClassVar[int]
+    REACTION_FIELD_NUMBER: _ClassVar[int]
     kind: str
     port: str
     signal: str
@@ -272,7 +273,8 @@ class EffectSpec(_message.Message):
     input: str
     parameters: _containers.MessageMap[str, Bounds]
     state: str
-    def __init__(self, kind: _Optional[str] = ..., port: _Optional[str] = ..., signal: _Optional[str] = ..., output: _Optional[str] = ..., input: _Optional[str] = ..., parameters: _Optional[_Mapping[str, Bounds]] = ..., state: _Optional[str] = ...) -> None: ...
+    reaction: str
+    def __init__(self, kind: _Optional[str] = ..., port: _Optional[str] = ..., signal: _Optional[str] = ..., output: _Optional[str] = ..., input: _Optional[str] = ..., parameters: _Optional[_Mapping[str, Bounds]] = ..., state: _Optional[str] = ..., reaction: _Optional[str] = ...) -> None: ...
 
 class Bounds(_message.Message):
     __slots__ = ("start", "lower", "upper")
