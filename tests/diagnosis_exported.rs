@@ -95,7 +95,8 @@ impl Truth {
     }
 
     /// The candidate descriptions a right diagnosis names first: the true effect, then its
-    /// family (Coulomb friction is Stribeck friction without the static peak).
+    /// family (Coulomb friction is Stribeck friction without the static peak; a joint friction
+    /// has no Stribeck form with a reaction).
     fn expected(self) -> &'static [&'static str] {
         match self {
             Truth::Coulomb => &["coulomb_friction on der(mass.v)", "stribeck_friction on der(mass.v)"],
@@ -106,11 +107,8 @@ impl Truth {
             Truth::SensorOffset => &["sensor_offset on output mass.x"],
             // A joint torque: the term on the pendulum's acceleration and, through the mass
             // matrix, on the arm's.
-            Truth::PendulumCoulomb => &[
-                "coulomb_friction on der(pendulumJoint.w) and its reaction on der(armJoint.w)",
-                "coulomb_friction on der(pendulumJoint.w)",
-                "stribeck_friction on der(pendulumJoint.w)",
-            ],
+            // A term on der(pendulumJoint.w) alone cannot express it, so only this one is right.
+            Truth::PendulumCoulomb => &["coulomb_friction on der(pendulumJoint.w) and its reaction on der(armJoint.w)"],
             Truth::Radiation => &["radiation on der(rightVolume.wallT)"],
             _ => &[],
         }

@@ -252,8 +252,17 @@ fn bad_state_effects_in_a_job_are_one_line_naming_the_field() {
             "effects[0].reaction: stribeck_friction has two strengths",
         ),
         (
-            format!("kind = \"coulomb_friction\"\nstate = \"mass.v\"\nreaction = \"mass.v\"\n{c}"),
+            format!("kind = \"coulomb_friction\"\nstate = \"mass.v\"\nreaction = \"mass.x\"\n{c}"),
             "effects[0].parameters: coulomb_friction with a reaction state needs parameter \"reaction\"",
+        ),
+        (
+            "kind = \"constant_rate\"\nstate = \"mass.v\"\nreaction = \"mass.x\"\nparameters = { rate = { start = 0.0, lower = 0.0, upper = 1.0 }, reaction = { start = 0.0, lower = -1.0, upper = 1.0 } }".to_owned(),
+            "effects[0].reaction: constant_rate is not mechanical",
+        ),
+        (
+            // Dymola's der(mass.x) is another name of the velocity mass.v itself.
+            format!("kind = \"coulomb_friction\"\nstate = \"mass.v\"\nreaction = \"der(mass.x)\"\n{cr}"),
+            "effects[0].reaction: \"der(mass.x)\" is the effect's own state \"mass.v\"",
         ),
         (
             format!("kind = \"coulomb_friction\"\nstate = \"mass.v\"\n{cr}"),

@@ -166,6 +166,26 @@ fn effect() -> impl Strategy<Value = EffectSpec> {
     })
 }
 
+/// A friction on a state's derivative, with or without a reaction on another state.
+fn state_effect() -> impl Strategy<Value = EffectSpec> {
+    let places = (name(), prop::option::of(name()))
+        .prop_filter("the reaction is another state", |(state, reaction)| reaction.as_ref() != Some(state));
+    (places, finite(), 0.0..1e3f64).prop_map(|((state, reaction), start, width)| {
+        let bounds = Bounds { start, lower: start - width, upper: start + width };
+        let mut parameters: BTreeMap<String, Bounds> = [("force".to_owned(), bounds)].into();
+        if reaction.is_some() {
+            parameters.insert("reaction".to_owned(), bounds);
+        }
+        EffectSpec {
+            kind: "coulomb_friction".into(),
+            state: Some(state),
+            reaction,
+            parameters,
+            ..EffectSpec::default()
+        }
+    })
+}
+
 fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
     // None: the job names no algorithm, and none crosses the wire.
     let algorithm = prop::option::of(prop_oneof![
@@ -217,7 +237,7 @@ fn job() -> impl Strategy<Value = JobSpec> {
         prop::collection::vec((name(), name()).prop_map(|(column, variable)| InputMap { column, variable }), 0..3),
         parameters(),
         simulation(),
-        prop::collection::vec(effect(), 0..3),
+        prop::collection::vec(prop_oneof![effect(), state_effect()], 0..3),
         experiments(),
         prop::collection::vec((any::<bool>(), any::<bool>(), 0.0..1.0f64), 5),
     )

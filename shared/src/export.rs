@@ -221,7 +221,7 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
                     )));
                 }
                 let signal = e.state_signal.clone().unwrap_or_else(|| state.clone());
-                Target::State { state: state.clone(), signal, reaction: e.spec.reaction.clone() }
+                Target::State { state: state.clone(), signal, reaction: e.reaction.clone() }
             }
             (_, _, _, Some(output), _) => Target::Sensor { output: output.clone() },
             (_, _, _, _, Some(input)) => Target::Actuator { input: input.clone() },
@@ -241,15 +241,22 @@ pub fn describe_corrected(req: &Request) -> Result<(ModelDescription, RuntimeCon
         }
         if let Found::Port(kind) = &found {
             // A reaction is a second term with the same kinks.
-            kinks += kind.kinks(values).len() * if e.spec.reaction.is_some() { 2 } else { 1 };
+            kinks += kind.kinks(values).len() * if e.reaction.is_some() { 2 } else { 1 };
         }
         let (load_unit, signal_unit) = target_units(original, &target);
         let what = describe(&e.spec.kind, &target);
         let mut parameters = vec![];
         for (name, value) in e.spec.parameter_names().iter().zip(values) {
             let unit = match effects::parameter_scale(name) {
+                // The reaction is the kind's first parameter on another derivative: that one's
+                // unit where the first parameter is a load (a force), none where it is a
+                // coefficient.
                 _ if *name == effects::REACTION => {
-                    e.spec.reaction.as_deref().and_then(|r| crate::structure::derivative_unit(original, r))
+                    let first = e.spec.parameter_names().first().map(|f| effects::parameter_scale(f));
+                    e.reaction
+                        .as_deref()
+                        .filter(|_| first == Some(Scale::Load))
+                        .and_then(|r| crate::structure::derivative_unit(original, r))
                 }
                 Scale::Load => load_unit.clone(),
                 Scale::Signal => signal_unit.clone(),

@@ -31,14 +31,8 @@ pub struct Args {
     /// Output folder for result.json, convergence.csv and fit.csv.
     #[arg(long, default_value = "calibration")]
     out: PathBuf,
-    /// Submit to a running coordinator instead of starting one.
-    #[arg(long)]
-    coordinator: Option<String>,
-    /// Token file for --coordinator (else FMUCAL_TOKEN).
-    #[arg(long)]
-    token_file: Option<PathBuf>,
     #[command(flatten)]
-    tls: super::tls::ClientArgs,
+    remote: super::client::RemoteArgs,
     /// Any warning (a parameter at a bound, a run ended by its budget, ...) ends the run with
     /// exit code 3, after the results are written.
     #[arg(long)]
@@ -121,9 +115,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut spec = JobSpec::from_toml_file(&args.job)?;
     spec.validate()?;
     let threads = super::local_cluster::worker_count(args.workers, &spec)?;
-    if let Some(url) = &args.coordinator {
-        super::client::check_url("--coordinator", url)?;
-    }
+    args.remote.check()?;
     let model = model_path(&spec)?;
     spec.model.path = Some(model.clone());
     let data = fmucal_shared::job::data::read_all(&spec)?;
@@ -228,11 +220,8 @@ pub fn run(args: Args) -> Result<()> {
         }
     };
     let (outcome, stopping) = rt.block_on(async {
-        match &args.coordinator {
-            Some(url) => {
-                let token = super::token::load(args.token_file.as_deref())?;
-                Ok((work(Client::connect(url, token.as_deref(), args.tls.load()?.as_ref()).await?).await?, None))
-            }
+        match args.remote.connect().await? {
+            Some(client) => Ok((work(client).await?, None)),
             None => super::local_cluster::run(threads, (&model, &fmu), work).await.map(|(o, s)| (o, Some(s))),
         }
     })?;

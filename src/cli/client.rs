@@ -19,6 +19,44 @@ use fmucal_shared::job::{CalibrationResult, EvaluatedPoint, HistoryPoint, JobSpe
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
 
+/// Where `calibrate` and `diagnose` run: a coordinator already running (`--coordinator URL`,
+/// with its token and TLS settings), else a local cluster they start themselves.
+#[derive(clap::Args, Debug, Default)]
+pub struct RemoteArgs {
+    /// Run on a running coordinator (its workers simulate) instead of starting one.
+    #[arg(long)]
+    pub coordinator: Option<String>,
+    /// Token file for --coordinator (else FMUCAL_TOKEN).
+    #[arg(long)]
+    pub token_file: Option<PathBuf>,
+    #[command(flatten)]
+    pub tls: super::tls::ClientArgs,
+}
+
+impl RemoteArgs {
+    /// Refuses a `--coordinator` that is no http:// or https:// URL with a host, before
+    /// anything runs.
+    ///
+    /// # Errors
+    /// One line naming `--coordinator`.
+    pub fn check(&self) -> Result<()> {
+        match &self.coordinator {
+            Some(url) => check_url("--coordinator", url),
+            None => Ok(()),
+        }
+    }
+
+    /// A client of `--coordinator` with the token and TLS settings; `None` for a local run.
+    ///
+    /// # Errors
+    /// An unreadable token or certificate, or a coordinator that cannot be reached.
+    pub async fn connect(&self) -> Result<Option<Client>> {
+        let Some(url) = &self.coordinator else { return Ok(None) };
+        let token = super::token::load(self.token_file.as_deref())?;
+        Ok(Some(Client::connect(url, token.as_deref(), self.tls.load()?.as_ref()).await?))
+    }
+}
+
 /// Checks a coordinator URL given in `flag`: `http://` or `https://` and a host.
 ///
 /// # Errors

@@ -710,7 +710,8 @@ mod tests {
         // The job it makes is valid.
         let mut job = base.clone();
         job.effects.push(coulomb.effect.clone());
-        assert_eq!(job.effects[0].ordered_parameters(0).unwrap().len(), 2);
+        job.validate().unwrap();
+        assert_eq!(job.parameter_vectors().0, ["effects[0].force", "effects[0].reaction"]);
     }
 
     #[test]

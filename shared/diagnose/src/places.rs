@@ -31,7 +31,8 @@ pub struct StatePlace {
     /// For a velocity: the position whose derivative it is (what springs read).
     pub position: Option<String>,
     /// For a velocity: the velocities coupled with it ([`fmucal_shared::structure::State::coupled`])
-    /// that are not excluded, where its friction's reaction may act.
+    /// that are places of this diagnosis too (so sized, and not excluded), where its friction's
+    /// reaction may act.
     pub coupled: Vec<String>,
 }
 
@@ -135,7 +136,7 @@ impl Places {
                 "no injection input (a force, torque or heat-flow input not fed from data): no port effects".to_owned(),
             );
         }
-        let states = match model_exchange {
+        let mut states = match model_exchange {
             Err(why) => {
                 notes.push(format!("{why}: no state effects"));
                 vec![]
@@ -155,10 +156,15 @@ impl Places {
                     state: s.name.clone(),
                     role: s.role,
                     position: s.position.clone(),
-                    coupled: s.coupled.iter().filter(|c| !excluded(c)).cloned().collect(),
+                    coupled: s.coupled.clone(),
                 })
                 .collect(),
         };
+        // A reaction acts only on a velocity that is a place itself (sized by the probe).
+        let names: Vec<String> = states.iter().map(|s| s.state.clone()).collect();
+        for s in &mut states {
+            s.coupled.retain(|c| names.contains(c));
+        }
         // A state `states` names that is no place says why.
         for name in only.iter().flatten() {
             if states.iter().any(|s: &StatePlace| &s.state == name) || excluded(name) {

@@ -85,15 +85,19 @@ impl PreparedJob {
         for (k, e) in spec.effects.iter().enumerate() {
             let offset = calibrated.iter().position(|c| matches!(c.slot, Slot::Effect { effect, .. } if effect == k));
             let count = e.ordered_parameters(k)?.len();
-            let state_signal = match (&e.state, &structure) {
-                (Some(state), Some(structure)) => Some(state_signal(k, e, state, structure, interface, interfaces)?),
-                _ => None,
+            let (state_signal, reaction) = match (&e.state, &structure) {
+                (Some(state), Some(structure)) => {
+                    let (signal, reaction) = state_signal(k, e, state, structure, interface, interfaces)?;
+                    (Some(signal), reaction)
+                }
+                _ => (None, None),
             };
             effects.push(PreparedEffect {
                 spec: e.clone(),
                 offset: offset.unwrap_or(calibrated.len()),
                 count,
                 state_signal,
+                reaction,
             });
         }
         let names: Vec<String> = calibrated.iter().map(|c| c.name.clone()).collect();
@@ -143,7 +147,8 @@ impl PreparedJob {
 /// The state a state effect reads, checked against the model's structure: its `signal` if it
 /// names one, else the state itself, or for a spring the position whose derivative the state
 /// is. The kind must fit the state's quantity: mechanical kinds a velocity, thermal kinds a
-/// temperature (generic kinds any state).
+/// temperature (generic kinds any state). With it, the effect's reaction state by its own name
+/// (not an alias): a velocity other than the effect's state.
 fn state_signal(
     k: usize,
     e: &EffectSpec,
@@ -151,7 +156,7 @@ fn state_signal(
     structure: &Structure,
     interface: Interface,
     interfaces: &[Interface],
-) -> Result<String, JobError> {
+) -> Result<(String, Option<String>), JobError> {
     let field = |f: &str| format!("effects[{k}].{f}");
     if interface != Interface::ModelExchange {
         let why = if interfaces.contains(&Interface::ModelExchange) {
@@ -187,9 +192,20 @@ fn state_signal(
             format!("{} acts on {wants}; state {} is {}", e.kind, quote_user_text(state), describe_state(s)),
         ));
     }
-    if let Some(reaction) = &e.reaction {
-        match structure.state(reaction) {
-            Some(r) if r.role == Role::Velocity => {}
+    let reaction = match &e.reaction {
+        None => None,
+        Some(reaction) => match structure.state(reaction) {
+            Some(r) if r.name == s.name => {
+                return Err(JobError::invalid(
+                    field("reaction"),
+                    format!(
+                        "{} is the effect's own state {}: a reaction acts on another one",
+                        quote_user_text(reaction),
+                        quote_user_text(&s.name)
+                    ),
+                ));
+            }
+            Some(r) if r.role == Role::Velocity => Some(r.name.clone()),
             Some(r) => {
                 return Err(JobError::invalid(
                     field("reaction"),
@@ -206,8 +222,8 @@ fn state_signal(
                     format!("{} is not a continuous state of the model", quote_user_text(reaction)),
                 ));
             }
-        }
-    }
+        },
+    };
     if let Some(signal) = &e.signal {
         if structure.state(signal).is_none() {
             return Err(JobError::invalid(
@@ -218,10 +234,10 @@ fn state_signal(
                 ),
             ));
         }
-        return Ok(signal.clone());
+        return Ok((signal.clone(), reaction));
     }
     if kind.signal_role() == SignalRole::Position {
-        return s.position.clone().ok_or_else(|| {
+        let position = s.position.clone().ok_or_else(|| {
             JobError::invalid(
                 field("signal"),
                 format!(
@@ -230,9 +246,10 @@ fn state_signal(
                     quote_user_text(state)
                 ),
             )
-        });
+        })?;
+        return Ok((position, reaction));
     }
-    Ok(s.name.clone())
+    Ok((s.name.clone(), reaction))
 }
 
 /// A state's quantity and role in words: "a rotational position (rad)".
@@ -552,6 +569,8 @@ pub struct PreparedEffect {
     pub count: usize,
     /// A state effect's signal, resolved against the model's structure.
     pub state_signal: Option<String>,
+    /// A state effect's reaction state, by the state's own name (not an alias).
+    pub reaction: Option<String>,
 }
 
 impl PreparedEffect {
@@ -575,6 +594,6 @@ impl PreparedEffect {
     /// The state terms at `x`, for an effect on a state ([`StateTerm::of_effect`]).
     fn state_terms(&self, x: &[f64]) -> Vec<StateTerm> {
         let (Some(state), Some(signal)) = (&self.spec.state, &self.state_signal) else { return vec![] };
-        StateTerm::of_effect(&self.spec.kind, state, signal, self.spec.reaction.as_deref(), self.values(x))
+        StateTerm::of_effect(&self.spec.kind, state, signal, self.reaction.as_deref(), self.values(x))
     }
 }

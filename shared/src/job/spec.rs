@@ -786,6 +786,26 @@ impl JobSpec {
     /// An effect names a known kind with exactly its parameters, in bounds, and what it acts
     /// on: a port and a signal, a mapped output (sensor) or a mapped input (actuator).
     fn validate_effect(&self, k: usize, e: &EffectSpec) -> Result<(), JobError> {
+        // What the reaction needs first: its parameter is checked with the others below.
+        if let Some(reaction) = &e.reaction
+            && effects::find(&e.kind).is_ok()
+        {
+            let proportional = matches!(effects::find(&e.kind), Ok(effects::Found::Port(p)) if p.proportional());
+            let why = if e.state.is_none() {
+                Some("a reaction is a second state's derivative: give the effect a state first".to_owned())
+            } else if e.domain() != Some(Domain::Mechanical) {
+                Some(format!("{} is not mechanical: a reaction passes a force or torque to a coupled velocity", e.kind))
+            } else if !proportional {
+                Some(format!("{} has two strengths: a reaction needs a kind with one (coulomb_friction, say)", e.kind))
+            } else if e.state.as_ref() == Some(reaction) {
+                Some(format!("{} is the effect's own state: a reaction acts on another one", quote_user_text(reaction)))
+            } else {
+                None
+            };
+            if let Some(why) = why {
+                return Err(JobError::invalid(format!("effects[{k}].reaction"), why));
+            }
+        }
         for (name, b) in e.ordered_parameters(k)? {
             check_bounds(b.lower, b.upper)
                 .map_err(|m| JobError::invalid(format!("effects[{k}].parameters.{name}.lower"), m))?;
@@ -825,23 +845,6 @@ impl JobSpec {
             let optional = on_state && name == "signal";
             if value.is_some() && !optional && !needed.iter().any(|(n, _)| *n == name) {
                 return Err(JobError::invalid(field(name), format!("{} takes no {name}", e.kind)));
-            }
-        }
-        if let Some(reaction) = &e.reaction {
-            let proportional = matches!(effects::find(&e.kind), Ok(effects::Found::Port(p)) if p.proportional());
-            let why = if e.state.is_none() {
-                Some("a reaction is a second state's derivative: give the effect a state first".to_owned())
-            } else if domain != Some(Domain::Mechanical) {
-                Some(format!("{} is not mechanical: a reaction passes a force or torque to a coupled velocity", e.kind))
-            } else if !proportional {
-                Some(format!("{} has two strengths: a reaction needs a kind with one (coulomb_friction, say)", e.kind))
-            } else if e.state.as_ref() == Some(reaction) {
-                Some(format!("{} is the effect's own state: a reaction acts on another one", quote_user_text(reaction)))
-            } else {
-                None
-            };
-            if let Some(why) = why {
-                return Err(JobError::invalid(field("reaction"), why));
             }
         }
         if let (Some(port), Some(signal)) = (&e.port, &e.signal)

@@ -119,11 +119,14 @@ pub fn job_and_candidates(
     let mut places = Places::new(spec, settings, &structure, model_exchange);
     // Each candidate alone, so an error names the one at fault.
     let candidates = generate(spec, settings, &places, &any_sizes(spec, &places));
-    let mut checked: Vec<(String, Option<String>, Option<String>, Option<String>)> = vec![];
+    type Key = (String, Option<String>, Option<String>, Option<String>, Option<String>);
+    let mut checked: Vec<Key> = vec![];
     let mut dropped: Vec<String> = vec![];
+    // (state, coupled velocity) pairs whose reaction candidates fail: only those are left out.
+    let mut no_reaction: Vec<(String, String)> = vec![];
     for c in &candidates {
         let e = &c.effect;
-        let key = (e.kind.clone(), e.state.clone(), e.port.clone(), e.signal.clone());
+        let key = (e.kind.clone(), e.state.clone(), e.reaction.clone(), e.port.clone(), e.signal.clone());
         let place = c.place();
         if (e.port.is_none() && e.state.is_none()) || checked.contains(&key) || dropped.contains(&place) {
             continue;
@@ -137,6 +140,11 @@ pub fn job_and_candidates(
                 other => other.to_string(),
             };
             let by_hand = c.source.starts_with("diagnose.");
+            if let (Some(state), Some(reaction)) = (&e.state, &e.reaction) {
+                places.notes.push(format!("{place} with a reaction on der({reaction}): {message}: no reaction there"));
+                no_reaction.push((state.clone(), reaction.clone()));
+                continue;
+            }
             if !by_hand {
                 places.notes.push(format!("{place}: {message}: no effects there"));
                 dropped.push(place);
@@ -151,6 +159,9 @@ pub fn job_and_candidates(
     }
     places.ports.retain(|p| !dropped.contains(&format!("port {}", p.spec.port)));
     places.states.retain(|s| !dropped.contains(&format!("der({})", s.state)));
+    for s in &mut places.states {
+        s.coupled.retain(|r| !no_reaction.contains(&(s.state.clone(), r.clone())));
+    }
     if candidates.is_empty() {
         bail!("diagnose: there is no candidate to try ({})", places.notes.join("; "));
     }

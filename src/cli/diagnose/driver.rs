@@ -628,9 +628,12 @@ fn name(ctx: &Context, candidate: &Candidate, fit: &CandidateFit, job: &JobSpec)
         (_, Some(port)) => md.variable(port).and_then(|v| md.unit_of(v)).map(str::to_owned),
         _ => None,
     });
-    // A reaction's strength is in its own state's derivative's unit.
-    let reaction_unit = words(candidate.effect.reaction.as_deref().and_then(|r| derivative_unit(md, r)));
     let names = candidate.parameter_names();
+    // A reaction is the kind's first parameter on another derivative: in that one's unit where
+    // the first parameter is a load (a force), none where it is a coefficient.
+    let first_is_load = names.first().is_some_and(|f| effects::parameter_scale(f) == effects::Scale::Load);
+    let reaction_unit =
+        words(candidate.effect.reaction.as_deref().filter(|_| first_is_load).and_then(|r| derivative_unit(md, r)));
     let fitted: Vec<f64> =
         names.iter().map(|n| fit.x_opt.get(&format!("effects[{k}].{n}")).copied().unwrap_or(f64::NAN)).collect();
     let values: Vec<String> = names

@@ -45,14 +45,8 @@ pub struct Args {
     /// Candidates fitted after screening (overrides [diagnose] top).
     #[arg(long)]
     top: Option<usize>,
-    /// Run on a running coordinator instead of starting one.
-    #[arg(long)]
-    coordinator: Option<String>,
-    /// Token file for --coordinator (else FMUCAL_TOKEN).
-    #[arg(long)]
-    token_file: Option<PathBuf>,
     #[command(flatten)]
-    tls: super::tls::ClientArgs,
+    remote: super::client::RemoteArgs,
     /// Stop (cancelling the jobs submitted) when standard input closes: how a coordinator
     /// running this diagnosis for a `Diagnose` request stops it.
     #[arg(long, hide = true)]
@@ -130,9 +124,7 @@ pub fn run(args: Args) -> Result<()> {
         "experiments: diagnose takes a job with one experiment; give it one of them as its own job"
     );
     let threads = super::local_cluster::worker_count(args.workers, &spec)?;
-    if let Some(url) = &args.coordinator {
-        super::client::check_url("--coordinator", url)?;
-    }
+    args.remote.check()?;
     let model = super::calibrate::model_path(&spec)?;
     spec.model.path = Some(model.clone());
     let data = fmucal_shared::job::data::read_all(&spec)?.pop().context("data: the job has no data")?;
@@ -153,10 +145,8 @@ pub fn run(args: Args) -> Result<()> {
     let ctx = Context { fmu, data: Arc::new(data), model, settings, windows, places };
     let rt = tokio::runtime::Runtime::new()?;
     let outcome = rt.block_on(async {
-        match &args.coordinator {
-            Some(url) => {
-                let token = super::token::load(args.token_file.as_deref())?;
-                let client = Client::connect(url, token.as_deref(), args.tls.load()?.as_ref()).await?;
+        match args.remote.connect().await? {
+            Some(client) => {
                 // Stopped midway, the diagnosis cancels its jobs: they would keep the
                 // coordinator's workers busy for nobody.
                 tokio::select! {
