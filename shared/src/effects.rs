@@ -95,8 +95,9 @@ pub enum Scale {
     Other,
 }
 
-/// The parameter a state effect with a `reaction` has after its kind's: the strength of the
-/// same term on the reaction state's derivative, in that derivative's units.
+/// The parameter a state effect with a `reaction` has after its kind's: the strength (first
+/// parameter) of the same term on the reaction state's derivative, in that derivative's units
+/// where the strength is a force and a coefficient where it is one.
 pub const REACTION: &str = "reaction";
 
 /// The scale of parameter `name` of any kind (the names are shared across kinds).
