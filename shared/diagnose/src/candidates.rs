@@ -603,12 +603,17 @@ mod tests {
         assert!(failed[0].predicted_delta_ic < 0.0);
     }
 
+    /// A job with one output `x` and nothing else, to add candidates to.
+    fn one_output_job() -> JobSpec {
+        let text =
+            "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n";
+        JobSpec::from_toml(text, std::path::Path::new("/")).unwrap()
+    }
+
     #[test]
     fn each_state_gets_the_kinds_of_its_quantity_and_springs_read_its_position() {
         use crate::places::StatePlace;
-        let text =
-            "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n";
-        let base = JobSpec::from_toml(text, std::path::Path::new("/")).unwrap();
+        let base = one_output_job();
         let stats = SignalStats::of(&[-1.0, 1.0]);
         let names = ["x", "v", "w", "T", "c"];
         let sizes = Sizes {
@@ -664,9 +669,7 @@ mod tests {
     #[test]
     fn a_coupled_velocity_gets_friction_damping_and_drag_with_a_reaction_of_either_sign() {
         use crate::places::StatePlace;
-        let text =
-            "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"x\"\ncolumn = \"x\"\n";
-        let base = JobSpec::from_toml(text, std::path::Path::new("/")).unwrap();
+        let base = one_output_job();
         let stats = SignalStats::of(&[-1.0, 1.0]);
         let sizes = Sizes {
             signals: ["v", "w"].iter().map(|n| (n.to_string(), stats)).collect(),
