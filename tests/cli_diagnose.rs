@@ -1,8 +1,9 @@
 //! `fmucal diagnose` through the real binary, on the example in `examples/diagnose/` (Furuta
 //! bench data with a Coulomb friction the model lacks): the same effect, with the same values,
 //! locally and on a separately started coordinator with another number of workers; the outputs
-//! it writes; and bad `[diagnose]` sections refused in one line naming the field before any
-//! model code runs.
+//! it writes; bad `[diagnose]` sections refused in one line naming the field before any
+//! model code runs; and the diagnosis library run in this process, with no coordinator, giving
+//! the command line's report.
 
 mod common;
 
@@ -249,4 +250,49 @@ fn the_readme_example_finds_the_friction_of_a_model_with_no_port_and_its_job_rep
         evaluations * 10 <= base_evaluations,
         "the written job: {evaluations} evaluations; the base calibration: {base_evaluations}"
     );
+}
+
+/// `report` as JSON without its wall times (which no two runs share).
+fn without_wall_times(mut report: serde_json::Value) -> serde_json::Value {
+    fn strip(v: &mut serde_json::Value) {
+        match v {
+            serde_json::Value::Object(map) => {
+                map.retain(|k, _| !matches!(k.as_str(), "elapsed_s" | "base_calibration_s" | "seconds"));
+                map.values_mut().for_each(strip);
+            }
+            serde_json::Value::Array(items) => items.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    strip(&mut report);
+    report
+}
+
+#[test]
+fn the_diagnosis_library_in_this_process_gives_the_command_line_report() {
+    use fmucal_diagnose::driver::{self, Context, checks, in_process::InProcess};
+    // The command line, on a local cluster of two worker processes.
+    let dir = tempfile::tempdir().unwrap();
+    let job = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/friction/job.toml");
+    let run = fmucal(&["diagnose", job.to_str().unwrap(), "--workers", "2", "--out", "cli"], dir.path());
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let cli: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("cli/report.json")).unwrap()).unwrap();
+
+    // The library, with no coordinator: every job on one thread of this process.
+    let mut spec = fmucal_shared::job::JobSpec::from_toml_file(&job).unwrap();
+    let settings = fmucal_diagnose::spec::DiagnoseSpec::from_job_text(&std::fs::read_to_string(&job).unwrap()).unwrap();
+    spec.diagnose = None;
+    let model = common::example("spring-mass");
+    spec.model.path = Some(model.clone());
+    let data = fmucal_shared::job::data::read_all(&spec).unwrap().pop().unwrap();
+    let windows = checks::windows(&mut spec, &data, &settings).unwrap();
+    let fmu = std::sync::Arc::new(common::load(&model, &dir.path().join("cache")));
+    let ctx = Context::new(&spec, settings, windows, fmu.clone(), data, model).unwrap();
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let outcome = rt.block_on(driver::diagnose(InProcess { fmu, threads: 1 }, &ctx, spec, &())).unwrap();
+    let library = serde_json::to_value(&outcome.diagnosis).unwrap();
+
+    assert_eq!(outcome.diagnosis.conclusion, fmucal_diagnose::report::Conclusion::Named);
+    assert_eq!(without_wall_times(library), without_wall_times(cli));
 }

@@ -78,12 +78,13 @@ fn a_local_run_neither_uploads_nor_unpacks_the_model_again() {
             .spawn()
             .unwrap(),
     );
-    // While it runs: the run's folder holds the coordinator's job store, and never an archive
-    // or an unpacked model.
-    let (mut saw_store, mut models_seen) = (false, vec![]);
+    // While it runs: the run's folder (seen by its owner file) holds neither a job store (the
+    // run's jobs stay in memory) nor an archive or an unpacked model.
+    let (mut saw_run, mut saw_store, mut models_seen) = (false, false, vec![]);
     while child.0.try_wait().unwrap().is_none() {
         for f in files_under(&tmp) {
             let name = f.file_name().unwrap().to_string_lossy().into_owned();
+            saw_run |= name == "owner";
             saw_store |= name == "jobs.redb";
             if name.ends_with(".fmu") || name == "modelDescription.xml" || name.starts_with(".upload-") {
                 models_seen.push(f);
@@ -97,7 +98,8 @@ fn a_local_run_neither_uploads_nor_unpacks_the_model_again() {
     let result: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/result.json")).unwrap()).unwrap();
     assert!(result["evaluations"].as_u64().unwrap() >= 4, "{result}");
-    assert!(saw_store, "never saw the run's job store under {}", tmp.display());
+    assert!(saw_run, "never saw the run's folder under {}", tmp.display());
+    assert!(!saw_store, "the local run wrote a job store under {}", tmp.display());
     assert!(models_seen.is_empty(), "the run copied or unpacked the model: {models_seen:?}");
     // The one unpacked copy is the CLI's, in the user's cache (beside the CLI's record of the
     // archive's SHA-256, a dot folder).

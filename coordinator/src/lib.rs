@@ -56,13 +56,17 @@ pub struct Config {
     /// Metrics the scheduler keeps up to date ([`metrics`]); whoever registered them serves
     /// them. `None`: none kept.
     pub metrics: Option<metrics::CoordinatorMetrics>,
+    /// Keep the job state in memory only ([`store::Store::in_memory`]), for a coordinator
+    /// whose jobs end with its process (a local run's in-process one): no `jobs.redb` to open
+    /// or write, nothing to resume after a restart.
+    pub in_memory_store: bool,
 }
 
 impl Config {
     /// A coordinator keeping its state in `data_dir`, with every other setting at its default:
     /// no token (set one: [`run`] refuses to start without), the default [`Timing`], store cap
     /// ([`models::DEFAULT_MAX_STORE_BYTES`]) and connection limits, every finished job kept,
-    /// plaintext, no diagnoses, no metrics.
+    /// plaintext, no diagnoses, no metrics, the job state on disk.
     pub fn new(data_dir: impl Into<PathBuf>) -> Config {
         Config {
             data_dir: data_dir.into(),
@@ -75,6 +79,7 @@ impl Config {
             tls: None,
             diagnose_program: None,
             metrics: None,
+            in_memory_store: false,
         }
     }
 }
@@ -251,9 +256,9 @@ async fn serve(
         model_store.register_local(model)?;
     }
     let models = Arc::new(Mutex::new(model_store));
-    let data_dir = config.data_dir.clone();
-    let (store, models2, timing) =
-        (tokio::task::spawn_blocking(move || store::Store::open(&data_dir)), models.clone(), config.timing.clone());
+    let (data_dir, in_memory) = (config.data_dir.clone(), config.in_memory_store);
+    let open = move || if in_memory { store::Store::in_memory() } else { store::Store::open(&data_dir) };
+    let (store, models2, timing) = (tokio::task::spawn_blocking(open), models.clone(), config.timing.clone());
     let store = store.await.map_err(|e| CoordinatorError::Storage(e.to_string()))?.map_err(in_data_dir).map_err(|e| {
         // A store that exists but does not open is damaged: say what gives its jobs back.
         match e {

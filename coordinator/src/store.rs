@@ -82,6 +82,12 @@ impl Store {
         Self::with_opener(Box::new(move || Database::builder().set_cache_size(CACHE_BYTES).create(&path)))
     }
 
+    /// A store in memory only, for a coordinator whose jobs end with its process (a local
+    /// run's): no file, nothing to resume.
+    pub fn in_memory() -> Result<Self, CoordinatorError> {
+        Self::with_opener(Box::new(|| Database::builder().create_with_backend(redb::backends::InMemoryBackend::new())))
+    }
+
     /// A store on the database `open` returns, called again to reopen it after an I/O error
     /// (tests use a redb backend that can fail its writes).
     pub fn with_opener(open: Opener) -> Result<Self, CoordinatorError> {

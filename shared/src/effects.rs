@@ -109,6 +109,13 @@ pub fn parameter_scale(name: &str) -> Scale {
     }
 }
 
+/// Whether parameter `name` is a load, written in its port's unit (in its derivative's on a
+/// state): a [`Scale::Load`] that is not a position of the signal (a sensor offset, a dead
+/// zone's bounds).
+pub fn is_load(name: &str) -> bool {
+    parameter_scale(name) == Scale::Load && !matches!(name, "offset" | "lower" | "upper")
+}
+
 /// A term added to an injection port, from one signal's value.
 pub trait PortEffect: Kind + Guesses {
     /// The term at signal value `s` with parameter values `p`.

@@ -362,3 +362,39 @@ fn record_job(job_id: &str) {
 fn coordinator_unreachable(status: &tonic::Status) -> bool {
     matches!(status.code(), tonic::Code::Unavailable | tonic::Code::Unknown | tonic::Code::Cancelled)
 }
+
+/// A diagnosis's evaluator on a coordinator (a local cluster's or `--coordinator`'s): its
+/// calibrations and points run as jobs on the workers.
+#[derive(Clone)]
+pub struct OnCoordinator(pub Client);
+
+impl fmucal_diagnose::driver::Evaluate for OnCoordinator {
+    async fn calibrate(
+        &mut self,
+        job: &JobSpec,
+        data: &MeasurementTable,
+        model: &Path,
+        progress: &(dyn Fn(fmucal_diagnose::driver::Progress) + Send + Sync),
+    ) -> Result<CalibrationResult, fmucal_diagnose::error::Error> {
+        let events = |ev: &pb::WatchJobResponse| {
+            progress(fmucal_diagnose::driver::Progress {
+                iteration: ev.iteration,
+                evaluations: ev.evaluations,
+                best_f: ev.best_f,
+            })
+        };
+        let data = std::slice::from_ref(data);
+        self.0.calibrate_with(job, data, model, events).await.map_err(fmucal_diagnose::error::Error::evaluate)
+    }
+
+    async fn evaluate(
+        &mut self,
+        job: &JobSpec,
+        points: Vec<Vec<f64>>,
+        data: &MeasurementTable,
+        model: &Path,
+    ) -> Result<Vec<EvaluatedPoint>, fmucal_diagnose::error::Error> {
+        let data = std::slice::from_ref(data);
+        self.0.evaluate(job, points, data, model).await.map_err(fmucal_diagnose::error::Error::evaluate)
+    }
+}

@@ -54,9 +54,11 @@ pub async fn run<T>(
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let url = format!("http://{}", listener.local_addr()?);
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+    // The run's jobs end with it: their state stays in memory (no store file to open).
     let config = fmucal_coordinator::Config {
         token: Some(token.clone()),
         worker_token: Some(worker_token.clone()),
+        in_memory_store: true,
         ..fmucal_coordinator::Config::new(state.path().join("coordinator"))
     };
     let local_models = [local.clone()];

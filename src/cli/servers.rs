@@ -188,6 +188,7 @@ pub fn coordinator(args: CoordinatorArgs) -> Result<()> {
             tls,
             diagnose_program,
             metrics,
+            in_memory_store: false,
         };
         // Said once the store is open: a data dir another coordinator holds fails first.
         let ready = |addr| super::status(&format!("coordinator listening on {addr}"));

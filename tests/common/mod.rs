@@ -175,10 +175,13 @@ impl Servers {
         };
         let data_dir = dir.join("coord");
         let listen = format!("127.0.0.1:{port}");
-        let coord = spawn(
+        let mut coord = spawn(
             &[&["coordinator", "--listen", &listen, "--data-dir", data_dir.to_str().unwrap()], coordinator_args]
                 .concat(),
         );
+        // Clients (the Python client among them) retry their connection for a few seconds
+        // only: on a loaded machine the coordinator may take longer than that to listen.
+        wait_for_listener(&listen, &mut coord);
         let cache = dir.join("worker-cache");
         let worker = spawn(
             &["worker", "--coordinator", &url, "--slots", &slots.to_string(), "--cache-dir", cache.to_str().unwrap()]
@@ -203,6 +206,18 @@ impl Servers {
             clean &= stop_child(&mut child, std::time::Duration::from_secs(30));
         }
         clean
+    }
+}
+
+/// Waits until something accepts connections at `address` (up to 2 minutes), or until `child`
+/// has exited (the test then fails on its own terms, with the child's error).
+pub fn wait_for_listener(address: &str, child: &mut std::process::Child) {
+    let end = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    while std::time::Instant::now() < end {
+        if std::net::TcpStream::connect(address).is_ok() || !matches!(child.try_wait(), Ok(None)) {
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
     }
 }
 

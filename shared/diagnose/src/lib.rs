@@ -16,13 +16,19 @@
 //! (simulation and jobs use them too); nothing below it uses the diagnosis, except the job
 //! file's `[diagnose]` section, which a job carries for `fmucal diagnose`.
 //!
-//! The steps that need simulations (calibrations, screening points) are driven by
-//! `fmucal diagnose` over the coordinator's protocol, so they run on the workers.
+//! - [`error`]: why a diagnosis stopped.
+//! - `driver` (feature `driver`): the rounds of a diagnosis, one function per phase, over an
+//!   evaluator (the command line's gRPC client, so the simulations run on the workers), with
+//!   progress to an observer. The `fmucal` binary turns the feature on; the coordinator runs a
+//!   diagnosis as that binary's child process, so it never loads model code.
 
 #![forbid(unsafe_code)]
 
 pub mod candidates;
 pub mod decision;
+#[cfg(feature = "driver")]
+pub mod driver;
+pub mod error;
 pub mod jobs;
 pub mod localise;
 pub mod places;

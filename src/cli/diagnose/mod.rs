@@ -8,29 +8,24 @@
 //! as `fmucal export` writes it) and the residual plots. Locally (an in-process coordinator and worker
 //! processes, as `calibrate` runs) or on `--coordinator URL`.
 //!
-//! - [`checks`]: everything checked before any model code runs;
-//! - [`driver`]: the rounds of calibrate → localise → screen → fit → decide, over the protocol;
-//! - [`look`]: the local simulations of the driver (residuals, signals, evidence);
-//! - [`probe`]: the scale of each place (a port's load, a state's rate) not given;
+//! The diagnosis itself is [`fmucal_diagnose::driver`]; this module is its command line: the
+//! flags, the files it reads and writes, and the lines and bars it prints ([`Printer`]).
+//!
 //! - [`plots`]: residual plots before and after, and against the most correlated signal.
 
-mod checks;
-mod driver;
-mod look;
 mod plots;
-mod probe;
 
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context as _, Result, bail};
+use fmucal_diagnose::driver::{self, Context, Event, Observe, checks};
 use fmucal_diagnose::jobs::polish_step;
 use fmucal_diagnose::spec::DiagnoseSpec;
-use fmucal_shared::fmu::Fmu;
+use fmucal_shared::job::JobSpec;
 use fmucal_shared::job::choices::Algorithm;
-use fmucal_shared::job::{JobSpec, MeasurementTable};
 
-use super::client::Client;
+use super::client::{Client, OnCoordinator};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -53,16 +48,55 @@ pub struct Args {
     stop_on_stdin_eof: bool,
 }
 
-/// What every step of the driver shares (cheap to clone: the model and data are shared).
-#[derive(Clone)]
-pub(crate) struct Context {
-    pub fmu: Arc<Fmu>,
-    pub data: Arc<MeasurementTable>,
-    pub model: PathBuf,
-    pub settings: fmucal_diagnose::spec::DiagnoseSpec,
-    pub windows: fmucal_diagnose::report::Windows,
-    /// Where candidates go: ports by hand and from the model, states in Model Exchange.
-    pub places: fmucal_diagnose::places::Places,
+/// Prints a diagnosis's progress on standard error: a line as each round's phases start, a
+/// spinner over the base calibration and a bar over the candidate fits.
+#[derive(Default)]
+struct Printer(std::sync::Mutex<Option<indicatif::ProgressBar>>);
+
+impl Printer {
+    fn show(&self, bar: indicatif::ProgressBar, template: &str) {
+        bar.set_style(indicatif::ProgressStyle::with_template(template).expect("valid template"));
+        *self.0.lock().expect("not poisoned") = Some(bar);
+    }
+
+    fn clear(&self) {
+        if let Some(bar) = self.0.lock().expect("not poisoned").take() {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+impl Observe for Printer {
+    fn event(&self, event: Event) {
+        match event {
+            Event::Calibrating { round } => {
+                eprintln!("round {}: calibrating the base model", round + 1);
+                let bar = indicatif::ProgressBar::new_spinner();
+                self.show(bar.clone(), "{spinner} {elapsed_precise} {msg}");
+                bar.enable_steady_tick(std::time::Duration::from_millis(200));
+            }
+            Event::Progress(p) => {
+                if let Some(bar) = &*self.0.lock().expect("not poisoned") {
+                    bar.set_message(format!(
+                        "iteration {}  evaluations {}  best f {:.6e}",
+                        p.iteration, p.evaluations, p.best_f
+                    ));
+                }
+            }
+            Event::Calibrated | Event::AllFitted => self.clear(),
+            Event::Screening { round } => eprintln!("round {}: screening the candidates", round + 1),
+            Event::Fitting { round, top, candidates } => {
+                eprintln!("round {}: fitting the {top} most promising of {candidates} candidates", round + 1);
+                let bar = indicatif::ProgressBar::new(top as u64);
+                self.show(bar, "{elapsed_precise} candidates fitted {pos}/{len} {msg}");
+            }
+            Event::Fitted => {
+                if let Some(bar) = &*self.0.lock().expect("not poisoned") {
+                    bar.inc(1);
+                }
+            }
+        }
+    }
 }
 
 /// One standard error of the widest parameter as a fraction of its range (the optimizers'
@@ -131,7 +165,7 @@ pub fn run(args: Args) -> Result<()> {
     let windows = checks::windows(&mut spec, &data, &settings)?;
     let fmu =
         Arc::new(super::known_archives::load(&model).with_context(|| format!("cannot load {}", model.display()))?);
-    let places = checks::job_and_candidates(&spec, &settings, &fmu, &data)?;
+    let ctx = Context::new(&spec, settings, windows, fmu, data, model)?;
     // Removed again if the run fails before writing anything into it.
     let _out = super::outputs::OutDir::create(&args.out)?;
     // `job.toml` in the output folder must not be the job being read (`diagnose diagnosis/job.toml`).
@@ -142,7 +176,7 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--out {}: its job.toml would overwrite the job file; choose another folder", args.out.display());
     }
 
-    let ctx = Context { fmu, data: Arc::new(data), model, settings, windows, places };
+    let printer = Printer::default();
     let rt = tokio::runtime::Runtime::new()?;
     let outcome = rt.block_on(async {
         match args.remote.connect().await? {
@@ -150,7 +184,7 @@ pub fn run(args: Args) -> Result<()> {
                 // Stopped midway, the diagnosis cancels its jobs: they would keep the
                 // coordinator's workers busy for nobody.
                 tokio::select! {
-                    outcome = driver::diagnose(client.clone(), &ctx, spec) => outcome,
+                    outcome = driver::diagnose(OnCoordinator(client.clone()), &ctx, spec, &printer) => Ok(outcome?),
                     why = stop_requested(args.stop_on_stdin_eof) => {
                         let n = client.clone().cancel_submitted().await;
                         bail!("{why}; cancelled {n} running jobs")
@@ -160,7 +194,7 @@ pub fn run(args: Args) -> Result<()> {
             None => {
                 let (outcome, stopping) =
                     super::local_cluster::run(threads, (&ctx.model, &ctx.fmu), async |client: Client| {
-                        driver::diagnose(client, &ctx, spec).await
+                        Ok(driver::diagnose(OnCoordinator(client), &ctx, spec, &printer).await?)
                     })
                     .await?;
                 stopping.wait().await;

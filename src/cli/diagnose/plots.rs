@@ -10,9 +10,9 @@ use anyhow::{Result, anyhow};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::driver::Outcome;
-use super::look::Look;
 use crate::report::{DrawResult, draw_legend, draw_line, range, register_font};
+use fmucal_diagnose::driver::Outcome;
+use fmucal_diagnose::driver::look::Look;
 
 /// Worst windows shaded per output.
 const SHADED: usize = 3;

@@ -1,18 +1,18 @@
-//! The driver's local simulations, in this process on the FMU the CLI loaded (one or two
+//! The driver's local simulations, in this process on the FMU its caller loaded (one or two
 //! simulations each, against the many the workers run): a calibrated model's fit and residuals
 //! on both windows ([`look`]), and the signals a diagnosis correlates the residual with and
 //! sizes its candidates by ([`signals`]).
 
 use std::sync::Arc;
 
-use anyhow::{Context as _, Result};
-use fmucal_diagnose::decision::effective_samples;
-use fmucal_diagnose::report::RmsPair;
 use fmucal_shared::job::{FitTable, PreparedJob, report};
 use fmucal_shared::residuals::Misfit;
 use fmucal_shared::sim::simulate;
 
 use super::Context;
+use crate::decision::effective_samples;
+use crate::error::{Context as _, Error};
+use crate::report::RmsPair;
 
 /// A calibrated model against the measurements (the optimized model only: the diagnosis
 /// never looks at the nominal one).
@@ -39,7 +39,7 @@ impl Look {
 }
 
 /// The fit of `job` at `x` (its parameter order).
-pub fn look(ctx: &Context, job: &Arc<PreparedJob>, x: &[f64]) -> Result<Look> {
+pub fn look(ctx: &Context, job: &Arc<PreparedJob>, x: &[f64]) -> Result<Look, Error> {
     let (fit, errors) = report::optimized_fit(&ctx.fmu, job, 0, &ctx.data, x)?;
     let stop = ctx.windows.calibration_stop;
     let rows = fit.time.partition_point(|t| *t <= stop);
@@ -74,7 +74,12 @@ pub fn look(ctx: &Context, job: &Arc<PreparedJob>, x: &[f64]) -> Result<Look> {
 
 /// The values of the variables `names` on the calibration window's measurement times, for the
 /// model of `job` at `x`.
-pub fn signals(ctx: &Context, job: &PreparedJob, x: &[f64], names: &[String]) -> Result<Vec<(String, Vec<f64>)>> {
+pub fn signals(
+    ctx: &Context,
+    job: &PreparedJob,
+    x: &[f64],
+    names: &[String],
+) -> Result<Vec<(String, Vec<f64>)>, Error> {
     if names.is_empty() {
         return Ok(vec![]);
     }

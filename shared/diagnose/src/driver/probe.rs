@@ -9,14 +9,13 @@
 
 use std::collections::BTreeMap;
 
-use anyhow::{Result, bail};
-use fmucal_diagnose::places::Places;
-use fmucal_diagnose::spec::PortDomain;
 use fmucal_shared::job::JobSpec;
 use fmucal_shared::job::spec::{Bounds, EffectSpec};
 
-use super::Context;
-use crate::cli::client::Client;
+use super::{Context, Evaluate};
+use crate::error::{Error, bail};
+use crate::places::Places;
+use crate::spec::PortDomain;
 
 /// Accepted ratios of the response's RMS to the residual's.
 const ACCEPTED: std::ops::RangeInclusive<f64> = 1e-3..=10.0;
@@ -51,12 +50,12 @@ struct Place {
 /// The scale of every place of `places`, given or probed around the base optimum `x_base`
 /// of `base`.
 pub async fn scales(
-    client: &mut Client,
+    eval: &mut impl Evaluate,
     ctx: &Context,
     places: &Places,
     base: &JobSpec,
     x_base: &[f64],
-) -> Result<Probed> {
+) -> Result<Probed, Error> {
     let mut out = Probed {
         port_scales: places.ports.iter().filter_map(|p| p.spec.scale.map(|s| (p.spec.port.clone(), s))).collect(),
         ..Probed::default()
@@ -114,7 +113,7 @@ pub async fn scales(
             points.push(p);
         }
         out.simulations += points.len() as u64;
-        let evaluated = client.evaluate(&job, points, std::slice::from_ref(&*ctx.data), &ctx.model).await?;
+        let evaluated = eval.evaluate(&job, points, &ctx.data, &ctx.model).await?;
         let Some(r0) = evaluated.first().filter(|e| e.value.is_some()).map(|e| &e.residuals) else {
             let why = evaluated.first().map_or("no point was evaluated", |e| e.message.as_str());
             bail!("the probe of the places' scales failed at the base optimum: {why}");

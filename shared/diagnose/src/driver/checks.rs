@@ -1,4 +1,4 @@
-//! What `fmucal diagnose` checks before any model code runs: the windows (the job's validation
+//! What a diagnosis checks before any model code runs: the windows (the job's validation
 //! window, or a holdout cut from its calibration window), the job against its model and data,
 //! and every candidate the diagnosis would generate — ports that are real inputs of the right
 //! domain, signals that can be read, no algebraic loop, states that are continuous states.
@@ -7,16 +7,17 @@
 
 use std::collections::BTreeMap;
 
-use anyhow::{Result, bail};
-use fmucal_diagnose::candidates::{Sizes, generate};
-use fmucal_diagnose::places::Places;
-use fmucal_diagnose::report::Windows;
-use fmucal_diagnose::spec::{DEFAULT_HOLDOUT, DiagnoseSpec};
 use fmucal_shared::effects::guess::SignalStats;
 use fmucal_shared::fmu::{Fmu, Interface};
 use fmucal_shared::job::{JobError, JobSpec, MeasurementTable, PreparedJob};
 use fmucal_shared::quote::quote_user_text;
 use fmucal_shared::structure::Structure;
+
+use crate::candidates::{Sizes, generate};
+use crate::error::{Error, bail};
+use crate::places::Places;
+use crate::report::Windows;
+use crate::spec::{DEFAULT_HOLDOUT, DiagnoseSpec};
 
 /// The windows of the diagnosis. With a validation window in the job, fits use the job's
 /// calibration window and decisions its validation window; without one, the last `holdout`
@@ -24,7 +25,7 @@ use fmucal_shared::structure::Structure;
 ///
 /// # Errors
 /// If the holdout leaves no measurement on either side.
-pub fn windows(spec: &mut JobSpec, data: &MeasurementTable, settings: &DiagnoseSpec) -> Result<Windows> {
+pub fn windows(spec: &mut JobSpec, data: &MeasurementTable, settings: &DiagnoseSpec) -> Result<Windows, Error> {
     let (first, last) = (data.time.first().copied().unwrap_or(0.0), data.time.last().copied().unwrap_or(0.0));
     let start = spec.simulation.start_time.unwrap_or(first);
     let stop = spec.simulation.stop_time.unwrap_or(last);
@@ -81,7 +82,7 @@ pub fn job_and_candidates(
     settings: &DiagnoseSpec,
     fmu: &Fmu,
     data: &MeasurementTable,
-) -> Result<Places> {
+) -> Result<Places, Error> {
     let md = &fmu.description;
     let interfaces = fmu.interfaces();
     PreparedJob::new(spec, md, &interfaces, std::slice::from_ref(data))?;
