@@ -7,6 +7,7 @@
 
 pub mod connections;
 pub mod diagnoses;
+pub mod edge;
 pub mod error;
 pub mod fillable_disk;
 pub mod journal;

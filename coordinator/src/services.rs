@@ -1,18 +1,21 @@
-//! gRPC handlers: validate and convert, then ask the scheduler. They hold no state and no lock
-//! across an await.
+//! gRPC handlers: check what the request alone allows (required fields, id lengths), convert it
+//! at the service edge ([`crate::edge`]) into a [`Command`] for the scheduler, and convert its
+//! answer back. They hold no state and no lock across an await; blocking work (checking a job,
+//! storing a model) runs off the async threads.
 
 use std::sync::{Arc, Mutex};
 
 use fmucal_diagnose::spec::DiagnoseSpec;
 use fmucal_proto::convert::SubmittedJob;
 use fmucal_proto::v1 as pb;
-use fmucal_shared::job::{JobKind, JobRun};
+use fmucal_shared::job::JobKind;
 use tokio::io::AsyncWriteExt;
 use tokio::sync::{mpsc, oneshot};
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Request, Response, Status, Streaming};
 
 use crate::diagnoses::Diagnoses;
+use crate::edge;
 use crate::error::CoordinatorError;
 use crate::models::ModelStore;
 use crate::scheduler::Command;
@@ -101,14 +104,10 @@ impl pb::calibration_server::Calibration for Handlers {
         // Checking the job (and unpacking a new model) is blocking work: keep it off the
         // scheduler task, which every other request waits on.
         let models = self.models.clone();
-        let (spec, job, run) = tokio::task::spawn_blocking(move || {
-            let prepared = crate::scheduler::prepare(&models, &spec)?;
-            let run = JobRun::new(&prepared).map_err(|e| CoordinatorError::InvalidArgument(e.to_string()))?;
-            Ok::<_, CoordinatorError>((spec, Box::new(prepared.spec.clone()), Box::new(run)))
-        })
-        .await
-        .map_err(|e| Status::internal(e.to_string()))??;
-        let job_id = self.ask(|reply| Command::Submit { spec, job, run, reply }).await?;
+        let job = tokio::task::spawn_blocking(move || edge::submission(&models, &spec).map(Box::new))
+            .await
+            .map_err(|e| Status::internal(e.to_string()))??;
+        let job_id = self.ask(|reply| Command::Submit { job, reply }).await?;
         Ok(Response::new(pb::SubmitJobResponse { job_id }))
     }
 
@@ -117,22 +116,23 @@ impl pb::calibration_server::Calibration for Handlers {
     async fn watch_job(&self, req: Request<pb::WatchJobRequest>) -> Result<Response<Self::WatchJobStream>, Status> {
         let job_id = req.into_inner().job_id;
         check_id("job_id", &job_id)?;
-        let (tx, rx) = mpsc::channel(1024);
-        self.ask(|reply| Command::Watch { job_id, tx, reply }).await?;
+        let (tx, rx): (edge::WatchSender, _) = mpsc::channel(1024);
+        self.ask(|reply| Command::Watch { job_id, watcher: Box::new(tx), reply }).await?;
         Ok(Response::new(ReceiverStream::new(rx)))
     }
 
     async fn get_job(&self, req: Request<pb::GetJobRequest>) -> Result<Response<pb::GetJobResponse>, Status> {
         let job_id = req.into_inner().job_id;
         check_id("job_id", &job_id)?;
-        Ok(Response::new(self.ask(|reply| Command::Get { job_id, reply }).await?))
+        let job = self.ask(|reply| Command::Get { job_id, reply }).await?;
+        Ok(Response::new(edge::get_job_response(job)))
     }
 
     async fn cancel_job(&self, req: Request<pb::CancelJobRequest>) -> Result<Response<pb::CancelJobResponse>, Status> {
         let job_id = req.into_inner().job_id;
         check_id("job_id", &job_id)?;
         let status = self.ask(|reply| Command::Cancel { job_id, reply }).await?;
-        Ok(Response::new(pb::CancelJobResponse { status }))
+        Ok(Response::new(pb::CancelJobResponse { status: edge::status(status) }))
     }
 
     async fn delete_job(&self, req: Request<pb::DeleteJobRequest>) -> Result<Response<pb::DeleteJobResponse>, Status> {
@@ -143,7 +143,8 @@ impl pb::calibration_server::Calibration for Handlers {
     }
 
     async fn list_jobs(&self, _req: Request<pb::ListJobsRequest>) -> Result<Response<pb::ListJobsResponse>, Status> {
-        Ok(Response::new(self.ask(|reply| Command::List { reply }).await?))
+        let jobs = self.ask(|reply| Command::List { reply }).await?;
+        Ok(Response::new(edge::list_jobs_response(jobs)))
     }
 
     type DiagnoseStream = ReceiverStream<Result<pb::DiagnoseResponse, Status>>;
@@ -177,8 +178,9 @@ impl pb::calibration_server::Calibration for Handlers {
 #[tonic::async_trait]
 impl pb::worker_pool_server::WorkerPool for Handlers {
     async fn register(&self, req: Request<pb::RegisterRequest>) -> Result<Response<pb::RegisterResponse>, Status> {
-        let req = req.into_inner();
-        Ok(Response::new(self.ask(|reply| Command::Register { req, reply }).await?))
+        let registration = edge::registration(req.into_inner())?;
+        let registered = self.ask(|reply| Command::Register { registration, reply }).await?;
+        Ok(Response::new(edge::register_response(registered)))
     }
 
     async fn heartbeat(&self, req: Request<pb::HeartbeatRequest>) -> Result<Response<pb::HeartbeatResponse>, Status> {
@@ -214,8 +216,8 @@ impl pb::worker_pool_server::WorkerPool for Handlers {
     async fn fetch_job(&self, req: Request<pb::FetchJobRequest>) -> Result<Response<pb::FetchJobResponse>, Status> {
         let job_id = req.into_inner().job_id;
         check_id("job_id", &job_id)?;
-        let spec = self.ask(|reply| Command::FetchJob { job_id, reply }).await?;
-        Ok(Response::new(pb::FetchJobResponse { spec: Some(spec) }))
+        let sent = self.ask(|reply| Command::FetchJob { job_id: job_id.clone(), reply }).await?;
+        Ok(Response::new(edge::fetch_job_response(&job_id, &sent)?))
     }
 
     async fn poll_work(&self, req: Request<pb::PollWorkRequest>) -> Result<Response<pb::PollWorkResponse>, Status> {
@@ -227,8 +229,10 @@ impl pb::worker_pool_server::WorkerPool for Handlers {
         for (k, r) in req.results.iter().enumerate() {
             check_id(&format!("results[{k}].job_id"), &r.job_id)?;
         }
+        let req = edge::poll_request(req);
         let (tx, rx) = oneshot::channel();
         self.commands.send(Command::Poll { req, reply: tx }).await.map_err(|_| Status::unavailable("shutting down"))?;
-        Ok(Response::new(rx.await.map_err(|_| Status::unavailable("shutting down"))?))
+        let answer = rx.await.map_err(|_| Status::unavailable("shutting down"))?;
+        Ok(Response::new(edge::poll_work_response(answer)))
     }
 }

@@ -1,6 +1,8 @@
-//! The scheduler on tokio's paused clock, driven through its command channel: the test plays
-//! the workers (Register, Heartbeat, Poll with results it computes itself), so no process,
-//! network or simulation is involved and each test runs in milliseconds. Covered: worker
+//! The scheduler on tokio's paused clock, driven through its command channel with its domain
+//! values: the test plays the workers (Register, Heartbeat, Poll with results it computes
+//! itself), so no process, network, protobuf message or simulation is involved and each test
+//! runs in milliseconds. (A job is submitted as it is sent, through the service edge; the
+//! scheduler keeps it as those bytes.) Covered: worker
 //! expiry (a dead worker's points come back one at a time), the evaluation timeout, the "failed on 2 workers or 3 tries" rule, fair-share polls,
 //! cancel, and resuming a job from the store after the scheduler died mid-batch.
 
@@ -10,13 +12,16 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use fmucal_coordinator::CoordinatorError;
+use fmucal_coordinator::edge;
 use fmucal_coordinator::metrics::CoordinatorMetrics;
 use fmucal_coordinator::models::{DEFAULT_MAX_STORE_BYTES, ModelStore};
-use fmucal_coordinator::scheduler::{Command, Scheduler, Timing};
+use fmucal_coordinator::scheduler::{
+    Command, JobView, Lease, Outcome, PollAnswer, PollRequest, Registration, Report, Scheduler, Timing,
+};
 use fmucal_coordinator::store::Store;
 use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::v1 as pb;
-use fmucal_shared::job::{JobSpec, MeasurementTable};
+use fmucal_shared::job::{CalibrationResult, EvaluatedPoint, Evaluation, JobSpec, JobStatus, MeasurementTable};
 use tokio::sync::{mpsc, oneshot};
 
 const HEARTBEAT: Duration = Duration::from_secs(1);
@@ -26,48 +31,49 @@ const TIMEOUT: Duration = Duration::from_secs(30);
 /// The residuals of an evaluation of [`job`]: its 21 measured values.
 const RESIDUALS: usize = 21;
 
-const RUNNING: i32 = pb::JobStatus::Running as i32;
-const SUCCEEDED: i32 = pb::JobStatus::Succeeded as i32;
-const CANCELLED: i32 = pb::JobStatus::Cancelled as i32;
+const RUNNING: JobStatus = JobStatus::Running;
+const SUCCEEDED: JobStatus = JobStatus::Succeeded;
+const CANCELLED: JobStatus = JobStatus::Cancelled;
 
 /// The workers' objective: a function of x alone, so no test simulates.
 fn objective(x: &[f64]) -> f64 {
     x.iter().map(|v| (v - 1.7).powi(2)).sum()
 }
 
-fn ok(a: &pb::Assignment) -> pb::PointResult {
-    pb::PointResult {
-        job_id: a.job_id.clone(),
-        point_id: a.point_id,
-        status: pb::PointStatus::Ok as i32,
-        value: objective(&a.x),
-        residuals: if a.want_residuals { (0..RESIDUALS).map(|i| a.x[0] + i as f64).collect() } else { vec![] },
-        ..Default::default()
-    }
+/// A worker's report on `a` with `outcome`.
+fn report(a: &Lease, outcome: Outcome) -> Report {
+    Report { job_id: a.job_id.clone(), point_id: a.point_id, outcome }
 }
 
-fn failed(a: &pb::Assignment) -> pb::PointResult {
-    pb::PointResult {
-        job_id: a.job_id.clone(),
-        point_id: a.point_id,
-        status: pb::PointStatus::SimulationFailed as i32,
-        value: f64::NAN,
-        message: "test failure".into(),
-        ..Default::default()
-    }
+fn ok(a: &Lease) -> Report {
+    let residuals = if a.want_residuals { (0..RESIDUALS).map(|i| a.x[0] + i as f64).collect() } else { vec![] };
+    let evaluation =
+        Evaluation { value: Some(objective(&a.x)), residuals: Some(residuals), error: None, wall: Duration::ZERO };
+    report(a, Outcome::Evaluated(evaluation))
 }
 
-fn ids(assignments: &[pb::Assignment]) -> Vec<u64> {
-    assignments.iter().map(|a| a.point_id).collect()
+fn failed(a: &Lease) -> Report {
+    report(a, Outcome::Evaluated(Evaluation::failed("test failure")))
 }
 
-/// The distinct points among `assignments`, by id, with the x they were handed out with.
-fn by_id(assignments: &[pb::Assignment]) -> BTreeMap<u64, Vec<f64>> {
-    assignments.iter().map(|a| (a.point_id, a.x.clone())).collect()
+/// `r` with its evaluation changed by `change` (a worker that reports something else).
+fn changed(mut r: Report, change: impl FnOnce(&mut Evaluation)) -> Report {
+    let Outcome::Evaluated(e) = &mut r.outcome else { panic!("not evaluated: {r:?}") };
+    change(e);
+    r
 }
 
-/// A job on the Decay example (one parameter, k) with the given `[optimizer]` table: the
-/// model is stored in `dir`'s model store, as an upload would.
+fn ids(leases: &[Lease]) -> Vec<u64> {
+    leases.iter().map(|a| a.point_id).collect()
+}
+
+/// The distinct points among `leases`, by id, with the x they were handed out with.
+fn by_id(leases: &[Lease]) -> BTreeMap<u64, Vec<f64>> {
+    leases.iter().map(|a| (a.point_id, a.x.clone())).collect()
+}
+
+/// A job on the Decay example (one parameter, k) with the given `[optimizer]` table, as a
+/// client sends it: the model is stored in `dir`'s model store, as an upload would.
 fn job(dir: &Path, optimizer: &str) -> pb::JobSpec {
     let bytes = std::fs::read(fmucal_models::example("decay").expect("the decay example")).unwrap();
     let (model_id, _) = ModelStore::open(dir, DEFAULT_MAX_STORE_BYTES).unwrap().put(&bytes).unwrap();
@@ -140,8 +146,8 @@ impl Sched {
     }
 
     async fn register(&self, name: &str, slots: u32) -> String {
-        let req = pb::RegisterRequest { protocol_version: fmucal_proto::PROTOCOL_VERSION, slots, name: name.into() };
-        self.call(|reply| Command::Register { req, reply }).await.unwrap().worker_id
+        let registration = Registration { name: name.into(), slots };
+        self.call(|reply| Command::Register { registration, reply }).await.unwrap().worker_id
     }
 
     async fn heartbeat(&self, worker_id: &str) -> bool {
@@ -149,34 +155,32 @@ impl Sched {
     }
 
     /// Returns `results` and asks for up to `max` points, without waiting.
-    async fn poll(&self, worker_id: &str, results: Vec<pb::PointResult>, max: u32) -> pb::PollWorkResponse {
-        let req = pb::PollWorkRequest { worker_id: worker_id.into(), results, max_points: max, wait_ms: 0 };
+    async fn poll(&self, worker_id: &str, reports: Vec<Report>, max: u32) -> PollAnswer {
+        let req = PollRequest { worker_id: worker_id.into(), reports, max: max as usize, wait: Duration::ZERO };
         let resp = self.call(|reply| Command::Poll { req, reply }).await;
-        assert!(resp.assignments.len() <= max as usize, "more points than asked for: {resp:?}");
+        assert!(resp.leases.len() <= max as usize, "more points than asked for: {resp:?}");
         resp
     }
 
     /// The points a poll for up to `max` hands to a known worker.
-    async fn take(&self, worker_id: &str, max: u32) -> Vec<pb::Assignment> {
+    async fn take(&self, worker_id: &str, max: u32) -> Vec<Lease> {
         let resp = self.poll(worker_id, vec![], max).await;
         assert!(resp.known, "{worker_id} is not known");
-        resp.assignments
+        resp.leases
     }
 
     /// Returns results without asking for more.
-    async fn answer(&self, worker_id: &str, results: Vec<pb::PointResult>) {
-        assert!(self.poll(worker_id, results, 0).await.known);
+    async fn answer(&self, worker_id: &str, reports: Vec<Report>) {
+        assert!(self.poll(worker_id, reports, 0).await.known);
     }
 
     async fn submit(&self, spec: pb::JobSpec) -> String {
         // As the SubmitJob handler does: checked and built off the scheduler task.
-        let prepared = fmucal_coordinator::scheduler::prepare(&self.models, &spec).unwrap();
-        let run = Box::new(fmucal_shared::job::JobRun::new(&prepared).unwrap());
-        let job = Box::new(prepared.spec.clone());
-        self.call(|reply| Command::Submit { spec, job, run, reply }).await.unwrap()
+        let job = Box::new(edge::submission(&self.models, &spec).unwrap());
+        self.call(|reply| Command::Submit { job, reply }).await.unwrap()
     }
 
-    async fn get(&self, job_id: &str) -> pb::GetJobResponse {
+    async fn get(&self, job_id: &str) -> JobView {
         self.call(|reply| Command::Get { job_id: job_id.into(), reply }).await.unwrap()
     }
 
@@ -185,10 +189,10 @@ impl Sched {
     }
 
     async fn listed(&self) -> Vec<String> {
-        self.call(|reply| Command::List { reply }).await.unwrap().jobs.into_iter().map(|j| j.job_id).collect()
+        self.call(|reply| Command::List { reply }).await.unwrap().into_iter().map(|j| j.job_id).collect()
     }
 
-    async fn cancel(&self, job_id: &str) -> Result<i32, CoordinatorError> {
+    async fn cancel(&self, job_id: &str) -> Result<JobStatus, CoordinatorError> {
         self.call(|reply| Command::Cancel { job_id: job_id.into(), reply }).await
     }
 
@@ -214,9 +218,9 @@ impl Sched {
         &self,
         job_id: &str,
         workers: &[&str],
-        mut answer: impl FnMut(&str, &pb::Assignment) -> pb::PointResult,
-    ) -> (pb::GetJobResponse, Vec<(String, pb::Assignment)>) {
-        let mut held: Vec<Vec<pb::Assignment>> = vec![vec![]; workers.len()];
+        mut answer: impl FnMut(&str, &Lease) -> Report,
+    ) -> (JobView, Vec<(String, Lease)>) {
+        let mut held: Vec<Vec<Lease>> = vec![vec![]; workers.len()];
         let mut handed = vec![];
         for _ in 0..10_000 {
             let r = self.get(job_id).await;
@@ -227,8 +231,8 @@ impl Sched {
                 let results = held.drain(..).map(|a| answer(w, &a)).collect();
                 let resp = self.poll(w, results, 4).await;
                 assert!(resp.known, "{w} is not known");
-                handed.extend(resp.assignments.iter().map(|a| (w.to_string(), a.clone())));
-                *held = resp.assignments;
+                handed.extend(resp.leases.iter().map(|a| (w.to_string(), a.clone())));
+                *held = resp.leases;
             }
         }
         panic!("job {job_id} did not end");
@@ -236,10 +240,23 @@ impl Sched {
 }
 
 /// The result of a finished job, without its wall time.
-fn result(r: &pb::GetJobResponse) -> pb::JobResult {
+fn result(r: &JobView) -> CalibrationResult {
     let mut res = r.result.clone().unwrap_or_else(|| panic!("no result: {r:?}"));
     res.elapsed_s = 0.0;
     res
+}
+
+/// The result of a finished job as a client reads it (GetJob, through the service edge),
+/// without its wall time.
+fn client_result(r: &JobView) -> pb::JobResult {
+    let mut res = edge::get_job_response(r.clone()).result.unwrap_or_else(|| panic!("no result: {r:?}"));
+    res.elapsed_s = 0.0;
+    res
+}
+
+/// The values of a points job's result, in order (NaN for a failed point).
+fn values(res: &CalibrationResult) -> Vec<f64> {
+    res.evaluated.iter().map(|e| e.value.unwrap_or(f64::NAN)).collect()
 }
 
 #[tokio::test(start_paused = true)]
@@ -255,9 +272,9 @@ async fn a_silent_worker_expires_and_its_points_go_to_another() {
     // Within the expiry a's points stay a's: b, answering and asking, gets only the last one.
     s.pass(EXPIRY - HEARTBEAT, &[&b]).await;
     let resp = s.poll(&b, first.iter().map(ok).collect(), 4).await;
-    assert_eq!(resp.assignments.len(), 1, "{resp:?}");
-    assert!(!ids(&held_by_a).contains(&resp.assignments[0].point_id));
-    s.answer(&b, resp.assignments.iter().map(ok).collect()).await;
+    assert_eq!(resp.leases.len(), 1, "{resp:?}");
+    assert!(!ids(&held_by_a).contains(&resp.leases[0].point_id));
+    s.answer(&b, resp.leases.iter().map(ok).collect()).await;
     assert!(s.take(&b, 4).await.is_empty(), "a's points were re-sent before a expired");
 
     // Past the expiry a is dropped and b gets a's points: one at a time, since a died holding
@@ -266,12 +283,12 @@ async fn a_silent_worker_expires_and_its_points_go_to_another() {
     let first = s.take(&b, 4).await;
     assert_eq!(first.len(), 1, "{first:?}");
     let late = s.poll(&a, held_by_a.iter().map(ok).collect(), 4).await;
-    assert!(!late.known && late.assignments.is_empty(), "{late:?}");
+    assert!(!late.known && late.leases.is_empty(), "{late:?}");
     assert!(!s.heartbeat(&a).await);
     assert!(s.take(&b, 4).await.is_empty(), "a suspect point was leased beside another");
     let resp = s.poll(&b, first.iter().map(ok).collect(), 4).await;
-    assert_eq!(resp.assignments.len(), 1, "{resp:?}");
-    let resent: Vec<_> = first.into_iter().chain(resp.assignments).collect();
+    assert_eq!(resp.leases.len(), 1, "{resp:?}");
+    let resent: Vec<_> = first.into_iter().chain(resp.leases).collect();
     assert_eq!(by_id(&resent), by_id(&held_by_a));
 
     s.answer(&b, resent[1..].iter().map(ok).collect()).await;
@@ -304,14 +321,13 @@ async fn a_point_past_the_evaluation_timeout_is_sent_to_another_worker() {
 
     // b answers; a's late answer (a different value) changes nothing.
     s.answer(&b, resent.iter().map(ok).collect()).await;
-    let late = pb::PointResult { value: 99.0, ..ok(&slow[0]) };
+    let late = changed(ok(&slow[0]), |e| e.value = Some(99.0));
     s.answer(&a, vec![late]).await;
     let r = s.get(&job).await;
     assert_eq!(r.status, SUCCEEDED, "{r:?}");
     let res = result(&r);
     assert_eq!((res.evaluations, res.failed_evaluations), (2, 0));
-    let values: Vec<f64> = res.evaluated.iter().map(|e| e.value).collect();
-    assert_eq!(values, vec![objective(&slow[0].x), objective(&quick[0].x)]);
+    assert_eq!(values(&res), vec![objective(&slow[0].x), objective(&quick[0].x)]);
 }
 
 #[tokio::test(start_paused = true)]
@@ -336,7 +352,7 @@ const FAILING_POINT: u64 = 1;
 /// Drives a differential-evolution job to its end on `workers` (1 slot each); `fails(attempt)`
 /// says whether the `attempt`-th hand-out (from 1) of [`FAILING_POINT`] fails. Returns the
 /// result and the workers that point was handed to, in order.
-async fn first_point_failing(workers: &[&str], fails: impl Fn(usize) -> bool) -> (pb::JobResult, Vec<String>) {
+async fn first_point_failing(workers: &[&str], fails: impl Fn(usize) -> bool) -> (CalibrationResult, Vec<String>) {
     let dir = tempfile::tempdir().unwrap();
     let s = Sched::start(dir.path());
     let mut ws = vec![];
@@ -414,11 +430,12 @@ async fn a_poll_gets_at_most_its_fair_share_of_the_queue() {
 }
 
 /// A cancelled job's state: CANCELLED, with a result of `evaluations` points and the best x.
-fn assert_cancelled(r: &pb::GetJobResponse, evaluations: u64, x_opt: &[f64]) {
+fn assert_cancelled(r: &JobView, evaluations: u64, x_opt: &[f64]) {
     assert_eq!(r.status, CANCELLED, "{r:?}");
     let res = result(r);
     assert_eq!((res.termination.as_str(), res.evaluations), ("cancelled", evaluations), "{res:?}");
-    assert_eq!(res.x_opt, x_opt);
+    let x: Vec<f64> = r.names.iter().map(|n| res.x_opt.get(n).copied().unwrap_or(f64::NAN)).collect();
+    assert_eq!(x, x_opt);
 }
 
 #[tokio::test(start_paused = true)]
@@ -428,7 +445,7 @@ async fn a_cancelled_job_ends_hands_out_nothing_more_and_keeps_its_result() {
     let a = s.register("a", 1).await;
     let job = s.submit(de_job(dir.path(), 4, 50)).await;
     let batch1 = s.take(&a, 4).await;
-    let held = s.poll(&a, batch1.iter().map(ok).collect(), 2).await.assignments;
+    let held = s.poll(&a, batch1.iter().map(ok).collect(), 2).await.leases;
     assert_eq!((batch1.len(), held.len()), (4, 2));
     let best = batch1.iter().map(|p| p.x.clone()).min_by(|x, y| objective(x).total_cmp(&objective(y))).unwrap();
 
@@ -436,7 +453,7 @@ async fn a_cancelled_job_ends_hands_out_nothing_more_and_keeps_its_result() {
     assert_cancelled(&s.get(&job).await, 4, &best);
     // The points in hand are answered in vain; nothing more comes from the job.
     let resp = s.poll(&a, held.iter().map(ok).collect(), 4).await;
-    assert!(resp.known && resp.assignments.is_empty(), "{resp:?}");
+    assert!(resp.known && resp.leases.is_empty(), "{resp:?}");
     assert_cancelled(&s.get(&job).await, 4, &best);
     // Another job's points are all that polls get.
     let other = s.submit(points_job(dir.path(), 2)).await;
@@ -534,7 +551,7 @@ fn rewrite_log(dir: &Path, how: Logged) -> Vec<u64> {
 /// result and every hand-out match an uninterrupted run's.
 async fn resume_mid_batch(answered: usize, failing: Option<u64>, logged: Logged) {
     const POP: u32 = 6;
-    let answer = |p: &pb::Assignment| if Some(p.point_id) == failing { failed(p) } else { ok(p) };
+    let answer = |p: &Lease| if Some(p.point_id) == failing { failed(p) } else { ok(p) };
     let spec = |dir: &Path| de_job(dir, POP as usize, 2);
 
     let reference = tempfile::tempdir().unwrap();
@@ -552,7 +569,7 @@ async fn resume_mid_batch(answered: usize, failing: Option<u64>, logged: Logged)
     let job = s.submit(spec(dir.path())).await;
     let batch1 = s.take(&a, POP).await;
     let resp = s.poll(&a, batch1.iter().map(answer).collect(), POP).await;
-    let batch2 = resp.assignments;
+    let batch2 = resp.leases;
     assert_eq!((batch1.len(), batch2.len()), (POP as usize, POP as usize));
     let (done, open) = batch2.split_at(answered);
     assert!(failing.is_none_or(|f| ids(done).contains(&f)), "point {failing:?} is not among {done:?}");
@@ -560,7 +577,7 @@ async fn resume_mid_batch(answered: usize, failing: Option<u64>, logged: Logged)
         // A failing point is re-sent to the lone worker until its third failure.
         let mut attempt = p.clone();
         for _ in 0..if Some(p.point_id) == failing { 3 } else { 1 } {
-            let again = s.poll(&a, vec![answer(&attempt)], 1).await.assignments;
+            let again = s.poll(&a, vec![answer(&attempt)], 1).await.leases;
             if let Some(p) = again.first() {
                 assert_eq!(p.point_id, attempt.point_id, "{again:?}");
                 attempt = p.clone();
@@ -577,7 +594,7 @@ async fn resume_mid_batch(answered: usize, failing: Option<u64>, logged: Logged)
     answered_ids.sort_unstable();
     assert_eq!(told, answered_ids, "the log holds the answered points of the open batch, and only those");
     // The point whose logged x changed is evaluated again, first (ids in order).
-    let (again, expected): (&[pb::Assignment], Vec<pb::Assignment>) = match logged {
+    let (again, expected): (&[Lease], Vec<Lease>) = match logged {
         Logged::JournalOtherX => (&done[..1], [&done[..1], open].concat()),
         _ => (&[], open.to_vec()),
     };
@@ -590,9 +607,13 @@ async fn resume_mid_batch(answered: usize, failing: Option<u64>, logged: Logged)
     s.answer(&b, resent.iter().map(answer).collect()).await;
     let (got, handed) = s.drive(&job, &[&b], |_, p| answer(p)).await;
     assert_eq!(got.status, SUCCEEDED, "{got:?}");
-    assert_eq!(result(&got), result(&want), "the resumed job's result differs from an uninterrupted run's");
+    assert_eq!(
+        client_result(&got),
+        client_result(&want),
+        "the resumed job's result differs from an uninterrupted run's"
+    );
     // The points open at the kill were handed out before it and again after it.
-    let mut all: Vec<pb::Assignment> = [&batch1[..], done, &resent].concat();
+    let mut all: Vec<Lease> = [&batch1[..], done, &resent].concat();
     all.extend(handed.into_iter().map(|(_, p)| p));
     // Each point once; the one whose logged x changed twice (before the kill and after it).
     let mut times: BTreeMap<u64, usize> = BTreeMap::new();
@@ -647,11 +668,12 @@ async fn a_resumed_points_job_reports_every_point() {
     let (r, handed) = s.drive(&job, &[&b], |_, p| ok(p)).await;
     assert_eq!(ids(&handed.into_iter().map(|(_, p)| p).collect::<Vec<_>>()), ids(&points[2..]));
     let res = result(&r);
-    let want: Vec<pb::EvaluatedPoint> = points
+    let want: Vec<EvaluatedPoint> = points
         .iter()
         .map(|p| {
-            let r = ok(p);
-            pb::EvaluatedPoint { x: p.x.clone(), ok: true, value: r.value, residuals: r.residuals, message: r.message }
+            let Outcome::Evaluated(e) = ok(p).outcome else { unreachable!() };
+            let residuals = e.residuals.unwrap_or_default();
+            EvaluatedPoint { x: p.x.clone(), value: e.value, residuals, message: String::new() }
         })
         .collect();
     assert_eq!(res.evaluated, want, "every point, in the order given");
@@ -675,7 +697,7 @@ async fn a_job_whose_state_cannot_be_read_is_left_out_and_its_id_not_reused() {
     let new = s.submit(de_job(dir.path(), 4, 2)).await;
     assert_ne!(new, old, "a new job took the id of one whose state could not be read");
     let listed = s.call(|reply| Command::List { reply }).await.unwrap();
-    assert_eq!(listed.jobs.iter().map(|j| j.job_id.clone()).collect::<Vec<_>>(), vec![new]);
+    assert_eq!(listed.iter().map(|j| j.job_id.clone()).collect::<Vec<_>>(), vec![new]);
 }
 
 #[tokio::test(start_paused = true)]
@@ -719,12 +741,7 @@ async fn a_point_handed_back_unevaluated_is_sent_again_without_counting_as_an_at
     let id = s.submit(points_job(dir.path(), 3)).await;
     let first = s.take(&w, 4).await;
     assert_eq!(ids(&first), [0, 1, 2]);
-    let back = |a: &pb::Assignment| pb::PointResult {
-        job_id: a.job_id.clone(),
-        point_id: a.point_id,
-        status: pb::PointStatus::NotEvaluated as i32,
-        ..Default::default()
-    };
+    let back = |a: &Lease| report(a, Outcome::NotEvaluated);
     // Point 0 answered, 1 and 2 handed back, three times over: never told as failed.
     s.answer(&w, vec![ok(&first[0]), back(&first[1]), back(&first[2])]).await;
     for _ in 0..3 {
@@ -739,7 +756,7 @@ async fn a_point_handed_back_unevaluated_is_sent_again_without_counting_as_an_at
     let r = s.get(&id).await;
     assert_eq!(r.status, SUCCEEDED, "{r:?}");
     let evaluated = result(&r).evaluated;
-    assert!(evaluated.iter().all(|p| p.ok), "{evaluated:?}");
+    assert!(evaluated.iter().all(|p| p.value.is_some()), "{evaluated:?}");
 }
 
 /// DeleteJob removes a finished job (refusing a running one), a restart does not bring it
@@ -809,12 +826,9 @@ async fn a_job_whose_state_cannot_be_written_fails_visibly_and_the_store_recover
         assert!(std::time::Instant::now() < deadline, "the job did not fail");
         std::thread::sleep(Duration::from_millis(20));
     };
-    assert_eq!(r.status, pb::JobStatus::Failed as i32, "{r:?}");
-    assert!(
-        r.error.starts_with("the job's state could not be saved") && r.error.contains("No space left"),
-        "{:?}",
-        r.error
-    );
+    assert_eq!(r.status, JobStatus::Failed, "{r:?}");
+    let error = r.error.clone().unwrap_or_default();
+    assert!(error.starts_with("the job's state could not be saved") && error.contains("No space left"), "{error:?}");
     assert!(s.take(&w, 4).await.is_empty(), "a failed job hands out points");
     // Room again: a new job is stored and runs, without a restart.
     disk.set_full(false);
@@ -823,10 +837,8 @@ async fn a_job_whose_state_cannot_be_written_fails_visibly_and_the_store_recover
     let spec = de_job(dir.path(), 4, 2);
     let deadline = std::time::Instant::now() + Duration::from_secs(30);
     let next = loop {
-        let prepared = fmucal_coordinator::scheduler::prepare(&s.models, &spec).unwrap();
-        let run = Box::new(fmucal_shared::job::JobRun::new(&prepared).unwrap());
-        let (job, spec) = (Box::new(prepared.spec.clone()), spec.clone());
-        match s.call(|reply| Command::Submit { spec, job, run, reply }).await {
+        let job = Box::new(edge::submission(&s.models, &spec).unwrap());
+        match s.call(|reply| Command::Submit { job, reply }).await {
             Ok(id) => break id,
             Err(e) => assert!(std::time::Instant::now() < deadline, "the store did not recover: {e}"),
         }
@@ -838,7 +850,7 @@ async fn a_job_whose_state_cannot_be_written_fails_visibly_and_the_store_recover
     s.task.await.unwrap();
     let s = Sched::start_with(dir.path(), on_disk(&disk), None);
     let r = s.get(&id).await;
-    assert_eq!(r.status, pb::JobStatus::Failed as i32, "after a restart: {r:?}");
+    assert_eq!(r.status, JobStatus::Failed, "after a restart: {r:?}");
 }
 
 /// A metric's value in the Prometheus text of `registry`.
@@ -855,8 +867,8 @@ async fn registration_refuses_nonsense_slot_counts_and_bounds_the_name() {
     let dir = tempfile::tempdir().unwrap();
     let s = Sched::start(dir.path());
     for slots in [0, fmucal_proto::MAX_SLOTS + 1, 4_000_000_000] {
-        let req = pb::RegisterRequest { protocol_version: fmucal_proto::PROTOCOL_VERSION, slots, name: "w".into() };
-        let e = s.call(|reply| Command::Register { req, reply }).await.unwrap_err();
+        let registration = Registration { name: "w".into(), slots };
+        let e = s.call(|reply| Command::Register { registration, reply }).await.unwrap_err();
         assert!(matches!(e, CoordinatorError::InvalidArgument(_)), "{slots}: {e}");
         assert!(e.to_string().starts_with("slots: "), "{slots}: {e}");
     }
@@ -884,9 +896,9 @@ async fn an_impossible_result_is_refused_and_its_point_tried_again() {
     held.extend(s.take(&a, 3).await);
     assert_eq!(held.len(), 3);
     let bad = vec![
-        pb::PointResult { value: -1e300, ..ok(&held[0]) },
-        pb::PointResult { value: f64::NAN, ..ok(&held[1]) },
-        pb::PointResult { residuals: vec![1.0; RESIDUALS + 1], ..ok(&held[2]) },
+        changed(ok(&held[0]), |e| e.value = Some(-1e300)),
+        changed(ok(&held[1]), |e| e.value = Some(f64::NAN)),
+        changed(ok(&held[2]), |e| e.residuals = Some(vec![1.0; RESIDUALS + 1])),
     ];
     s.answer(&a, bad).await;
     assert_eq!(metric(&registry, "fmucal_refused_results_total"), 3.0);
@@ -898,14 +910,13 @@ async fn an_impossible_result_is_refused_and_its_point_tried_again() {
     assert_eq!(again, ids(&held));
     let res = result(&r);
     assert_eq!(res.failed_evaluations, 0, "{res:?}");
-    let values: Vec<f64> = res.evaluated.iter().map(|e| e.value).collect();
-    assert_eq!(values, held.iter().map(|p| objective(&p.x)).collect::<Vec<_>>());
+    assert_eq!(values(&res), held.iter().map(|p| objective(&p.x)).collect::<Vec<_>>());
     assert!(res.evaluated.iter().all(|e| e.residuals.len() == RESIDUALS));
 
     // A calibration: -1e300 cannot become its optimum.
     let job = s.submit(de_job(dir.path(), 4, 1)).await;
     let (r, _) =
-        s.drive(&job, &[&a, &b], |w, p| if w == a { pb::PointResult { value: -1e300, ..ok(p) } } else { ok(p) }).await;
+        s.drive(&job, &[&a, &b], |w, p| if w == a { changed(ok(p), |e| e.value = Some(-1e300)) } else { ok(p) }).await;
     assert_eq!(r.status, SUCCEEDED, "{r:?}");
     assert!(result(&r).f_opt >= 0.0, "{:?}", result(&r));
 }
@@ -935,7 +946,7 @@ async fn late_results_are_counted_apart_from_results_never_leased() {
     assert_eq!(metric(&registry, "fmucal_late_results_total"), 2.0);
     assert_eq!(metric(&registry, "fmucal_ignored_results_total"), 0.0);
     // A result for a point never leased to a (b holds it; job-999999 does not exist) is not.
-    let forged = vec![ok(&resent[0]), pb::PointResult { job_id: "job-999999".into(), ..ok(&resent[0]) }];
+    let forged = vec![ok(&resent[0]), Report { job_id: "job-999999".into(), ..ok(&resent[0]) }];
     s.answer(&a, forged).await;
     assert_eq!(metric(&registry, "fmucal_ignored_results_total"), 2.0);
     assert_eq!(metric(&registry, "fmucal_late_results_total"), 2.0);

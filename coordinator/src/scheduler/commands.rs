@@ -1,141 +1,168 @@
-//! The scheduler's protobuf edge: one method per [`Command`](super::Command), each converting
-//! its request into the domain calls of the scheduler's parts and their answers back into
-//! protocol messages. Only this module (and the `Command` enum with its `WatchSender`) names
-//! protobuf types, so the parts are tested without them.
+//! The scheduler's commands: one method per [`Command`](super::Command), each calling the
+//! domain methods of the scheduler's parts, and the plain values those commands take and
+//! answer ([`Submission`], [`JobView`], [`JobSummary`], [`Registration`], [`Registered`],
+//! [`PollRequest`], [`PollAnswer`]). No protobuf here: the service edge ([`crate::edge`])
+//! converts the gRPC messages into these values and their answers back, so the state machine
+//! is driven and tested without proto.
 //!
-//! The job as it was sent is the one protobuf value the scheduler keeps, and it keeps it
-//! encoded: it is stored as those bytes (so a store written before still reads) and decoded
-//! here for a worker that fetches the job, or when a stored job is read back.
+//! The job as it was sent is the one protocol value the scheduler keeps, and it keeps it as
+//! opaque bytes (its encoding, made at the edge): stored as they are (so a store written before
+//! still reads), handed as they are to a worker that fetches the job, and read back through the
+//! edge when a stored job is resumed.
 
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 use std::time::Duration;
 
-use fmucal_proto::convert::{ConvertError, SubmittedJob, evaluation_from_proto, result_to_proto};
-use fmucal_proto::v1 as pb;
-use fmucal_shared::job::{JobRun, JobSpec, JobStatus, PreparedJob};
+use fmucal_shared::job::{CalibrationResult, JobRun, JobSpec, JobStatus, MeasurementTable};
 use fmucal_shared::optim::Optimizer;
-use prost::Message;
 use tokio::sync::oneshot;
 
-use super::jobs::{Job, Progress, Watcher};
-use super::leases::{Lease, Outcome, Report};
+use super::jobs::{Job, Watcher};
+use super::leases::{Lease, Report};
 use super::parking::PollReply;
-use super::{Scheduler, WatchSender, no_job};
+use super::{Scheduler, no_job};
 use crate::error::CoordinatorError;
 use crate::models::ModelStore;
 
-/// The protocol's number for `status`.
-fn wire(status: JobStatus) -> i32 {
-    pb::JobStatus::from(status) as i32
+/// A job ready for the scheduler: checked against its model, and its run built, off the
+/// scheduler task ([`Submission::new`]).
+pub struct Submission {
+    /// The job as it was sent, encoded (opaque to the scheduler): stored as it is, and handed
+    /// to the workers that fetch the job.
+    pub sent: Vec<u8>,
+    /// The job as read.
+    pub job: JobSpec,
+    pub run: JobRun,
 }
 
-fn progress_to_proto(p: &Progress) -> pb::WatchJobResponse {
-    pb::WatchJobResponse {
-        iteration: p.iteration,
-        evaluations: p.evaluations,
-        best_f: p.best_f,
-        best_x: p.best_x.clone(),
-        batch_wall_s: p.batch_wall_s,
-        status: wire(p.status),
-        rounds: p.rounds,
+impl Submission {
+    /// Checks `job` against its model and `data` and builds its run: blocking work, linear in
+    /// the size of the job (whose sizes [`fmucal_shared::job::limits`] caps). The handlers call
+    /// it before a job reaches the scheduler task, so a large or bad request never holds that
+    /// task up. `sent` is the job as it was sent.
+    ///
+    /// # Errors
+    /// INVALID_ARGUMENT naming the field; NOT_FOUND-like INVALID_ARGUMENT for an unknown model.
+    pub fn new(
+        models: &Mutex<ModelStore>,
+        sent: Vec<u8>,
+        job: &JobSpec,
+        data: &[MeasurementTable],
+    ) -> Result<Self, CoordinatorError> {
+        let prepared = super::check_job(models, job, data)?;
+        let run = JobRun::new(&prepared).map_err(|e| CoordinatorError::InvalidArgument(e.to_string()))?;
+        Ok(Submission { sent, job: prepared.spec.clone(), run })
     }
 }
 
-fn assignment(l: Lease) -> pb::Assignment {
-    pb::Assignment {
-        job_id: l.job_id,
-        point_id: l.point_id,
-        x: l.x,
-        want_residuals: l.want_residuals,
-        experiment: u32::try_from(l.experiment).unwrap_or(u32::MAX),
-    }
+/// A job as [`Command::Get`](super::Command::Get) tells it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JobView {
+    pub job_id: String,
+    pub status: JobStatus,
+    /// The job's calibrated parameters, in order (the order of a point's x).
+    pub names: Vec<String>,
+    /// Its result, once it ended.
+    pub result: Option<CalibrationResult>,
+    /// Why it failed, or what keeps it from going on.
+    pub error: Option<String>,
 }
 
-/// A worker's result as a report: handed back, or evaluated (a status other than OK is a
-/// failed simulation, its message the reason).
-fn report(r: pb::PointResult) -> Report {
-    let outcome = if r.status == pb::PointStatus::NotEvaluated as i32 {
-        Outcome::NotEvaluated
-    } else {
-        Outcome::Evaluated(evaluation_from_proto(&r))
-    };
-    Report { job_id: r.job_id, point_id: r.point_id, outcome }
+/// A job as [`Command::List`](super::Command::List) lists it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JobSummary {
+    pub job_id: String,
+    pub status: JobStatus,
+    /// The best value so far (+inf before any point succeeded).
+    pub best_f: f64,
+    pub evaluations: u64,
 }
 
-impl Watcher for WatchSender {
-    fn offer(&self, progress: &Progress) -> bool {
-        self.try_send(Ok(progress_to_proto(progress))).is_ok()
-    }
-
-    fn gone(&self) -> bool {
-        self.is_closed()
-    }
+/// A worker's registration ([`Command::Register`](super::Command::Register)), its protocol
+/// version checked already.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Registration {
+    /// The name it chose (cut and cleaned into its id).
+    pub name: String,
+    /// Points it evaluates at once: 1 to [`fmucal_proto::MAX_SLOTS`].
+    pub slots: u32,
 }
 
-impl PollReply for oneshot::Sender<pb::PollWorkResponse> {
+/// What a registered worker is told.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Registered {
+    pub worker_id: String,
+    /// How often it must heartbeat.
+    pub heartbeat_interval: Duration,
+    /// How long a point may take before it is sent to another worker.
+    pub evaluation_timeout: Duration,
+}
+
+/// A worker's poll ([`Command::Poll`](super::Command::Poll)): its reports on the points it
+/// held, and how many more it takes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PollRequest {
+    pub worker_id: String,
+    pub reports: Vec<Report>,
+    /// Points it takes at most.
+    pub max: usize,
+    /// How long it waits for points if none is queued (at most 10 s).
+    pub wait: Duration,
+}
+
+/// The answer to a poll: the points leased to the worker, and whether it is still registered.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PollAnswer {
+    pub leases: Vec<Lease>,
+    pub known: bool,
+}
+
+impl PollReply for oneshot::Sender<PollAnswer> {
     fn answer(self: Box<Self>, leases: Vec<Lease>, known: bool) {
-        let assignments = leases.into_iter().map(assignment).collect();
-        let _ = (*self).send(pb::PollWorkResponse { assignments, known });
+        let _ = (*self).send(PollAnswer { leases, known });
     }
 
     fn gone(&self) -> bool {
         self.is_closed()
     }
-}
-
-/// A stored job read back from the bytes it was sent as (bytes that do not decode read as an
-/// empty job, which names what it misses).
-pub(super) fn read_sent(sent: &[u8]) -> Result<SubmittedJob, ConvertError> {
-    SubmittedJob::try_from(pb::JobSpec::decode(sent).unwrap_or_default())
-}
-
-/// Checks a submitted job against its model and data: blocking work, linear in the size of the
-/// job (whose sizes [`fmucal_shared::job::limits`] caps). The handlers call it before a job
-/// reaches the scheduler task, so a large or bad request never holds that task up.
-///
-/// # Errors
-/// INVALID_ARGUMENT naming the field; NOT_FOUND-like INVALID_ARGUMENT for an unknown model.
-pub fn prepare(models: &Mutex<ModelStore>, spec: &pb::JobSpec) -> Result<Arc<PreparedJob>, CoordinatorError> {
-    let submitted = SubmittedJob::try_from(spec.clone())?;
-    super::check_job(models, &submitted.spec, &submitted.data)
 }
 
 impl Scheduler {
-    /// [`Command::Submit`](super::Command::Submit): the job is kept as it was sent, encoded.
-    pub(super) fn submit(&mut self, spec: pb::JobSpec, job: JobSpec, run: JobRun) -> Result<String, CoordinatorError> {
-        self.add_job(spec.encode_to_vec(), job, run)
+    /// [`Command::Submit`](super::Command::Submit): the job is kept as it was sent.
+    pub(super) fn submit(&mut self, s: Submission) -> Result<String, CoordinatorError> {
+        self.add_job(s.sent, s.job, s.run)
     }
 
     /// [`Command::Get`](super::Command::Get).
-    pub(super) fn get(&self, job_id: &str) -> Result<pb::GetJobResponse, CoordinatorError> {
+    pub(super) fn get(&self, job_id: &str) -> Result<JobView, CoordinatorError> {
         let j = self.jobs.get(job_id).ok_or_else(|| no_job(job_id))?;
-        Ok(pb::GetJobResponse {
+        Ok(JobView {
             job_id: job_id.to_owned(),
-            status: wire(j.state.status),
-            result: j.state.result.as_ref().map(|r| result_to_proto(r, &j.job.parameter_vectors().0)),
-            error: j.state.error.clone().unwrap_or_default(),
+            status: j.state.status,
+            names: j.job.parameter_vectors().0,
+            result: j.state.result.clone(),
+            error: j.state.error.clone(),
         })
     }
 
     /// [`Command::List`](super::Command::List): the newest first.
-    pub(super) fn list(&self) -> Result<pb::ListJobsResponse, CoordinatorError> {
+    pub(super) fn list(&self) -> Result<Vec<JobSummary>, CoordinatorError> {
         let mut jobs: Vec<(&String, &Job)> = self.jobs.iter().collect();
         jobs.sort_by_key(|(_, j)| std::cmp::Reverse(j.state.seq));
-        let jobs = jobs
+        Ok(jobs
             .into_iter()
-            .map(|(id, j)| pb::JobSummary {
+            .map(|(id, j)| JobSummary {
                 job_id: id.clone(),
-                status: wire(j.state.status),
+                status: j.state.status,
                 best_f: j.state.run.best_f(),
                 evaluations: j.state.run.optimizer().evaluations(),
             })
-            .collect();
-        Ok(pb::ListJobsResponse { jobs })
+            .collect())
     }
 
     /// [`Command::Cancel`](super::Command::Cancel): the job's status after.
-    pub(super) fn cancel(&mut self, job_id: &str) -> Result<i32, CoordinatorError> {
-        self.cancel_job(job_id).map(wire)
+    pub(super) fn cancel(&mut self, job_id: &str) -> Result<JobStatus, CoordinatorError> {
+        self.cancel_job(job_id)
     }
 
     /// [`Command::Delete`](super::Command::Delete).
@@ -144,32 +171,24 @@ impl Scheduler {
     }
 
     /// [`Command::Watch`](super::Command::Watch).
-    pub(super) fn watch(&mut self, job_id: &str, tx: WatchSender) -> Result<(), CoordinatorError> {
-        self.watch_job(job_id, Box::new(tx))
+    pub(super) fn watch(&mut self, job_id: &str, watcher: Box<dyn Watcher>) -> Result<(), CoordinatorError> {
+        self.watch_job(job_id, watcher)
     }
 
-    /// [`Command::Register`](super::Command::Register): checks the worker's protocol version
-    /// and slots.
-    pub(super) fn register(&mut self, req: &pb::RegisterRequest) -> Result<pb::RegisterResponse, CoordinatorError> {
-        if req.protocol_version != fmucal_proto::PROTOCOL_VERSION {
-            return Err(CoordinatorError::InvalidArgument(format!(
-                "protocol_version: worker speaks {}, coordinator speaks {}",
-                req.protocol_version,
-                fmucal_proto::PROTOCOL_VERSION
-            )));
-        }
-        if req.slots == 0 || req.slots > fmucal_proto::MAX_SLOTS {
+    /// [`Command::Register`](super::Command::Register): checks the worker's slots.
+    pub(super) fn register(&mut self, r: &Registration) -> Result<Registered, CoordinatorError> {
+        if r.slots == 0 || r.slots > fmucal_proto::MAX_SLOTS {
             return Err(CoordinatorError::InvalidArgument(format!(
                 "slots: a worker has 1 to {} slots, not {}",
                 fmucal_proto::MAX_SLOTS,
-                req.slots
+                r.slots
             )));
         }
-        let worker_id = self.leases.register(&req.name, req.slots as usize);
-        Ok(pb::RegisterResponse {
+        let worker_id = self.leases.register(&r.name, r.slots as usize);
+        Ok(Registered {
             worker_id,
-            heartbeat_interval_ms: self.timing.heartbeat_interval.as_millis() as u64,
-            evaluation_timeout_ms: self.timing.evaluation_timeout.as_millis() as u64,
+            heartbeat_interval: self.timing.heartbeat_interval,
+            evaluation_timeout: self.timing.evaluation_timeout,
         })
     }
 
@@ -178,18 +197,15 @@ impl Scheduler {
         Ok(self.leases.heartbeat(worker_id))
     }
 
-    /// [`Command::FetchJob`](super::Command::FetchJob): the job as it was sent.
-    pub(super) fn fetch_job(&self, job_id: &str) -> Result<pb::JobSpec, CoordinatorError> {
+    /// [`Command::FetchJob`](super::Command::FetchJob): the job as it was sent, encoded.
+    pub(super) fn fetch_job(&self, job_id: &str) -> Result<Vec<u8>, CoordinatorError> {
         let j = self.jobs.get(job_id).ok_or_else(|| no_job(job_id))?;
-        pb::JobSpec::decode(j.sent.as_slice())
-            .map_err(|e| CoordinatorError::Storage(format!("job {job_id}: its spec does not decode: {e}")))
+        Ok(j.sent.clone())
     }
 
     /// [`Command::Poll`](super::Command::Poll): answered now, or parked until points are
     /// queued or its wait is over.
-    pub(super) fn poll(&mut self, req: pb::PollWorkRequest, reply: oneshot::Sender<pb::PollWorkResponse>) {
-        let reports = req.results.into_iter().map(report).collect();
-        let wait = Duration::from_millis(u64::from(req.wait_ms));
-        self.serve_poll(req.worker_id, reports, req.max_points as usize, wait, Box::new(reply));
+    pub(super) fn poll(&mut self, req: PollRequest, reply: oneshot::Sender<PollAnswer>) {
+        self.serve_poll(req.worker_id, req.reports, req.max, req.wait, Box::new(reply));
     }
 }

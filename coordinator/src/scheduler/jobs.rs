@@ -3,7 +3,7 @@
 //! retention of finished jobs.
 //!
 //! A job is held in domain types: the [`JobSpec`] as read and the stored [`JobState`]. The job
-//! as it was sent is kept only as opaque bytes (its protobuf encoding, converted at the edge),
+//! as it was sent is kept only as opaque bytes (its protobuf encoding, made at the service edge),
 //! for the store and for the workers that fetch it. The table knows neither workers (their
 //! leases are [`super::leases`]'s, though a point records who holds it) nor the store
 //! ([`super::persist`]), so each change of a job's life is a plain method here that the
@@ -176,22 +176,22 @@ impl Batch {
 
 /// A job's progress, as its watchers are told it.
 #[derive(Debug, Clone, PartialEq)]
-pub(super) struct Progress {
-    pub(super) iteration: u64,
-    pub(super) evaluations: u64,
+pub struct Progress {
+    pub iteration: u64,
+    pub evaluations: u64,
     /// +inf before any point is told.
-    pub(super) best_f: f64,
+    pub best_f: f64,
     /// Empty before any point is told.
-    pub(super) best_x: Vec<f64>,
+    pub best_x: Vec<f64>,
     /// Wall time of the round just completed (0 outside a round's end).
-    pub(super) batch_wall_s: f64,
-    pub(super) status: JobStatus,
-    pub(super) rounds: u64,
+    pub batch_wall_s: f64,
+    pub status: JobStatus,
+    pub rounds: u64,
 }
 
 /// Where a job's progress goes (a client's watch stream). Sends never wait: a watcher too slow
 /// to take an event misses it.
-pub(super) trait Watcher: Send {
+pub trait Watcher: Send {
     /// Offers `progress`; false if it was not taken (the watcher is full or gone).
     fn offer(&self, progress: &Progress) -> bool;
     /// Whether the watcher has gone away.

@@ -10,7 +10,7 @@
 //! ([`Released`]).
 //!
 //! Workers and reports are domain values here ([`Lease`], [`Report`]); their protobuf forms
-//! are converted at the scheduler's edge.
+//! are converted at the service edge ([`crate::edge`]).
 
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::time::Duration;
@@ -24,25 +24,27 @@ use super::jobs::OpenBatch;
 
 /// A point leased to a worker, as it is handed out.
 #[derive(Debug, Clone, PartialEq)]
-pub(super) struct Lease {
-    pub(super) job_id: String,
-    pub(super) point_id: u64,
-    pub(super) x: Vec<f64>,
-    pub(super) want_residuals: bool,
+pub struct Lease {
+    pub job_id: String,
+    pub point_id: u64,
+    /// The point, in the order of the job's calibrated parameters.
+    pub x: Vec<f64>,
+    /// Whether the job wants the weighted residuals with the value.
+    pub want_residuals: bool,
     /// The experiment's index in the job.
-    pub(super) experiment: usize,
+    pub experiment: usize,
 }
 
 /// What a worker reports on a point it was leased.
-#[derive(Debug, Clone)]
-pub(super) struct Report {
-    pub(super) job_id: String,
-    pub(super) point_id: u64,
-    pub(super) outcome: Outcome,
+#[derive(Debug, Clone, PartialEq)]
+pub struct Report {
+    pub job_id: String,
+    pub point_id: u64,
+    pub outcome: Outcome,
 }
 
-#[derive(Debug, Clone)]
-pub(super) enum Outcome {
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
     /// Handed back without evaluating it (the worker is stopping).
     NotEvaluated,
     /// Evaluated: a value, or the reason the simulation failed.

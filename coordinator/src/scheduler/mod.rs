@@ -18,14 +18,18 @@
 //! told results only through its ask/tell interface, so the trajectory is the same whatever the
 //! number of workers.
 //!
-//! The state is split by concern, each part a struct of its own that knows nothing of
-//! protobuf: `jobs` (the job table, each job's open batch, its watchers, retention),
-//! `leases` (the worker registry, the points each holds and gave up, leasing),
-//! `parking` (long polls waiting for work) and `persist` (the store's writes and reads).
-//! This module composes them: each change that concerns several parts (a point told, a job
-//! finished, a worker expired) is one method here, and the metrics are read from the parts.
-//! `commands` is the protobuf edge: one method per [`Command`], converting the request into
-//! these methods' domain values and their answers back.
+//! The state is split by concern, each part a struct of its own: `jobs` (the job table, each
+//! job's open batch, its watchers, retention), `leases` (the worker registry, the points each
+//! holds and gave up, leasing), `parking` (long polls waiting for work) and `persist` (the
+//! store's writes and reads). This module composes them: each change that concerns several
+//! parts (a point told, a job finished, a worker expired) is one method here, and the metrics
+//! are read from the parts. `commands` has one method per [`Command`] and the values the
+//! commands carry.
+//!
+//! Nothing here knows protobuf: a [`Command`] and its answer are domain values ([`Submission`],
+//! [`JobView`], [`Registration`], [`PollRequest`], [`Lease`], [`Report`], [`Progress`], ...),
+//! and the service edge ([`crate::edge`]) converts the gRPC messages to them and back. The one
+//! protocol value kept, the job as it was sent, is kept as opaque bytes ([`Submission::sent`]).
 
 mod commands;
 mod jobs;
@@ -39,7 +43,6 @@ use std::time::Duration;
 // tokio's clock, so tests can pause and advance it.
 use tokio::time::Instant;
 
-use fmucal_proto::v1 as pb;
 use fmucal_shared::job::{Evaluation, JobRun, JobSpec, JobStatus, MeasurementTable, PreparedJob};
 use fmucal_shared::optim::Optimizer;
 use tokio::sync::{mpsc, oneshot};
@@ -48,61 +51,66 @@ use crate::error::{CoordinatorError, quote};
 use crate::metrics::{CoordinatorMetrics, Gauges};
 use crate::models::ModelStore;
 use crate::store::{JobState, Store, Told};
-use jobs::{Attempt, Job, Jobs, Retry, Watcher};
-use leases::{Answer, Lease, Leases, Outcome, Report, impossible_result};
+use jobs::{Attempt, Job, Jobs, Retry};
+use leases::{Answer, Leases, impossible_result};
 use parking::{MAX_POLL_WAIT, Parking, PollReply};
 use persist::Persistence;
 
-pub use commands::prepare;
+pub use commands::{JobSummary, JobView, PollAnswer, PollRequest, Registered, Registration, Submission};
+pub use jobs::{Progress, Watcher};
+pub use leases::{Lease, Outcome, Report};
 
 type Reply<T> = oneshot::Sender<Result<T, CoordinatorError>>;
-pub type WatchSender = mpsc::Sender<Result<pb::WatchJobResponse, tonic::Status>>;
 
-/// Requests to the scheduler.
+/// Requests to the scheduler, each answered on its `reply`.
 pub enum Command {
-    /// A job checked and its run built by the handler ([`prepare`]), off this task: as sent,
-    /// as read, and its run.
+    /// A job checked and its run built by the handler ([`Submission::new`]), off this task.
+    /// Answered with the new job's id.
     Submit {
-        spec: pb::JobSpec,
-        job: Box<JobSpec>,
-        run: Box<JobRun>,
+        job: Box<Submission>,
         reply: Reply<String>,
     },
     Get {
         job_id: String,
-        reply: Reply<pb::GetJobResponse>,
+        reply: Reply<JobView>,
     },
+    /// Every job, the newest first.
     List {
-        reply: Reply<pb::ListJobsResponse>,
+        reply: Reply<Vec<JobSummary>>,
     },
+    /// Cancels a running job; answered with the job's status after.
     Cancel {
         job_id: String,
-        reply: Reply<i32>,
+        reply: Reply<JobStatus>,
     },
     Delete {
         job_id: String,
         reply: Reply<()>,
     },
+    /// Tells `watcher` the job's progress now, and while it runs at every completed round
+    /// and at its end.
     Watch {
         job_id: String,
-        tx: WatchSender,
+        watcher: Box<dyn Watcher>,
         reply: Reply<()>,
     },
     Register {
-        req: pb::RegisterRequest,
-        reply: Reply<pb::RegisterResponse>,
+        registration: Registration,
+        reply: Reply<Registered>,
     },
     Heartbeat {
         worker_id: String,
         reply: Reply<bool>,
     },
+    /// The job as it was sent, encoded ([`Submission::sent`]).
     FetchJob {
         job_id: String,
-        reply: Reply<pb::JobSpec>,
+        reply: Reply<Vec<u8>>,
     },
+    /// Answered at once, or once points are queued, or when its wait is over.
     Poll {
-        req: pb::PollWorkRequest,
-        reply: oneshot::Sender<pb::PollWorkResponse>,
+        req: PollRequest,
+        reply: oneshot::Sender<PollAnswer>,
     },
 }
 
@@ -156,7 +164,7 @@ impl Scheduler {
         for (id, sent, mut state) in s.persist.stored_jobs()? {
             s.jobs.skip_past(state.seq + 1);
             s.jobs.ended_before(state.finished_seq);
-            let submitted = match commands::read_sent(&sent) {
+            let submitted = match crate::edge::read_sent(&sent) {
                 Ok(j) => j,
                 Err(e) => {
                     tracing::error!(job = %id, "the stored job cannot be read, so it is not listed: {e}");
@@ -289,13 +297,13 @@ impl Scheduler {
     /// Hands each command to its method ([`commands`]).
     fn handle(&mut self, cmd: Command) {
         match cmd {
-            Command::Submit { spec, job, run, reply } => answer(reply, self.submit(spec, *job, *run)),
+            Command::Submit { job, reply } => answer(reply, self.submit(*job)),
             Command::Get { job_id, reply } => answer(reply, self.get(&job_id)),
             Command::List { reply } => answer(reply, self.list()),
             Command::Cancel { job_id, reply } => answer(reply, self.cancel(&job_id)),
             Command::Delete { job_id, reply } => answer(reply, self.delete(&job_id)),
-            Command::Watch { job_id, tx, reply } => answer(reply, self.watch(&job_id, tx)),
-            Command::Register { req, reply } => answer(reply, self.register(&req)),
+            Command::Watch { job_id, watcher, reply } => answer(reply, self.watch(&job_id, watcher)),
+            Command::Register { registration, reply } => answer(reply, self.register(&registration)),
             Command::Heartbeat { worker_id, reply } => answer(reply, self.heartbeat(&worker_id)),
             Command::FetchJob { job_id, reply } => answer(reply, self.fetch_job(&job_id)),
             Command::Poll { req, reply } => self.poll(req, reply),
@@ -634,7 +642,7 @@ fn same_bits(a: &[f64], b: &[f64]) -> bool {
     a.len() == b.len() && a.iter().zip(b).all(|(u, v)| u.to_bits() == v.to_bits())
 }
 
-/// Checks `job` against its model and `data` ([`prepare`], for a job read already).
+/// Checks `job` against its model and `data` ([`Submission::new`], and a stored job resumed).
 fn check_job(
     models: &Mutex<ModelStore>,
     job: &JobSpec,
