@@ -386,15 +386,4 @@ impl fmucal_diagnose::driver::Evaluate for OnCoordinator {
         let data = std::slice::from_ref(data);
         self.0.calibrate_with(job, data, model, events).await.map_err(fmucal_diagnose::error::Error::evaluate)
     }
-
-    async fn evaluate(
-        &mut self,
-        job: &JobSpec,
-        points: Vec<Vec<f64>>,
-        data: &MeasurementTable,
-        model: &Path,
-    ) -> Result<Vec<EvaluatedPoint>, fmucal_diagnose::error::Error> {
-        let data = std::slice::from_ref(data);
-        self.0.evaluate(job, points, data, model).await.map_err(fmucal_diagnose::error::Error::evaluate)
-    }
 }

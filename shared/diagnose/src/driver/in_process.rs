@@ -7,7 +7,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use fmucal_shared::fmu::Fmu;
-use fmucal_shared::job::{CalibrationResult, EvaluatedPoint, JobSpec, MeasurementTable, PreparedJob};
+use fmucal_shared::job::{CalibrationResult, JobSpec, MeasurementTable, PreparedJob};
 
 use super::{Evaluate, Progress};
 use crate::error::Error;
@@ -42,16 +42,5 @@ impl Evaluate for InProcess {
             progress(p);
         }
         Ok(run.await.map_err(|e| Error::msg(format!("an in-process calibration panicked: {e}")))??)
-    }
-
-    async fn evaluate(
-        &mut self,
-        job: &JobSpec,
-        points: Vec<Vec<f64>>,
-        data: &MeasurementTable,
-        model: &Path,
-    ) -> Result<Vec<EvaluatedPoint>, Error> {
-        let result = self.calibrate(&job.evaluating_points(points), data, model, &|_| {}).await?;
-        Ok(result.evaluated)
     }
 }

@@ -104,14 +104,17 @@ pub trait Evaluate: Clone + Send + Sync + 'static {
     ) -> impl Future<Output = Result<CalibrationResult, Error>> + Send;
 
     /// Evaluates `points` of `job` (in its parameter order), with their residual vectors, in
-    /// the order given.
+    /// the order given: a job that evaluates them ([`JobSpec::evaluating_points`]).
     fn evaluate(
         &mut self,
         job: &JobSpec,
         points: Vec<Vec<f64>>,
         data: &MeasurementTable,
         model: &Path,
-    ) -> impl Future<Output = Result<Vec<EvaluatedPoint>, Error>> + Send;
+    ) -> impl Future<Output = Result<Vec<EvaluatedPoint>, Error>> + Send {
+        let job = job.evaluating_points(points);
+        async move { Ok(self.calibrate(&job, data, model, &|_| {}).await?.evaluated) }
+    }
 }
 
 /// What a diagnosis reports while it runs (rounds count from 0).
