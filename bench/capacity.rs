@@ -26,9 +26,12 @@
 //! CMA-ES, 20), FMUCAL_CAPACITY_FEVALS (evaluations per job, 4000), FMUCAL_CAPACITY_PARAMETERS
 //! (1 to 4, 2), FMUCAL_CAPACITY_WARMUP_S (5).
 
+#[path = "service_common.rs"]
+mod service_common;
+
 use std::collections::HashSet;
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -36,7 +39,6 @@ use std::time::{Duration, Instant};
 use fmucal_proto::auth::AttachToken;
 use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::v1 as pb;
-use fmucal_proto::v1::calibration_client::CalibrationClient;
 use fmucal_proto::v1::worker_pool_client::WorkerPoolClient;
 use fmucal_shared::job::{JobSpec, MeasurementTable};
 use redb::{ReadableDatabase, ReadableTable, ReadableTableMetadata, TableDefinition};
@@ -60,7 +62,6 @@ const BUCKET_US: u64 = 10;
 const BUCKETS: usize = 500_000;
 
 type Worker = WorkerPoolClient<InterceptedService<Channel, AttachToken>>;
-type Client = CalibrationClient<InterceptedService<Channel, AttachToken>>;
 
 fn knob(name: &str, default: u64) -> u64 {
     match std::env::var(name) {
@@ -218,14 +219,7 @@ fn quantile(h: &[u64], q: f64) -> f64 {
 }
 
 async fn connect(url: &str) -> Channel {
-    let deadline = Instant::now() + Duration::from_secs(30);
-    loop {
-        match tonic::transport::Endpoint::from_shared(url.to_owned()).unwrap().tcp_nodelay(true).connect().await {
-            Ok(ch) => return ch,
-            Err(e) if Instant::now() > deadline => panic!("the coordinator at {url} does not answer: {e}"),
-            Err(_) => tokio::time::sleep(Duration::from_millis(50)).await,
-        }
-    }
+    service_common::channel(url, Duration::from_secs(30)).await
 }
 
 fn token() -> AttachToken {
@@ -473,16 +467,10 @@ fn main() {
     let url = format!("http://127.0.0.1:{port}");
     let data_dir = dir.path().join("coordinator-data");
     let log = std::fs::File::create(dir.path().join("coordinator.log")).unwrap();
-    let child = Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(["coordinator", "--listen", &format!("127.0.0.1:{port}"), "--keep-finished-jobs", "50", "--data-dir"])
-        .arg(&data_dir)
-        .env("FMUCAL_TOKEN", TOKEN)
-        .env_remove("FMUCAL_WORKER_TOKEN")
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(log)
-        .spawn()
-        .expect("cannot start the coordinator");
+    let listen = format!("127.0.0.1:{port}");
+    let args =
+        ["coordinator", "--listen", &listen, "--keep-finished-jobs", "50", "--data-dir", data_dir.to_str().unwrap()];
+    let child = service_common::spawn_fmucal(&args, TOKEN, log).expect("cannot start the coordinator");
     let pid = child.id();
     let mut coordinator = Coordinator { child, dir };
     let ideal = if k.sim.is_zero() { f64::NAN } else { k.slots as f64 / k.sim.as_secs_f64() };
@@ -514,14 +502,9 @@ fn main() {
         simulated_us: AtomicU64::new(0),
     });
     let report = rt.block_on(async {
-        let mut c: Client = CalibrationClient::with_interceptor(connect(&url).await, token());
+        let mut c = service_common::client(connect(&url).await, TOKEN);
         let bytes = std::fs::read(fmucal_models::example("decay").unwrap()).unwrap();
-        let model = c
-            .upload_model(tokio_stream::iter(vec![pb::UploadModelRequest { chunk: bytes }]))
-            .await
-            .unwrap()
-            .into_inner()
-            .model_id;
+        let model = service_common::upload_model(&mut c, bytes).await;
         // The workers: slots spread over the connections as evenly as they go.
         for i in 0..k.connections {
             let slots = k.slots / k.connections + usize::from(i < k.slots % k.connections);

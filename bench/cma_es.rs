@@ -6,6 +6,9 @@
 //! or f_tol), as pycma's do with its defaults. Prints JSON (one object per run) to stdout or
 //! `--json FILE`; `bench/cma_es_pycma.py` runs pycma on the same cases.
 
+#[path = "json_rows.rs"]
+mod json_rows;
+
 use fmucal_shared::optim::test_problems::{rastrigin, rosenbrock, run};
 use fmucal_shared::optim::{CmaEs, CmaSettings, Optimizer, Outcome, Stopping};
 
@@ -28,8 +31,6 @@ pub const CASES: [Case; 2] = [
 ];
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let json_out = args.iter().position(|a| a == "--json").and_then(|i| args.get(i + 1)).cloned();
     let mut rows = vec![];
     for Case { name, f, lower, upper, x0 } in CASES {
         for budget in BUDGETS {
@@ -54,9 +55,5 @@ fn main() {
             }
         }
     }
-    let text = serde_json::to_string_pretty(&rows).expect("json");
-    match json_out {
-        Some(path) => std::fs::write(path, text).expect("write"),
-        None => println!("{text}"),
-    }
+    json_rows::write(&rows);
 }

@@ -12,11 +12,4 @@
 #   DIAGNOSIS_GRID_DIR=/tmp/exported DIAGNOSIS_GRID_CASES=6,7,10 bash bench/diagnose_exported.sh
 #   bash bench/diagnose_exported.sh
 set -euo pipefail
-cd "$(dirname "$0")/.."
-log=$(mktemp)
-trap 'rm -f "$log"' EXIT
-if ! cargo test --release --locked --test diagnosis_exported -- --ignored --nocapture --test-threads 1 full_grid >"$log" 2>&1; then
-  tail -n 40 "$log"
-  exit 1
-fi
-grep -E '^(\||target:|miss:|    )' "$log"
+exec bash "$(dirname "$0")/full_grid.sh" diagnosis_exported '^(\||target:|miss:|    )'

@@ -9,11 +9,4 @@
 #   DIAGNOSIS_GRID_DIR=/tmp/gridcases DIAGNOSIS_GRID_CASES=6,7,10 bash bench/diagnose_grid.sh
 #   bash bench/diagnose_grid.sh
 set -euo pipefail
-cd "$(dirname "$0")/.."
-log=$(mktemp)
-trap 'rm -f "$log"' EXIT
-if ! cargo test --release --locked --test diagnosis_grid -- --ignored --nocapture --test-threads 1 full_grid >"$log" 2>&1; then
-  tail -n 40 "$log"
-  exit 1
-fi
-grep -E '^(\||true effect|no effect found on|validation RMS above|raw validation RMS|at 10 %)' "$log"
+exec bash "$(dirname "$0")/full_grid.sh" diagnosis_grid '^(\||true effect|no effect found on|validation RMS above|raw validation RMS|at 10 %)'

@@ -42,16 +42,7 @@ path = "$work/data.csv"
 [[outputs]]
 variable = "mass.x"
 column = "x"
-[[parameters]]
-name = "k"
-start = 3.5
-lower = 0.5
-upper = 10.0
-[[parameters]]
-name = "d"
-start = 0.4
-lower = 0.0
-upper = 2.0
+$(cat tests/data/parameters/spring_mass.toml)
 [simulation]
 tolerance = 1e-6
 [optimizer]

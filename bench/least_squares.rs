@@ -19,6 +19,9 @@
 //!
 //! Prints JSON (one object per problem) to stdout or `--json FILE`; `--tau T` changes τ.
 
+#[path = "json_rows.rs"]
+mod json_rows;
+
 use fmucal_shared::optim::least_squares_problems::{CALIBRATION, LsProblem, MGH_LS};
 use fmucal_shared::optim::{LeastSquares, LsSettings, NelderMead, NmSettings, Optimizer, Outcome, Stopping};
 
@@ -108,9 +111,7 @@ fn default_runs(p: &LsProblem) -> ((u64, u64, f64), (u64, u64, f64)) {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let arg = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned();
-    let tau: f64 = arg("--tau").map_or(1e-5, |t| t.parse().expect("--tau takes a number"));
+    let tau: f64 = json_rows::option("--tau").map_or(1e-5, |t| t.parse().expect("--tau takes a number"));
     let mut rows = vec![];
     for (p, calibration) in MGH_LS.iter().map(|p| (p, false)).chain(CALIBRATION.iter().map(|p| (p, true))) {
         let f0 = p.f(p.x0);
@@ -134,9 +135,5 @@ fn main() {
         eprintln!("{row}");
         rows.push(row);
     }
-    let text = serde_json::to_string_pretty(&rows).expect("json");
-    match arg("--json") {
-        Some(path) => std::fs::write(path, text).expect("write"),
-        None => println!("{text}"),
-    }
+    json_rows::write(&rows);
 }

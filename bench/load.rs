@@ -14,21 +14,19 @@
 //! Knobs (environment): FMUCAL_LOAD_JOBS (300), FMUCAL_LOAD_WORKERS (4), FMUCAL_LOAD_POPULATION
 //! (DE population, 16), FMUCAL_LOAD_GENERATIONS (DE generations, 500).
 
+#[path = "service_common.rs"]
+mod service_common;
+
 use std::collections::HashMap;
 use std::path::Path;
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::process::{Child, Command, ExitStatus};
 use std::time::{Duration, Instant};
 
-use fmucal_proto::auth::AttachToken;
 use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::v1 as pb;
-use fmucal_proto::v1::calibration_client::CalibrationClient;
 use fmucal_shared::job::{JobSpec, MeasurementTable};
 
 const TOKEN: &str = "load-bench-token-0123456789";
-
-type Client =
-    CalibrationClient<tonic::service::interceptor::InterceptedService<tonic::transport::Channel, AttachToken>>;
 
 fn knob(name: &str, default: u64) -> u64 {
     match std::env::var(name) {
@@ -86,15 +84,8 @@ struct Servers {
 impl Servers {
     fn spawn(&mut self, name: &str, args: &[&str]) -> u32 {
         let log = std::fs::File::create(self.dir.path().join(format!("{name}.log"))).unwrap();
-        let child = Command::new(env!("CARGO_BIN_EXE_fmucal"))
-            .args(args)
-            .env("FMUCAL_TOKEN", TOKEN)
-            .env_remove("FMUCAL_WORKER_TOKEN")
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(log)
-            .spawn()
-            .unwrap_or_else(|e| panic!("cannot start {name}: {e}"));
+        let child =
+            service_common::spawn_fmucal(args, TOKEN, log).unwrap_or_else(|e| panic!("cannot start {name}: {e}"));
         let pid = child.id();
         // The coordinator is stopped last.
         if name == "coordinator" {
@@ -152,15 +143,8 @@ impl Drop for Servers {
     }
 }
 
-async fn connect(url: &str) -> Client {
-    let deadline = Instant::now() + Duration::from_secs(20);
-    loop {
-        match tonic::transport::Endpoint::from_shared(url.to_owned()).unwrap().connect().await {
-            Ok(ch) => return CalibrationClient::with_interceptor(ch, AttachToken::new(Some(TOKEN)).unwrap()),
-            Err(e) if Instant::now() > deadline => panic!("the coordinator at {url} does not answer: {e}"),
-            Err(_) => tokio::time::sleep(Duration::from_millis(50)).await,
-        }
-    }
+async fn connect(url: &str) -> service_common::Client {
+    service_common::client(service_common::channel(url, Duration::from_secs(20)).await, TOKEN)
 }
 
 fn ended(status: i32) -> bool {
@@ -224,12 +208,7 @@ fn main() {
     let report = rt.block_on(async {
         let mut c = connect(&url).await;
         let bytes = std::fs::read(fmucal_models::example("decay").unwrap()).unwrap();
-        let model = c
-            .upload_model(tokio_stream::iter(vec![pb::UploadModelRequest { chunk: bytes }]))
-            .await
-            .unwrap()
-            .into_inner()
-            .model_id;
+        let model = service_common::upload_model(&mut c, bytes).await;
         let spec = job(&model, population, generations);
         tokio::time::sleep(Duration::from_secs(2)).await; // let every worker register
 

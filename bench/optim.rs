@@ -5,6 +5,9 @@
 //! problem's box (population 15·n, rand/1/bin, F 0.8, CR 0.9, median of 5 seeds).
 //! Prints JSON (one object per problem) to stdout or `--json FILE`.
 
+#[path = "json_rows.rs"]
+mod json_rows;
+
 use std::cell::Cell;
 
 use fmucal_shared::optim::test_problems::{MGH, Problem};
@@ -69,8 +72,6 @@ fn differential_evolution(p: &Problem, seed: u64) -> (f64, u64) {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let json_out = args.iter().position(|a| a == "--json").and_then(|i| args.get(i + 1)).cloned();
     let mut rows = vec![];
     for p in MGH {
         let (seq_evals, _, seq_best) = nelder_mead(p, false);
@@ -86,9 +87,5 @@ fn main() {
         eprintln!("{row}");
         rows.push(row);
     }
-    let text = serde_json::to_string_pretty(&rows).expect("json");
-    match json_out {
-        Some(path) => std::fs::write(path, text).expect("write"),
-        None => println!("{text}"),
-    }
+    json_rows::write(&rows);
 }

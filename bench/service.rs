@@ -8,14 +8,15 @@
 //!   T₁ / (N·T_N), measured from submission (each worker's one-time job start included).
 //! - **Worker RSS** after 10,000 evaluations (growth from the 500th evaluation on).
 
+#[path = "service_common.rs"]
+mod service_common;
+
 use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use fmucal_proto::auth::AttachToken;
 use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::v1 as pb;
-use fmucal_proto::v1::calibration_client::CalibrationClient;
 use fmucal_shared::fmu::Fmu;
 use fmucal_shared::job::{Evaluator, JobSpec, MeasurementTable, PreparedJob};
 
@@ -55,9 +56,6 @@ fn rss_mb(pid: u32) -> f64 {
         .unwrap_or(f64::NAN)
 }
 
-type Client =
-    CalibrationClient<tonic::service::interceptor::InterceptedService<tonic::transport::Channel, AttachToken>>;
-
 /// Runs a job on `workers` fresh worker processes; returns (seconds from submit to done,
 /// evaluations, RSS samples of the first worker at `sample_at` evaluations and at the end).
 async fn run(spec: &JobSpec, data: &MeasurementTable, workers: usize, sample_at: u64) -> (f64, u64, f64, f64) {
@@ -74,14 +72,9 @@ async fn run(spec: &JobSpec, data: &MeasurementTable, workers: usize, sample_at:
     }));
     let mut children: Vec<Child> = (0..workers).map(|_| worker(&url, &dir.path().join("w"))).collect();
     let ch = tonic::transport::Endpoint::from_shared(url.clone()).unwrap().connect().await.unwrap();
-    let mut c: Client = CalibrationClient::with_interceptor(ch, AttachToken::new(Some(TOKEN)).unwrap());
+    let mut c = service_common::client(ch, TOKEN);
     let bytes = std::fs::read(spec.model.path.as_ref().unwrap()).unwrap();
-    let model = c
-        .upload_model(tokio_stream::iter(vec![pb::UploadModelRequest { chunk: bytes }]))
-        .await
-        .unwrap()
-        .into_inner()
-        .model_id;
+    let model = service_common::upload_model(&mut c, bytes).await;
     tokio::time::sleep(Duration::from_millis(2000)).await; // let every worker register
     let t0 = Instant::now();
     let id = c

@@ -14,7 +14,7 @@
 //!
 //! Generated cases simulate their data from the fixture at its defaults (tolerance 1e-10) and
 //! add seeded Gaussian noise of 1 % of each output's range, as the diagnosis grids do; their
-//! jobs copy the grids' `[[parameters]]`, `[simulation]` and `[optimizer]` tables.
+//! inputs and jobs are the grids' (`tests/common/diagnosis.rs`).
 //!
 //! Each case runs from the job's start and from `RANDOM_STARTS` seeded random starts, uniform
 //! on the middle 90 % of each parameter's bounds (of its logarithm for `scale = "log"`). The
@@ -31,14 +31,21 @@
 //! `--case TEXT` runs the cases whose name contains TEXT; `--f-tol VALUE` replaces every job's
 //! `f_tol` (for both solvers), to tell a stopping rule from a solver that is stuck.
 
+#[path = "../tests/common/mod.rs"]
+mod common;
 #[path = "solver_runs.rs"]
 mod solver_runs;
 
 use std::path::{Path, PathBuf};
 
+use common::diagnosis::{
+    EXHAUST_SETTINGS, FURUTA_EXPORTED_SIMULATION, GRID_SIMULATION, Inputs, Model, Rng, SPRING_MASS_EXPORTED_SIMULATION,
+    TIGHT_OPTIMIZER, exhaust_inputs, exported_spring_mass_inputs, furuta_inputs, noise_free_spec, noise_sigmas,
+    spring_mass_inputs, time_grid,
+};
 use fmucal_models::Fixture;
-use fmucal_shared::job::{Algorithm, JobSpec, MeasurementTable};
-use fmucal_shared::sim::{InputTable, OutputTimes, PortTerm, SimSpec, simulate};
+use fmucal_shared::job::{Algorithm, JobSpec};
+use fmucal_shared::sim::{PortTerm, SimSpec, simulate};
 use solver_runs::{Problem, Run, load, prepare, run};
 
 const THREADS: usize = 2;
@@ -46,32 +53,12 @@ const RANDOM_STARTS: usize = 3;
 const NOISE: f64 = 0.01;
 const SOLVERS: [Algorithm; 2] = [Algorithm::NelderMead, Algorithm::LeastSquares];
 
-/// SplitMix64 and Box–Muller: seeded uniform and Gaussian numbers without a dependency.
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn gaussian(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform().max(1e-300), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-}
-
-/// Input columns of a generated case: (data column, FMU input, samples).
-type Inputs = Vec<(&'static str, &'static str, Vec<f64>)>;
-
 /// A case whose data is simulated here.
+#[derive(Default)]
 struct Generated {
     /// The model the data comes from (a fixture that may hide an effect).
     data_fmu: PathBuf,
-    /// Values set on `data_fmu` and effects injected into it for the data.
+    /// Values set on `data_fmu` and effects injected into it for the data (none by default).
     set: Vec<(&'static str, f64)>,
     port_terms: Vec<PortTerm>,
     /// The job's model.
@@ -96,95 +83,6 @@ struct Case {
     source: Source,
 }
 
-fn grid(n: usize, dt: f64) -> Vec<f64> {
-    (0..=n).map(|k| k as f64 * dt).collect()
-}
-
-/// The Furuta inputs of `tests/diagnosis_grid.rs`: 0 torque pulses then a free swing, 1 a
-/// two-tone sine whose amplitude grows threefold.
-fn furuta_inputs(profile: usize) -> (Vec<f64>, Inputs) {
-    let time = grid(1000, 0.01);
-    let u = time
-        .iter()
-        .map(|t| match profile {
-            0 if *t < 1.0 => 0.08,
-            0 if *t < 2.0 => -0.08,
-            0 if (4.0..4.5).contains(t) => 0.1,
-            0 => 0.0,
-            _ => (0.5 + 0.1 * t) * (0.05 * (1.3 * t).sin() + 0.02 * (4.1 * t).sin()),
-        })
-        .collect();
-    (time, vec![("u", "u", u)])
-}
-
-/// The exhaust pipe's measured inputs up to 1800 s (`examples/exhaust/exhaust_data.csv`).
-fn exhaust_inputs() -> (Vec<f64>, Inputs) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/exhaust/exhaust_data.csv");
-    let data = MeasurementTable::read(&path, "time").expect("the exhaust data reads");
-    let rows = data.time.partition_point(|t| *t <= 1800.0);
-    let columns = ["inlet.T", "inlet.p", "turbine1.w", "turbine2.w", "outlet.p"]
-        .map(|c| (c, c, data.column(c).expect("an exhaust input")[..rows].to_vec()))
-        .to_vec();
-    (data.time[..rows].to_vec(), columns)
-}
-
-const FURUTA_OUTPUTS: &[(&str, &str)] = &[("armJoint.phi", "phi"), ("pendulumJoint.phi", "theta")];
-const SPRING_OUTPUTS: &[(&str, &str)] = &[("mass.x", "x")];
-const EXHAUST_OUTPUTS: &[(&str, &str)] = &[("outlet.T", "outlet_T")];
-
-const FURUTA_PARAMETERS: &str = r#"
-[[parameters]]
-name = "armFriction"
-start = 0.01
-lower = 0.0
-upper = 0.05
-[[parameters]]
-name = "pendulumFriction"
-start = 0.003
-lower = 0.0
-upper = 0.02
-"#;
-
-const SPRING_PARAMETERS: &str = r#"
-[[parameters]]
-name = "k"
-start = 3.5
-lower = 0.5
-upper = 10.0
-[[parameters]]
-name = "d"
-start = 0.4
-lower = 0.0
-upper = 2.0
-"#;
-
-const EXHAUST_BODY: &str = r#"
-[[parameters]]
-name = "rightVolume.wallCapacity"
-start = 12000.0
-lower = 1000.0
-upper = 100000.0
-[[parameters]]
-name = "rightVolume.wallConductance"
-start = 80.0
-lower = 5.0
-upper = 500.0
-[simulation]
-stop_time = 1200.0
-validation_stop_time = 1800.0
-tolerance = 1e-6
-[optimizer]
-x_tol = 1e-4
-f_tol = 1e-6
-"#;
-
-const TIGHT: &str = "[optimizer]\nx_tol = 1e-5\nf_tol = 1e-10\n";
-/// The `[simulation]` tables: the grid fits the whole record (its last quarter held out), the
-/// exported grid names its windows.
-const GRID_WINDOW: &str = "[simulation]\ntolerance = 1e-8\n";
-const FURUTA_EXPORTED_WINDOW: &str = "[simulation]\nstop_time = 7.5\nvalidation_stop_time = 10.0\ntolerance = 1e-8\n";
-const SPRING_EXPORTED_WINDOW: &str = "[simulation]\nstop_time = 15.0\nvalidation_stop_time = 20.0\ntolerance = 1e-8\n";
-
 fn cases() -> Vec<Case> {
     let example = |name, file| Case { name, source: Source::Example(file) };
     let generated = |name, g| Case { name, source: Source::Generated(g) };
@@ -194,47 +92,38 @@ fn cases() -> Vec<Case> {
         let (time, inputs) = furuta_inputs(profile);
         Generated {
             data_fmu,
-            set: vec![],
-            port_terms: vec![],
             job_fmu: furuta(),
             time,
             inputs,
-            outputs: FURUTA_OUTPUTS,
-            body: body(FURUTA_PARAMETERS, GRID_WINDOW),
+            outputs: Model::Furuta.outputs(),
+            body: body(Model::Furuta.parameters(), GRID_SIMULATION),
             seed,
+            ..Default::default()
         }
     };
     let exported_spring = |data_fmu: PathBuf, driven: bool, seed| {
-        let time = grid(1000, 0.02);
-        let inputs = if driven {
-            let f = time.iter().map(|t| 0.8 * (1.3 * t).sin() + 0.4 * (0.5 * t).sin()).collect();
-            vec![("F", "F", f)]
-        } else {
-            vec![]
-        };
+        let (time, inputs) = exported_spring_mass_inputs(driven);
         Generated {
             data_fmu,
-            set: vec![],
-            port_terms: vec![],
             job_fmu: Fixture::SpringMassExported.path(),
             time,
             inputs,
-            outputs: SPRING_OUTPUTS,
-            body: body(SPRING_PARAMETERS, SPRING_EXPORTED_WINDOW),
+            outputs: Model::SpringMass.outputs(),
+            body: body(Model::SpringMass.parameters(), SPRING_MASS_EXPORTED_SIMULATION),
             seed,
+            ..Default::default()
         }
     };
     let (exhaust_time, exhaust_in) = exhaust_inputs();
     let exhaust_case = |data_fmu, job_fmu, seed| Generated {
         data_fmu,
-        set: vec![],
-        port_terms: vec![],
         job_fmu,
         time: exhaust_time.clone(),
         inputs: exhaust_in.clone(),
-        outputs: EXHAUST_OUTPUTS,
-        body: EXHAUST_BODY.to_owned(),
+        outputs: Model::Exhaust.outputs(),
+        body: format!("{}{EXHAUST_SETTINGS}", Model::Exhaust.parameters()),
         seed,
+        ..Default::default()
     };
     vec![
         // The examples that are calibration jobs.
@@ -250,18 +139,16 @@ fn cases() -> Vec<Case> {
         generated("grid Furuta, arm drag", grid_furuta(Fixture::FurutaHiddenArmDrag.path(), 1, 13)),
         generated("grid Furuta, nothing hidden", grid_furuta(furuta(), 1, 14)),
         generated("grid spring-mass, cubic spring", {
-            let time = grid(1000, 0.02);
-            let f = time.iter().map(|t| 3.0 * t.sin()).collect();
+            let (time, inputs) = spring_mass_inputs(0);
             Generated {
                 data_fmu: Fixture::SpringMassHiddenCubic.path(),
-                set: vec![],
-                port_terms: vec![],
                 job_fmu: Fixture::SpringMass.path(),
                 time,
-                inputs: vec![("F", "F", f)],
-                outputs: SPRING_OUTPUTS,
-                body: body(SPRING_PARAMETERS, GRID_WINDOW),
+                inputs,
+                outputs: Model::SpringMass.outputs(),
+                body: body(Model::SpringMass.parameters(), GRID_SIMULATION),
                 seed: 15,
+                ..Default::default()
             }
         }),
         generated("grid exhaust, radiation", exhaust_case(Fixture::ExhaustPipeHiddenRadiation.path(), exhaust(), 16)),
@@ -282,14 +169,13 @@ fn cases() -> Vec<Case> {
             let (time, inputs) = furuta_inputs(1);
             Generated {
                 data_fmu: Fixture::FurutaExportedHiddenCoulomb.path(),
-                set: vec![],
-                port_terms: vec![],
                 job_fmu: Fixture::FurutaExported.path(),
                 time,
                 inputs,
-                outputs: FURUTA_OUTPUTS,
-                body: body(FURUTA_PARAMETERS, FURUTA_EXPORTED_WINDOW),
+                outputs: Model::Furuta.outputs(),
+                body: body(Model::Furuta.parameters(), FURUTA_EXPORTED_SIMULATION),
                 seed: 24,
+                ..Default::default()
             }
         }),
         generated(
@@ -300,17 +186,16 @@ fn cases() -> Vec<Case> {
         generated("hybrid stick-slip", {
             // F = 2.2 sin(0.8 t): stick and slip phases in both directions. The model refuses
             // Fc > Fs, so the bounds keep Fc below Fs everywhere.
-            let time = grid(400, 0.05);
+            let time = time_grid(400, 0.05);
             let f = time.iter().map(|t| 2.2 * (0.8 * t).sin()).collect();
             Generated {
                 data_fmu: Fixture::StickSlip.path(),
-                set: vec![],
-                port_terms: vec![],
                 job_fmu: Fixture::StickSlip.path(),
                 time,
                 inputs: vec![("F", "F", f)],
                 outputs: &[("x", "x")],
-                body: r#"
+                body: body(
+                    r#"
 [[parameters]]
 name = "Fs"
 start = 1.4
@@ -326,27 +211,23 @@ name = "d"
 start = 0.2
 lower = 0.0
 upper = 0.5
-[simulation]
-tolerance = 1e-8
-[optimizer]
-x_tol = 1e-5
-f_tol = 1e-10
-"#
-                .to_owned(),
+"#,
+                    GRID_SIMULATION,
+                ),
                 seed: 31,
+                ..Default::default()
             }
         }),
         generated(
             "hybrid bouncing ball",
             Generated {
                 data_fmu: fmucal_models::example("bouncing-ball").expect("the bouncing-ball example"),
-                set: vec![],
-                port_terms: vec![],
                 job_fmu: fmucal_models::example("bouncing-ball").expect("the bouncing-ball example"),
-                time: grid(300, 0.01),
+                time: time_grid(300, 0.01),
                 inputs: vec![],
                 outputs: &[("h", "h")],
-                body: r#"
+                body: body(
+                    r#"
 [[parameters]]
 name = "e"
 start = 0.5
@@ -357,14 +238,11 @@ name = "g"
 start = 8.0
 lower = 5.0
 upper = 15.0
-[simulation]
-tolerance = 1e-8
-[optimizer]
-x_tol = 1e-5
-f_tol = 1e-10
-"#
-                .to_owned(),
+"#,
+                    GRID_SIMULATION,
+                ),
                 seed: 32,
+                ..Default::default()
             },
         ),
         generated(
@@ -381,9 +259,9 @@ f_tol = 1e-10
                     parameters: vec![12.0, 0.3],
                 }],
                 job_fmu: Fixture::SpringMass.path(),
-                time: grid(1000, 0.01),
+                time: time_grid(1000, 0.01),
                 inputs: vec![],
-                outputs: SPRING_OUTPUTS,
+                outputs: Model::SpringMass.outputs(),
                 body: r#"
 [[effects]]
 kind = "dead_zone_spring"
@@ -406,65 +284,23 @@ f_tol = 1e-10
 
 /// `parameters`, `simulation` and the grids' tight optimizer table, as one job body.
 fn body(parameters: &str, simulation: &str) -> String {
-    format!("{parameters}{simulation}{TIGHT}")
+    format!("{parameters}{simulation}{TIGHT_OPTIMIZER}")
 }
 
 /// Writes the case's noisy data and job into `dir` and prepares the job.
 fn generate(g: &Generated, dir: &Path) -> Result<Problem, String> {
     let fmu = fmucal_shared::fmu::Fmu::load(&g.data_fmu).map_err(|e| e.to_string())?;
-    let inputs = (!g.inputs.is_empty()).then(|| InputTable {
-        time: g.time.clone(),
-        columns: g.inputs.iter().map(|(_, variable, v)| ((*variable).to_owned(), v.clone())).collect(),
-    });
     let spec = SimSpec {
-        start_time: Some(g.time[0]),
-        stop_time: g.time.last().copied(),
-        output_times: Some(OutputTimes::Times(g.time.clone())),
         parameters: g.set.iter().map(|(n, v)| ((*n).to_owned(), v.to_string())).collect(),
-        inputs,
-        outputs: g.outputs.iter().map(|(v, _)| (*v).to_owned()).collect(),
-        tolerance: Some(1e-10),
         port_terms: g.port_terms.clone(),
-        ..Default::default()
+        ..noise_free_spec(&g.time, &g.inputs, g.outputs)
     };
     let clean = simulate(&fmu, &spec).map_err(|e| e.to_string())?;
-    let sigma: Vec<f64> = clean
-        .columns
-        .iter()
-        .map(|c| {
-            let (lo, hi) = c.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
-            NOISE * (hi - lo)
-        })
-        .collect();
-    let mut noise = Rng(g.seed);
-    let mut csv = String::from("time");
-    for (_, column) in g.outputs {
-        csv.push_str(&format!(",{column}"));
-    }
-    for (column, _, _) in &g.inputs {
-        csv.push_str(&format!(",{column}"));
-    }
-    csv.push('\n');
-    for (i, t) in g.time.iter().enumerate() {
-        csv.push_str(&format!("{t}"));
-        for (c, s) in clean.columns.iter().zip(&sigma) {
-            csv.push_str(&format!(",{}", c[i] + s * noise.gaussian()));
-        }
-        for (_, _, v) in &g.inputs {
-            csv.push_str(&format!(",{}", v[i]));
-        }
-        csv.push('\n');
-    }
-    std::fs::write(dir.join("data.csv"), csv).map_err(|e| e.to_string())?;
-    let mut job = format!("[model]\npath = {:?}\n[data]\npath = \"data.csv\"\n", g.job_fmu.display().to_string());
-    for (variable, column) in g.outputs {
-        job.push_str(&format!("[[outputs]]\nvariable = \"{variable}\"\ncolumn = \"{column}\"\n"));
-    }
-    for (column, variable, _) in &g.inputs {
-        job.push_str(&format!("[[inputs]]\ncolumn = \"{column}\"\nvariable = \"{variable}\"\n"));
-    }
-    job.push_str(&g.body);
-    let spec = JobSpec::from_toml(&job, dir).map_err(|e| e.to_string())?;
+    let sigma = noise_sigmas(&clean, NOISE);
+    let job = common::diagnosis::write_noisy_case(
+        dir, &g.job_fmu, &g.time, &g.inputs, g.outputs, &clean, &sigma, g.seed, &g.body,
+    );
+    let spec = JobSpec::from_toml_file(&job).map_err(|e| e.to_string())?;
     prepare(spec)
 }
 

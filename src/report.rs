@@ -269,31 +269,26 @@ fn axis_label(name: &str, unit: Option<&str>) -> String {
     }
 }
 
-/// Shades the validation window from `split` to the right end of the axis and marks its
-/// start with a vertical line labelled "validation →" at the top.
-fn draw_split<'a, DB, Y>(chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, Y>>, split: f64) -> DrawResult
+/// Where `split` lies inside the chart's time axis, shades the validation window from it to the
+/// right end of the axis and marks its start with a vertical line labelled "validation →" at
+/// the top. Returns the panel's first legend entries: the window's, where it was drawn.
+fn draw_split<'a, DB, Y>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, Y>>,
+    split: Option<f64>,
+) -> Result<Vec<(String, Key)>, Box<dyn std::error::Error>>
 where
     DB: DrawingBackend + 'a,
     DB::ErrorType: 'static,
     Y: Ranged<ValueType = f64>,
 {
     let (x, y) = (chart.x_range(), chart.y_range());
-    let (t1, y0, y1) = (x.end, y.start, y.end);
+    let (t0, t1, y0, y1) = (x.start, x.end, y.start, y.end);
+    let Some(split) = split.filter(|t| *t > t0 && *t < t1) else { return Ok(vec![]) };
     chart.draw_series([Rectangle::new([(split, y0), (t1, y1)], VALIDATION.mix(0.08).filled())])?;
     chart.draw_series(LineSeries::new([(split, y0), (split, y1)], VALIDATION.stroke_width(2)))?;
     let font = ("sans-serif", 12).into_font().color(&BLACK);
     chart.draw_series([EmptyElement::at((split, y1)) + Text::new("validation →", (5, 4), font)])?;
-    Ok(())
-}
-
-/// The legend entry of [`draw_split`].
-fn split_key() -> (String, Key) {
-    ("validation window".to_owned(), Key::Shade(VALIDATION.mix(0.25).filled()))
-}
-
-/// The split, if it lies inside `(t0, t1)`.
-fn inside(split: Option<f64>, t0: f64, t1: f64) -> Option<f64> {
-    split.filter(|t| *t > t0 && *t < t1)
+    Ok(vec![("validation window".to_owned(), Key::Shade(VALIDATION.mix(0.25).filled()))])
 }
 
 fn draw_fit<B: DrawingBackend>(root: DrawingArea<B, Shift>, series: &[Series], split: Option<f64>) -> DrawResult
@@ -320,11 +315,7 @@ where
             .label_style(("sans-serif", 12))
             .axis_desc_style(("sans-serif", 14))
             .draw()?;
-        let mut keys = vec![];
-        if let Some(t) = inside(split, t0, t1) {
-            draw_split(&mut chart, t)?;
-            keys.push(split_key());
-        }
+        let mut keys = draw_split(&mut chart, split)?;
         // Measurements first, thinned and light, so the fitted line on top stays visible.
         let every = s.measured.len().div_ceil(MAX_MARKERS).max(1);
         let dot = MEASURED.mix(0.35).filled();
@@ -381,11 +372,7 @@ where
             .label_style(("sans-serif", 12))
             .axis_desc_style(("sans-serif", 14))
             .draw()?;
-        let mut keys = vec![];
-        if let Some(t) = inside(split, t0, t1) {
-            draw_split(&mut chart, t)?;
-            keys.push(split_key());
-        }
+        let mut keys = draw_split(&mut chart, split)?;
         let (n_style, o_style) = (NOMINAL.stroke_width(1), OPTIMIZED.stroke_width(1));
         chart.draw_series(LineSeries::new(nominal, n_style))?;
         chart.draw_series(LineSeries::new(optimized, o_style))?;

@@ -31,9 +31,7 @@ fn data(dir: &std::path::Path) -> std::path::PathBuf {
             text.push_str(&format!("{t},{x}\n"));
         }
     }
-    let p = dir.join("decay.csv");
-    std::fs::write(&p, text).unwrap();
-    p
+    common::write_file(dir, "decay.csv", text)
 }
 
 fn job(dir: &std::path::Path, extra: &str) -> JobSpec {

@@ -40,9 +40,7 @@ fn simulate(model: &Path, extra: &[&str], cache: &Path) -> Run {
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
+    common::write_file(dir, name, text)
 }
 
 #[test]

@@ -9,27 +9,13 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
+/// Decay data (k = 1.7) every 4th sample, and a job fitting k in [0.1, 5] from 1.0 at tight
+/// tolerances, with `extra` in its `[optimizer]`.
 fn write_job(dir: &Path, extra: &str) -> std::path::PathBuf {
-    let cache = dir.join("cache");
-    let fmu = common::load_example("decay", &cache);
-    let spec = fmucal_shared::sim::SimSpec {
-        parameters: vec![("k".into(), "1.7".into())],
-        tolerance: Some(1e-10),
-        ..Default::default()
-    };
-    let r = fmucal_shared::sim::simulate(&fmu, &spec).unwrap();
-    let mut csv = String::from("time,x\n");
-    for (t, x) in r.time.iter().zip(r.column("x").unwrap()).step_by(4) {
-        csv.push_str(&format!("{t},{x}\n"));
-    }
-    std::fs::write(dir.join("data.csv"), csv).unwrap();
+    common::write_decay_csv(dir, common::decay_samples(&dir.join("cache"), Some(1e-10), 4));
     let job = dir.join("job.toml");
-    let text = common::job_toml(
-        Path::new("example:decay"),
-        Some(Path::new("data.csv")),
-        &[("x", "x")],
-        &[],
-        &[("k", 1.0, 0.1, 5.0)],
+    let text = common::decay_job_toml(
+        5.0,
         &format!("[simulation]\ntolerance = 1e-10\n[optimizer]\nx_tol = 1e-8\nf_tol = 1e-14\n{extra}"),
     );
     std::fs::write(&job, text).unwrap();
@@ -46,12 +32,7 @@ fn calibrate_locally(dir: &Path, extra: &str, workers: &str) -> std::process::Ou
 }
 
 fn fmucal(args: &[&str], dir: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(args)
-        .current_dir(dir)
-        .env("FMUCAL_CACHE_DIR", dir.join("cache"))
-        .output()
-        .unwrap()
+    common::fmucal_in(dir).args(args).output().unwrap()
 }
 
 fn result(dir: &Path) -> serde_json::Value {
@@ -275,8 +256,7 @@ fn coordinator_url_gives_the_same_result() {
 fn a_bad_job_is_one_error_line() {
     let dir = tempfile::tempdir().unwrap();
     let job = write_job(dir.path(), "");
-    let text = std::fs::read_to_string(&job).unwrap().replace("name = \"k\"", "name = \"kk\"");
-    std::fs::write(&job, text).unwrap();
+    common::edit_file(&job, |text| text.replace("name = \"k\"", "name = \"kk\""));
     let out = fmucal(&["calibrate", job.to_str().unwrap(), "--workers", "1"], dir.path());
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -318,16 +298,13 @@ fn ctrl_c_keeps_the_best_point_and_leaves_no_worker_or_temporary_folder() {
     // Each simulation sleeps 0.3 s, and the tolerances cannot be met in 500 rounds: the run
     // is still going when it is interrupted.
     let job = write_job(dir.path(), "max_iters = 500\n");
-    let text = std::fs::read_to_string(&job).unwrap().replace("[optimizer]", "set = { delay = 0.3 }\n[optimizer]");
-    std::fs::write(&job, text).unwrap();
+    common::edit_file(&job, |text| text.replace("[optimizer]", "set = { delay = 0.3 }\n[optimizer]"));
     // A private temporary folder, to see what the run leaves there.
     let tmp = dir.path().join("tmp");
     std::fs::create_dir_all(&tmp).unwrap();
     let mut child = common::KillOnDrop(
-        Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        common::fmucal_in(dir.path())
             .args(["calibrate", job.to_str().unwrap(), "--workers", "2", "--out", "out"])
-            .current_dir(dir.path())
-            .env("FMUCAL_CACHE_DIR", dir.path().join("cache"))
             .env("TMPDIR", &tmp)
             .stderr(std::process::Stdio::piped())
             .spawn()

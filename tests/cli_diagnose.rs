@@ -8,7 +8,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use fmucal_diagnose::report::Diagnosis;
 
@@ -17,13 +17,7 @@ fn example_job() -> PathBuf {
 }
 
 fn fmucal(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(args)
-        .current_dir(dir)
-        .env("FMUCAL_CACHE_DIR", dir.join("cache"))
-        .env("FMUCAL_TOKEN", "cli-test-token")
-        .output()
-        .unwrap()
+    common::fmucal_in(dir).args(args).env("FMUCAL_TOKEN", "cli-test-token").output().unwrap()
 }
 
 fn report(dir: &Path) -> Diagnosis {

@@ -5,16 +5,9 @@
 mod common;
 
 use std::path::Path;
-use std::process::Command;
 
 fn inspect(args: &[&str], dir: &Path) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .arg("inspect")
-        .args(args)
-        .current_dir(dir)
-        .env("FMUCAL_CACHE_DIR", dir.join("cache"))
-        .output()
-        .unwrap();
+    let out = common::fmucal_in(dir).arg("inspect").args(args).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     String::from_utf8(out.stdout).unwrap()
 }

@@ -6,32 +6,15 @@
 mod common;
 
 use std::path::Path;
-use std::process::Command;
 
 /// Decay data (k = 1.7) over [0, 2], every 4th sample, with `row` choosing and changing rows,
 /// and a job fitting k in [0.1, `upper`] from 1.0 with `extra` in its `[optimizer]` (with tight tolerances unless it sets x_tol).
 fn write_job(dir: &Path, upper: f64, extra: &str, row: impl Fn(f64, f64) -> Option<f64>) -> std::path::PathBuf {
-    let fmu = common::load_example("decay", &dir.join("cache"));
-    let spec = fmucal_shared::sim::SimSpec {
-        parameters: vec![("k".into(), "1.7".into())],
-        tolerance: Some(1e-10),
-        ..Default::default()
-    };
-    let r = fmucal_shared::sim::simulate(&fmu, &spec).unwrap();
-    let mut csv = String::from("time,x\n");
-    for (t, x) in r.time.iter().zip(r.column("x").unwrap()).step_by(4) {
-        if let Some(x) = row(*t, *x) {
-            csv.push_str(&format!("{t},{x}\n"));
-        }
-    }
-    std::fs::write(dir.join("data.csv"), csv).unwrap();
+    let samples = common::decay_samples(&dir.join("cache"), Some(1e-10), 4);
+    common::write_decay_csv(dir, samples.into_iter().filter_map(|(t, x)| row(t, x).map(|x| (t, x))));
     let job = dir.join("job.toml");
-    let text = common::job_toml(
-        Path::new("example:decay"),
-        Some(Path::new("data.csv")),
-        &[("x", "x")],
-        &[],
-        &[("k", 1.0, 0.1, upper)],
+    let text = common::decay_job_toml(
+        upper,
         &if extra.contains("x_tol") {
             format!("[optimizer]\n{extra}")
         } else {
@@ -42,13 +25,13 @@ fn write_job(dir: &Path, upper: f64, extra: &str, row: impl Fn(f64, f64) -> Opti
     job
 }
 
+/// Appends `tables` to the job file.
+fn append(job: &Path, tables: &str) {
+    common::edit_file(job, |text| text + tables);
+}
+
 fn fmucal(args: &[&str], dir: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(args)
-        .current_dir(dir)
-        .env("FMUCAL_CACHE_DIR", dir.join("cache"))
-        .output()
-        .unwrap()
+    common::fmucal_in(dir).args(args).output().unwrap()
 }
 
 fn calibrate(dir: &Path, strict: bool) -> (std::process::Output, String, String) {
@@ -120,8 +103,7 @@ fn max_time_stops_the_run_with_its_best_point() {
     let dir = tempfile::tempdir().unwrap();
     // 0.1 s per simulation and no tolerance rule: only the wall time can end the run.
     let job = write_job(dir.path(), 5.0, "x_tol = 0\nf_tol = 0\nmax_iters = 100000\nmax_time = 4.0\n", |_, x| Some(x));
-    let text = std::fs::read_to_string(&job).unwrap();
-    std::fs::write(&job, format!("{text}[simulation]\nset = {{ delay = 0.1 }}\n")).unwrap();
+    append(&job, "[simulation]\nset = { delay = 0.1 }\n");
     let (out, stdout, stderr) = calibrate(dir.path(), false);
     assert!(out.status.success(), "{stderr}");
     assert!(stdout.contains("termination: max_time reached (a budget, not convergence, ended the run)"), "{stdout}");
@@ -143,8 +125,7 @@ fn a_validation_error_worse_than_at_the_start_warns() {
     let dir = tempfile::tempdir().unwrap();
     // The data leave the decay after 1 s: the fitted k = 1.7 extrapolates worse than k = 1.
     let job = write_job(dir.path(), 5.0, "", |t, x| Some(if t > 1.0 { 1.0 } else { x }));
-    let text = std::fs::read_to_string(&job).unwrap();
-    std::fs::write(&job, format!("{text}[simulation]\nstop_time = 1.0\nvalidation_stop_time = 2.0\n")).unwrap();
+    append(&job, "[simulation]\nstop_time = 1.0\nvalidation_stop_time = 2.0\n");
     let (out, stdout, stderr) = calibrate(dir.path(), false);
     assert!(out.status.success(), "{stderr}");
     assert!(stdout.contains("scaled RMS error (optimized / start): calibration"), "{stdout}");
@@ -156,8 +137,7 @@ fn a_validation_error_worse_than_at_the_start_warns() {
 fn a_validation_window_past_the_data_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let job = write_job(dir.path(), 5.0, "", |_, x| Some(x));
-    let text = std::fs::read_to_string(&job).unwrap();
-    std::fs::write(&job, format!("{text}[simulation]\nstop_time = 1.0\nvalidation_stop_time = 20.0\n")).unwrap();
+    append(&job, "[simulation]\nstop_time = 1.0\nvalidation_stop_time = 20.0\n");
     let (out, _, stderr) = calibrate(dir.path(), false);
     assert!(!out.status.success());
     assert_ne!(out.status.code(), Some(3));

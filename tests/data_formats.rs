@@ -102,14 +102,7 @@ fn csv_separators_and_a_time_column_in_another_case() {
 
 /// Runs `fmucal ARGS` in `dir`.
 fn fmucal(dir: &Path, args: &[&str]) -> Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(args)
-        .current_dir(dir)
-        .env("FMUCAL_CACHE_DIR", dir.join("cache"))
-        .env_remove("FMUCAL_TOKEN")
-        .env_remove("FMUCAL_LOG")
-        .output()
-        .unwrap()
+    common::fmucal_in(dir).args(args).env_remove("FMUCAL_TOKEN").env_remove("FMUCAL_LOG").output().unwrap()
 }
 
 /// A decay job (`k` in 0.1..5, true 1.7) on `data`, its output `x` against `column`.
@@ -122,9 +115,7 @@ fn decay_job(dir: &Path, data: &Path, column: &str) -> PathBuf {
         &[("k", 1.0, 0.1, 5.0)],
         "[optimizer]\nx_tol = 1e-6\nf_tol = 1e-12\n",
     );
-    let p = dir.join("job.toml");
-    std::fs::write(&p, text).unwrap();
-    p
+    common::write_file(dir, "job.toml", text)
 }
 
 /// The one `error:` line of a failed run (exit code 1, no panic) and the lines after it.
@@ -229,8 +220,7 @@ fn toml_errors_keep_the_caret_layout_and_quote_one_bounded_line() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let job = decay_job(d, &fixture("decay_tab.csv"), "x");
-    let text = std::fs::read_to_string(&job).unwrap().replace("lower = 0.1", "lower = 0.1.2");
-    std::fs::write(&job, text).unwrap();
+    common::edit_file(&job, |text| text.replace("lower = 0.1", "lower = 0.1.2"));
     let out = refused(&fmucal(d, &["calibrate", job.to_str().unwrap(), "--out", "out"]));
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines.len(), 5, "{out}");

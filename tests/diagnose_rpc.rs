@@ -29,15 +29,7 @@ fn example_dir() -> std::path::PathBuf {
 
 async fn connect(url: &str) -> Rpc {
     let attach = AttachToken::new(Some("cli-test-token")).unwrap();
-    let endpoint = tonic::transport::Endpoint::from_shared(url.to_owned()).unwrap();
-    let deadline = Instant::now() + Duration::from_secs(10);
-    let channel = loop {
-        match endpoint.connect().await {
-            Ok(c) => break c,
-            Err(e) if Instant::now() > deadline => panic!("cannot reach {url}: {e}"),
-            Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
-        }
-    };
+    let channel = common::channel_within(url, Duration::from_secs(10)).await;
     CalibrationClient::with_interceptor(channel, attach).max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES)
 }
 

@@ -32,18 +32,11 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use common::diagnosis::{self, Inputs, Model, case_dir, fmucal};
 use fmucal_diagnose::report::{Conclusion, Diagnosis};
 use fmucal_models::Fixture;
 use fmucal_shared::job::{JobSpec, MeasurementTable, PreparedJob};
-use fmucal_shared::sim::{OutputTimes, SimResult, SimSpec, simulate};
-
-/// Which base model a case uses.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Model {
-    SpringMass,
-    Furuta,
-    Exhaust,
-}
+use fmucal_shared::sim::{OutputTimes, SimResult, simulate};
 
 /// What is hidden in the data.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -163,157 +156,40 @@ struct Case {
     seed: u64,
 }
 
-/// SplitMix64 and Box–Muller: seeded Gaussian noise without a dependency.
-struct Noise(u64);
-
-impl Noise {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn gaussian(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform().max(1e-300), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-}
-
-/// Time grid and input columns (data column, FMU input, samples) of a model, driven or not.
-fn inputs(model: Model, driven: bool) -> (Vec<f64>, Vec<(&'static str, &'static str, Vec<f64>)>) {
-    let grid = |n: usize, dt: f64| (0..=n).map(|k| k as f64 * dt).collect::<Vec<f64>>();
+/// Time grid and input columns of a model, driven or not.
+fn inputs(model: Model, driven: bool) -> (Vec<f64>, Inputs) {
     match model {
-        Model::SpringMass => {
-            let time = grid(1000, 0.02);
-            if !driven {
-                return (time, vec![]);
-            }
-            // A force of the order of the spring's pull at the start position (k·x0 = 2 N),
-            // below the resonance (2 rad/s), with a slower one on top.
-            let f = time.iter().map(|t| 0.8 * (1.3 * t).sin() + 0.4 * (0.5 * t).sin()).collect();
-            (time, vec![("F", "F", f)])
-        }
-        Model::Furuta => {
-            // The free pendulum swings down from 1 rad within some 6 s (sooner with the hidden
-            // Coulomb friction, which stops it): a 10 s record held out from 7.5 s.
-            let time = grid(1000, 0.01);
-            if !driven {
-                return (time, vec![]);
-            }
-            // A slow sine with a faster one on top, its amplitude growing over the record (input
-            // profile 1 of tests/diagnosis_grid.rs): it keeps the pendulum moving through the
-            // held-out window, where a free swing has come to rest.
-            let u = time.iter().map(|t| (0.5 + 0.1 * t) * (0.05 * (1.3 * t).sin() + 0.02 * (4.1 * t).sin())).collect();
-            (time, vec![("u", "u", u)])
-        }
-        Model::Exhaust => {
-            let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/exhaust/exhaust_data.csv");
-            let data = MeasurementTable::read(&path, "time").unwrap();
-            let rows = data.time.partition_point(|t| *t <= 1800.0);
-            let columns = ["inlet.T", "inlet.p", "turbine1.w", "turbine2.w", "outlet.p"]
-                .map(|c| (c, c, data.column(c).unwrap()[..rows].to_vec()))
-                .to_vec();
-            (data.time[..rows].to_vec(), columns)
-        }
-    }
-}
-
-/// Outputs (FMU variable, data column) of a model.
-fn outputs(model: Model) -> &'static [(&'static str, &'static str)] {
-    match model {
-        Model::Furuta => &[("armJoint.phi", "phi"), ("pendulumJoint.phi", "theta")],
-        Model::SpringMass => &[("mass.x", "x")],
-        Model::Exhaust => &[("outlet.T", "outlet_T")],
+        Model::SpringMass => diagnosis::exported_spring_mass_inputs(driven),
+        // The free pendulum swings down from 1 rad within some 6 s (sooner with the hidden
+        // Coulomb friction, which stops it): a 10 s record held out from 7.5 s. Driven: input
+        // profile 1 of tests/diagnosis_grid.rs, which keeps the pendulum moving through the
+        // held-out window, where a free swing has come to rest.
+        Model::Furuta if driven => diagnosis::furuta_inputs(1),
+        Model::Furuta => (diagnosis::time_grid(1000, 0.01), vec![]),
+        Model::Exhaust => diagnosis::exhaust_inputs(),
     }
 }
 
 /// The job's `[[parameters]]`, `[simulation]` and `[optimizer]` tables; no `[diagnose]`.
-fn job_body(truth: Truth) -> &'static str {
+fn job_body(truth: Truth) -> String {
+    let tight = |parameters: &str, simulation: &str| format!("{parameters}{simulation}{}", diagnosis::TIGHT_OPTIMIZER);
     if truth == Truth::Viscous {
         // A base without a viscous term of its own: the spring-mass with its damping d set to
         // 0, only the stiffness calibrated; the data's mass is damped (d = 0.3 + 0.2).
-        return r#"
-[[parameters]]
+        return tight(
+            r#"[[parameters]]
 name = "k"
 start = 3.5
 lower = 0.5
 upper = 10.0
-[simulation]
-stop_time = 15.0
-validation_stop_time = 20.0
-tolerance = 1e-8
-set = { d = 0.0 }
-[optimizer]
-x_tol = 1e-5
-f_tol = 1e-10
-"#;
+"#,
+            "[simulation]\nstop_time = 15.0\nvalidation_stop_time = 20.0\ntolerance = 1e-8\nset = { d = 0.0 }\n",
+        );
     }
     match truth.model() {
-        Model::SpringMass => {
-            r#"
-[[parameters]]
-name = "k"
-start = 3.5
-lower = 0.5
-upper = 10.0
-[[parameters]]
-name = "d"
-start = 0.4
-lower = 0.0
-upper = 2.0
-[simulation]
-stop_time = 15.0
-validation_stop_time = 20.0
-tolerance = 1e-8
-[optimizer]
-x_tol = 1e-5
-f_tol = 1e-10
-"#
-        }
-        Model::Furuta => {
-            r#"
-[[parameters]]
-name = "armFriction"
-start = 0.01
-lower = 0.0
-upper = 0.05
-[[parameters]]
-name = "pendulumFriction"
-start = 0.003
-lower = 0.0
-upper = 0.02
-[simulation]
-stop_time = 7.5
-validation_stop_time = 10.0
-tolerance = 1e-8
-[optimizer]
-x_tol = 1e-5
-f_tol = 1e-10
-"#
-        }
-        Model::Exhaust => {
-            r#"
-[[parameters]]
-name = "rightVolume.wallCapacity"
-start = 12000.0
-lower = 1000.0
-upper = 100000.0
-[[parameters]]
-name = "rightVolume.wallConductance"
-start = 80.0
-lower = 5.0
-upper = 500.0
-[simulation]
-stop_time = 1200.0
-validation_stop_time = 1800.0
-tolerance = 1e-6
-[optimizer]
-x_tol = 1e-4
-f_tol = 1e-6
-"#
-        }
+        Model::SpringMass => tight(Model::SpringMass.parameters(), diagnosis::SPRING_MASS_EXPORTED_SIMULATION),
+        Model::Furuta => tight(Model::Furuta.parameters(), diagnosis::FURUTA_EXPORTED_SIMULATION),
+        Model::Exhaust => format!("{}{}", Model::Exhaust.parameters(), diagnosis::EXHAUST_SETTINGS),
     }
 }
 
@@ -321,30 +197,7 @@ f_tol = 1e-6
 fn noise_free(fmu: &Path, model: Model, driven: bool, dir: &Path) -> SimResult {
     let (time, columns) = inputs(model, driven);
     let fmu = common::load(fmu, &dir.join("cache"));
-    let table = (!columns.is_empty())
-        .then(|| common::table(time.clone(), columns.iter().map(|(_, variable, v)| (*variable, v.clone())).collect()));
-    let spec = SimSpec {
-        start_time: Some(time[0]),
-        stop_time: time.last().copied(),
-        output_times: Some(OutputTimes::Times(time.clone())),
-        inputs: table,
-        outputs: outputs(model).iter().map(|(v, _)| (*v).to_owned()).collect(),
-        tolerance: Some(1e-10),
-        ..Default::default()
-    };
-    simulate(&fmu, &spec).unwrap()
-}
-
-/// Noise standard deviation of each output: the fraction `noise` of its range.
-fn noise_sigmas(clean: &SimResult, noise: f64) -> Vec<f64> {
-    clean
-        .columns
-        .iter()
-        .map(|c| {
-            let (lo, hi) = c.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
-            noise * (hi - lo)
-        })
-        .collect()
+    simulate(&fmu, &diagnosis::noise_free_spec(&time, &columns, model.outputs())).unwrap()
 }
 
 /// Writes the case's noisy data and job into `dir`; returns the job file, the noise floor (the
@@ -353,39 +206,20 @@ fn write_case(case: &Case, dir: &Path) -> (PathBuf, f64, SimResult) {
     let model = case.truth.model();
     let (time, columns) = inputs(model, case.driven);
     let clean = noise_free(&case.truth.fmu(), model, case.driven, dir);
-    let mut noise = Noise(case.seed);
-    let mut csv = String::from("time");
-    for (_, column) in outputs(model) {
-        csv.push_str(&format!(",{column}"));
-    }
-    for (column, _, _) in &columns {
-        csv.push_str(&format!(",{column}"));
-    }
-    csv.push('\n');
-    let sigma = noise_sigmas(&clean, case.noise);
-    for (i, t) in time.iter().enumerate() {
-        csv.push_str(&format!("{t}"));
-        for (c, s) in clean.columns.iter().zip(&sigma) {
-            csv.push_str(&format!(",{}", c[i] + s * noise.gaussian()));
-        }
-        for (_, _, v) in &columns {
-            csv.push_str(&format!(",{}", v[i]));
-        }
-        csv.push('\n');
-    }
-    std::fs::write(dir.join("data.csv"), csv).unwrap();
-    let mut job = format!("[model]\npath = \"{}\"\n[data]\npath = \"data.csv\"\n", model.fmu().display());
-    for (variable, column) in outputs(model) {
-        job.push_str(&format!("[[outputs]]\nvariable = \"{variable}\"\ncolumn = \"{column}\"\n"));
-    }
-    for (column, variable, _) in &columns {
-        job.push_str(&format!("[[inputs]]\ncolumn = \"{column}\"\nvariable = \"{variable}\"\n"));
-    }
-    job.push_str(job_body(case.truth));
-    let path = dir.join("job.toml");
-    std::fs::write(&path, job).unwrap();
-    let floor = (sigma.iter().map(|s| s * s).sum::<f64>() / sigma.len() as f64).sqrt();
-    (path, floor, clean)
+    let sigma = diagnosis::noise_sigmas(&clean, case.noise);
+    let body = job_body(case.truth);
+    let path = diagnosis::write_noisy_case(
+        dir,
+        &model.fmu(),
+        &time,
+        &columns,
+        model.outputs(),
+        &clean,
+        &sigma,
+        case.seed,
+        &body,
+    );
+    (path, diagnosis::noise_floor(&sigma), clean)
 }
 
 /// A case's diagnosis, the noise floor of its data and the gap against the truth.
@@ -461,21 +295,7 @@ fn gap(
 /// Runs `fmucal diagnose --workers 2` on the case and measures the gap against the truth.
 fn diagnose(case: &Case, dir: &Path) -> Outcome {
     let (job, floor, truth) = write_case(case, dir);
-    let out = dir.join("diagnosis");
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(["diagnose", "--workers", "2", "--out"])
-        .arg(&out)
-        .arg(&job)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{case:?}: {}\n{}",
-        String::from_utf8_lossy(&run.stdout),
-        String::from_utf8_lossy(&run.stderr)
-    );
-    eprintln!("{case:?}\n{}", String::from_utf8_lossy(&run.stdout));
-    let report: Diagnosis = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let report = diagnosis::diagnose(case, &job, dir);
     let round = report.rounds.first().expect("a round");
     let gap_before = gap(&job, &[], &round.base_x_opt, &report, &truth, dir);
     let gap_after = round.chosen.filter(|_| !report.named.is_empty()).map(|k| {
@@ -488,22 +308,6 @@ fn diagnose(case: &Case, dir: &Path) -> Outcome {
         gap_after.map_or("—".to_owned(), |g| format!("{g:.3e}"))
     );
     Outcome { report, floor, gap_before, gap_after }
-}
-
-/// A scratch folder for a case: under `DIAGNOSIS_GRID_DIR` (kept, to look at) if set.
-fn case_dir(name: &str) -> (Option<tempfile::TempDir>, PathBuf) {
-    match std::env::var_os("DIAGNOSIS_GRID_DIR") {
-        Some(root) => {
-            let dir = Path::new(&root).join(name);
-            std::fs::create_dir_all(&dir).unwrap();
-            (None, dir)
-        }
-        None => {
-            let t = tempfile::tempdir().unwrap();
-            let p = t.path().to_owned();
-            (Some(t), p)
-        }
-    }
 }
 
 /// A case whose data hide a library effect: the true effect is named first, the conclusion is
@@ -526,12 +330,7 @@ fn concludes(truth: Truth, noise: f64, driven: bool, seed: u64, name: &str, conc
     assert_eq!(d.conclusion, conclusion, "{}", d.summary());
     // `fmucal calibrate` on the same job warns exactly when the model misses something: the
     // same test of "far from the noise".
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args(["calibrate", "--workers", "2", "--out"])
-        .arg(dir.join("calibration"))
-        .arg(dir.join("job.toml"))
-        .output()
-        .unwrap();
+    let run = fmucal("calibrate", &dir.join("job.toml"), &dir.join("calibration"));
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}");
     let warned = stderr.contains("warning: the fit leaves more than noise (");
@@ -655,15 +454,20 @@ fn conclusion_word(c: Conclusion) -> &'static str {
 #[test]
 #[ignore = "the full grid takes long; run bench/diagnose_exported.sh"]
 fn full_grid() {
-    // DIAGNOSIS_GRID_CASES=3,4,10 runs only those cases (numbered as the kept folders are).
-    let only: Option<Vec<usize>> = std::env::var("DIAGNOSIS_GRID_CASES").ok().map(|s| {
-        s.split(',').filter(|x| !x.trim().is_empty()).map(|x| x.trim().parse().expect("case numbers")).collect()
-    });
-    let cases = grid();
-    println!(
-        "| case | truth | noise | driven | conclusion | named first | right | validation RMS before → after | gap to truth before → after | gap before ÷ noise | gap shrink | time [s] |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    diagnosis::print_table_head(&[
+        "case",
+        "truth",
+        "noise",
+        "driven",
+        "conclusion",
+        "named first",
+        "right",
+        "validation RMS before → after",
+        "gap to truth before → after",
+        "gap before ÷ noise",
+        "gap shrink",
+        "time [s]",
+    ]);
     let (mut effect_right, mut effect_total, mut effect_tied) = (0, 0, 0);
     let (mut null_fits, mut null_total, mut null_misses) = (0, 0, 0);
     let (mut outside_right, mut outside_total, mut outside_wrong) = (0, 0, 0);
@@ -671,12 +475,9 @@ fn full_grid() {
     // Gap halved: over every case where something was named, and over the library-effect cases.
     let (mut gap_halved, mut gap_cases, mut effect_gap_halved, mut effect_gap_cases) = (0, 0, 0, 0);
     let mut misses: Vec<String> = vec![];
-    for (k, case) in cases.iter().enumerate() {
-        if only.as_ref().is_some_and(|o| !o.contains(&k)) {
-            continue;
-        }
+    for (k, case) in diagnosis::selected(grid()) {
         let (_keep, dir) = case_dir(&format!("case{k:02}"));
-        let o = diagnose(case, &dir);
+        let o = diagnose(&case, &dir);
         let d = &o.report;
         let got = named(d);
         let expected = case.truth.expected();

@@ -15,17 +15,10 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
+use common::diagnosis::{self, Inputs, Model, case_dir, fmucal, noise_sigmas};
 use fmucal_diagnose::report::Diagnosis;
 use fmucal_models::Fixture;
-use fmucal_shared::sim::{OutputTimes, SimResult, SimSpec, simulate};
-
-/// Which model a case uses, and how its job and data look.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Model {
-    Furuta,
-    SpringMass,
-    Exhaust,
-}
+use fmucal_shared::sim::{SimResult, simulate};
 
 /// What is hidden in the data.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -110,171 +103,49 @@ struct Case {
     seed: u64,
 }
 
-/// SplitMix64 and Box–Muller: seeded Gaussian noise without a dependency.
-struct Noise(u64);
-
-impl Noise {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn gaussian(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform().max(1e-300), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-}
-
-/// Time grid and input columns (data column, FMU input, samples) of a model's profile.
-fn inputs(model: Model, profile: usize) -> (Vec<f64>, Vec<(&'static str, &'static str, Vec<f64>)>) {
-    let grid = |n: usize, dt: f64| (0..=n).map(|k| k as f64 * dt).collect::<Vec<f64>>();
+/// Time grid and input columns of a model's profile.
+fn inputs(model: Model, profile: usize) -> (Vec<f64>, Inputs) {
     match model {
-        Model::Furuta => {
-            let time = grid(1000, 0.01);
-            let u = time
-                .iter()
-                .map(|t| match profile {
-                    // Torque pulses in both directions, then a free swing.
-                    0 => {
-                        if *t < 1.0 {
-                            0.08
-                        } else if *t < 2.0 {
-                            -0.08
-                        } else if (4.0..4.5).contains(t) {
-                            0.1
-                        } else {
-                            0.0
-                        }
-                    }
-                    // A slow sine with a faster one on top, its amplitude growing threefold over
-                    // the record: at one amplitude, damping that grows with speed (quadratic
-                    // drag) acts as a viscous friction would, and only the change of amplitude
-                    // tells them apart.
-                    _ => (0.5 + 0.1 * t) * (0.05 * (1.3 * t).sin() + 0.02 * (4.1 * t).sin()),
-                })
-                .collect();
-            (time, vec![("u", "u", u)])
-        }
-        Model::SpringMass => {
-            let time = grid(1000, 0.02);
-            let f = time
-                .iter()
-                .map(|t| match profile {
-                    0 => 3.0 * t.sin(),
-                    _ => 2.5 * (0.7 * t).sin() + 1.5 * (1.9 * t).sin(),
-                })
-                .collect();
-            (time, vec![("F", "F", f)])
-        }
-        Model::Exhaust => {
-            let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/exhaust/exhaust_data.csv");
-            let data = fmucal_shared::job::MeasurementTable::read(&path, "time").unwrap();
-            let rows = data.time.partition_point(|t| *t <= 1800.0);
-            let columns = ["inlet.T", "inlet.p", "turbine1.w", "turbine2.w", "outlet.p"]
-                .map(|c| (c, c, data.column(c).unwrap()[..rows].to_vec()))
-                .to_vec();
-            (data.time[..rows].to_vec(), columns)
-        }
-    }
-}
-
-/// Outputs (FMU variable, data column) of a model.
-fn outputs(model: Model) -> &'static [(&'static str, &'static str)] {
-    match model {
-        Model::Furuta => &[("armJoint.phi", "phi"), ("pendulumJoint.phi", "theta")],
-        Model::SpringMass => &[("mass.x", "x")],
-        Model::Exhaust => &[("outlet.T", "outlet_T")],
+        Model::Furuta => diagnosis::furuta_inputs(profile),
+        Model::SpringMass => diagnosis::spring_mass_inputs(profile),
+        Model::Exhaust => diagnosis::exhaust_inputs(),
     }
 }
 
 /// The job's `[[parameters]]`, `[simulation]`, `[optimizer]` and `[diagnose]` tables.
-fn job_body(model: Model) -> &'static str {
+fn job_body(model: Model) -> String {
+    let tight = |ports: &str| {
+        format!("{}{}{}[diagnose]\n{ports}", model.parameters(), diagnosis::GRID_SIMULATION, diagnosis::TIGHT_OPTIMIZER)
+    };
     match model {
-        Model::Furuta => {
-            r#"
-[[parameters]]
-name = "armFriction"
-start = 0.01
-lower = 0.0
-upper = 0.05
-[[parameters]]
-name = "pendulumFriction"
-start = 0.003
-lower = 0.0
-upper = 0.02
-[simulation]
-tolerance = 1e-8
-[optimizer]
-x_tol = 1e-5
-f_tol = 1e-10
-[diagnose]
-[[diagnose.ports]]
-port = "armJoint.tauExt"
-domain = "mechanical"
-velocities = ["armJoint.w"]
-positions = ["armJoint.phi"]
-[[diagnose.ports]]
-port = "pendulumJoint.tauExt"
-domain = "mechanical"
-velocities = ["pendulumJoint.w"]
-positions = ["pendulumJoint.phi"]
-"#
-        }
-        Model::SpringMass => {
-            r#"
-[[parameters]]
-name = "k"
-start = 3.5
-lower = 0.5
-upper = 10.0
-[[parameters]]
-name = "d"
-start = 0.4
-lower = 0.0
-upper = 2.0
-[simulation]
-tolerance = 1e-8
-[optimizer]
-x_tol = 1e-5
-f_tol = 1e-10
-[diagnose]
-[[diagnose.ports]]
-port = "mass.Fext"
-domain = "mechanical"
-velocities = ["mass.v"]
-positions = ["mass.x"]
-"#
-        }
-        Model::Exhaust => {
-            r#"
-[[parameters]]
-name = "rightVolume.wallCapacity"
-start = 12000.0
-lower = 1000.0
-upper = 100000.0
-[[parameters]]
-name = "rightVolume.wallConductance"
-start = 80.0
-lower = 5.0
-upper = 500.0
-[simulation]
-stop_time = 1200.0
-validation_stop_time = 1800.0
-tolerance = 1e-6
-[optimizer]
-x_tol = 1e-4
-f_tol = 1e-6
-[diagnose]
+        Model::Furuta => tight(
+            &[
+                mechanical_port("armJoint.tauExt", "armJoint.w", "armJoint.phi"),
+                mechanical_port("pendulumJoint.tauExt", "pendulumJoint.w", "pendulumJoint.phi"),
+            ]
+            .concat(),
+        ),
+        Model::SpringMass => tight(&mechanical_port("mass.Fext", "mass.v", "mass.x")),
+        Model::Exhaust => format!(
+            "{}{}{}",
+            model.parameters(),
+            diagnosis::EXHAUST_SETTINGS,
+            r#"[diagnose]
 [[diagnose.ports]]
 port = "rightVolume.wallQext"
 domain = "thermal"
 temperatures = ["rightVolume.wallT"]
 "#
-        }
+        ),
     }
+}
+
+/// The `[[diagnose.ports]]` table of a mechanical port, with the velocity and the position
+/// of what it acts on.
+fn mechanical_port(port: &str, velocity: &str, position: &str) -> String {
+    format!(
+        "[[diagnose.ports]]\nport = \"{port}\"\ndomain = \"mechanical\"\nvelocities = [\"{velocity}\"]\npositions = [\"{position}\"]\n"
+    )
 }
 
 /// The outputs of `fmu` (a model's base FMU or one of its hidden-effect fixtures, at their
@@ -282,29 +153,7 @@ temperatures = ["rightVolume.wallT"]
 fn noise_free(fmu: &Path, model: Model, profile: usize, dir: &Path) -> SimResult {
     let (time, columns) = inputs(model, profile);
     let fmu = common::load(fmu, &dir.join("cache"));
-    let inputs = common::table(time.clone(), columns.iter().map(|(_, variable, v)| (*variable, v.clone())).collect());
-    let spec = SimSpec {
-        start_time: Some(time[0]),
-        stop_time: time.last().copied(),
-        output_times: Some(OutputTimes::Times(time.clone())),
-        inputs: Some(inputs),
-        outputs: outputs(model).iter().map(|(v, _)| (*v).to_owned()).collect(),
-        tolerance: Some(1e-10),
-        ..Default::default()
-    };
-    simulate(&fmu, &spec).unwrap()
-}
-
-/// Noise standard deviation of each output: the fraction `noise` of its range.
-fn noise_sigmas(clean: &SimResult, noise: f64) -> Vec<f64> {
-    clean
-        .columns
-        .iter()
-        .map(|c| {
-            let (lo, hi) = c.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
-            noise * (hi - lo)
-        })
-        .collect()
+    simulate(&fmu, &diagnosis::noise_free_spec(&time, &columns, model.outputs())).unwrap()
 }
 
 /// Writes the case's noisy data and job into `dir`; returns the job file and the noise floor:
@@ -313,39 +162,20 @@ fn write_case(case: &Case, dir: &Path) -> (PathBuf, f64) {
     let model = case.truth.model();
     let (time, columns) = inputs(model, case.input);
     let clean = noise_free(&case.truth.fmu(), model, case.input, dir);
-    let mut noise = Noise(case.seed);
-    let mut csv = String::from("time");
-    for (_, column) in outputs(model) {
-        csv.push_str(&format!(",{column}"));
-    }
-    for (column, _, _) in &columns {
-        csv.push_str(&format!(",{column}"));
-    }
-    csv.push('\n');
     let sigma = noise_sigmas(&clean, case.noise);
-    for (i, t) in time.iter().enumerate() {
-        csv.push_str(&format!("{t}"));
-        for (c, s) in clean.columns.iter().zip(&sigma) {
-            csv.push_str(&format!(",{}", c[i] + s * noise.gaussian()));
-        }
-        for (_, _, v) in &columns {
-            csv.push_str(&format!(",{}", v[i]));
-        }
-        csv.push('\n');
-    }
-    std::fs::write(dir.join("data.csv"), csv).unwrap();
-    let mut job = format!("[model]\npath = \"{}\"\n[data]\npath = \"data.csv\"\n", model.fmu().display());
-    for (variable, column) in outputs(model) {
-        job.push_str(&format!("[[outputs]]\nvariable = \"{variable}\"\ncolumn = \"{column}\"\n"));
-    }
-    for (column, variable, _) in &columns {
-        job.push_str(&format!("[[inputs]]\ncolumn = \"{column}\"\nvariable = \"{variable}\"\n"));
-    }
-    job.push_str(job_body(model));
-    let path = dir.join("job.toml");
-    std::fs::write(&path, job).unwrap();
-    let floor = (sigma.iter().map(|s| s * s).sum::<f64>() / sigma.len() as f64).sqrt();
-    (path, floor)
+    let body = job_body(model);
+    let path = diagnosis::write_noisy_case(
+        dir,
+        &model.fmu(),
+        &time,
+        &columns,
+        model.outputs(),
+        &clean,
+        &sigma,
+        case.seed,
+        &body,
+    );
+    (path, diagnosis::noise_floor(&sigma))
 }
 
 /// A case's diagnosis and the noise floor of its data.
@@ -362,30 +192,10 @@ impl Outcome {
     }
 }
 
-/// Runs `fmucal COMMAND --workers 2 --out OUT JOB`.
-fn fmucal(command: &str, job: &Path, out: &Path) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_fmucal"))
-        .args([command, "--workers", "2", "--out"])
-        .arg(out)
-        .arg(job)
-        .output()
-        .unwrap()
-}
-
 /// Runs `fmucal diagnose` on the case.
 fn diagnose(case: &Case, dir: &Path) -> Outcome {
     let (job, floor) = write_case(case, dir);
-    let out = dir.join("diagnosis");
-    let run = fmucal("diagnose", &job, &out);
-    assert!(
-        run.status.success(),
-        "{case:?}: {}\n{}",
-        String::from_utf8_lossy(&run.stdout),
-        String::from_utf8_lossy(&run.stderr)
-    );
-    eprintln!("{case:?}\n{}", String::from_utf8_lossy(&run.stdout));
-    let report = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
-    Outcome { report, floor }
+    Outcome { report: diagnosis::diagnose(case, &job, dir), floor }
 }
 
 /// What the diagnosis named first, in the words of a candidate description.
@@ -399,22 +209,6 @@ fn equals(d: &Diagnosis) -> Vec<String> {
     d.rounds
         .first()
         .map_or(vec![], |r| r.equally_supported.iter().map(|k| r.candidates[*k].description.clone()).collect())
-}
-
-/// A scratch folder for a case: under `DIAGNOSIS_GRID_DIR` (kept, to look at) if set.
-fn case_dir(name: &str) -> (Option<tempfile::TempDir>, PathBuf) {
-    match std::env::var_os("DIAGNOSIS_GRID_DIR") {
-        Some(root) => {
-            let dir = Path::new(&root).join(name);
-            std::fs::create_dir_all(&dir).unwrap();
-            (None, dir)
-        }
-        None => {
-            let t = tempfile::tempdir().unwrap();
-            let p = t.path().to_owned();
-            (Some(t), p)
-        }
-    }
 }
 
 /// Checks a case whose data hides an effect: the effect is named, the validation error above
@@ -565,15 +359,19 @@ fn grid() -> Vec<Case> {
 #[test]
 #[ignore = "the full grid takes minutes; run bench/diagnose_grid.sh"]
 fn full_grid() {
-    // DIAGNOSIS_GRID_CASES=3,4,10 runs only those cases (numbered as the kept folders are).
-    let only: Option<Vec<usize>> = std::env::var("DIAGNOSIS_GRID_CASES").ok().map(|s| {
-        s.split(',').filter(|x| !x.trim().is_empty()).map(|x| x.trim().parse().expect("case numbers")).collect()
-    });
-    let cases = grid();
-    println!(
-        "| case | truth | noise | input | named | right | validation RMS before → after | above noise before → after | left by the base ÷ noise | time [s] | base calibration [s] |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    diagnosis::print_table_head(&[
+        "case",
+        "truth",
+        "noise",
+        "input",
+        "named",
+        "right",
+        "validation RMS before → after",
+        "above noise before → after",
+        "left by the base ÷ noise",
+        "time [s]",
+        "base calibration [s]",
+    ]);
     let mut among_equals = 0;
     let (mut effect_right, mut effect_total, mut null_right, mut null_total) = (0, 0, 0, 0);
     let (mut shrunk, mut raw_halved, mut found) = (0, 0, 0);
@@ -582,12 +380,9 @@ fn full_grid() {
     let (mut halvable, mut halved_where_halvable) = (0, 0);
     let mut left_of = std::collections::BTreeMap::new();
     let (mut loud_wrong, mut loud_total) = (0, 0);
-    for (k, case) in cases.iter().enumerate() {
-        if only.as_ref().is_some_and(|o| !o.contains(&k)) {
-            continue;
-        }
+    for (k, case) in diagnosis::selected(grid()) {
         let (_keep, dir) = case_dir(&format!("case{k:02}"));
-        let o = diagnose(case, &dir);
+        let o = diagnose(&case, &dir);
         let d = &o.report;
         let got = named(d);
         let right = got.as_deref() == case.truth.expected();

@@ -540,18 +540,24 @@ fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
 }
 
+/// A coordinator process on a free port with its store in `data_dir`, one worker (its cache in
+/// `dir/wcache`) and a client.
+async fn coordinator_with_a_worker(dir: &Path, data_dir: &Path) -> (KillOnDrop, Vec<KillOnDrop>, Client) {
+    let port = free_port();
+    let url = format!("http://127.0.0.1:{port}");
+    let coord = coordinator_process(port, data_dir);
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let workers = vec![start_worker(&url, &dir.join("wcache"), TOKEN)];
+    (coord, workers, client(&url, Some(TOKEN)).await)
+}
+
 /// Writes [`STORE_FIXTURE`]: runs a coordinator process on a fresh folder, finishes two short
 /// jobs, SIGKILLs it while a third runs.
 async fn bless_store(fixture: &Path) {
     let dir = tempfile::tempdir().unwrap();
     let _ = std::fs::remove_dir_all(fixture);
     let data_dir = dir.path().join("coord");
-    let port = free_port();
-    let url = format!("http://127.0.0.1:{port}");
-    let mut coord = coordinator_process(port, &data_dir);
-    tokio::time::sleep(Duration::from_millis(500)).await;
-    let mut workers = vec![start_worker(&url, &dir.path().join("wcache"), TOKEN)];
-    let mut c = client(&url, Some(TOKEN)).await;
+    let (mut coord, mut workers, mut c) = coordinator_with_a_worker(dir.path(), &data_dir).await;
     let mut finished = serde_json::Map::new();
     for iters in [3, 4] {
         let (spec, data) = furuta_job(dir.path(), iters);
@@ -592,12 +598,7 @@ async fn a_store_left_by_the_earlier_coordinator_resumes_and_keeps_its_results()
     let dir = tempfile::tempdir().unwrap();
     let data_dir = dir.path().join("coord");
     common::copy_dir(&fixture, &data_dir);
-    let port = free_port();
-    let url = format!("http://127.0.0.1:{port}");
-    let mut coord = coordinator_process(port, &data_dir);
-    tokio::time::sleep(Duration::from_millis(500)).await;
-    let mut workers = vec![start_worker(&url, &dir.path().join("wcache"), TOKEN)];
-    let mut c = client(&url, Some(TOKEN)).await;
+    let (mut coord, mut workers, mut c) = coordinator_with_a_worker(dir.path(), &data_dir).await;
     for (job, x) in expected["finished"].as_object().unwrap() {
         let r = c.get_job(pb::GetJobRequest { job_id: job.clone() }).await.unwrap().into_inner();
         assert_eq!(r.status, pb::JobStatus::Succeeded as i32, "{job}: {r:?}");

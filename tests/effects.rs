@@ -120,29 +120,13 @@ fn bad_port_terms_are_refused_naming_the_culprit() {
 /// the motor torque as input; `body` holds its `[[parameters]]` and `[[effects]]`, then the
 /// `[simulation]` and `[optimizer]` entries.
 fn furuta_toml(data: &std::path::Path, body: &str, simulation: &str, optimizer: &str) -> String {
-    format!(
-        r#"
-[model]
-path = "{}"
-[data]
-path = "{}"
-[[outputs]]
-variable = "armJoint.phi"
-column = "phi"
-[[outputs]]
-variable = "pendulumJoint.phi"
-column = "theta"
-[[inputs]]
-column = "u"
-variable = "u"
-{body}
-[simulation]
-{simulation}
-[optimizer]
-{optimizer}
-"#,
-        common::example("furuta").display(),
-        data.display()
+    common::job_toml(
+        &common::example("furuta"),
+        Some(data),
+        &[("armJoint.phi", "phi"), ("pendulumJoint.phi", "theta")],
+        &[("u", "u")],
+        &[],
+        &format!("{body}\n[simulation]\n{simulation}\n[optimizer]\n{optimizer}\n"),
     )
 }
 
@@ -224,31 +208,22 @@ fn a_sensor_offset_in_the_data_is_calibrated_as_an_effect() {
         csv.push_str(&format!("{t},{}\n", x + 0.05));
     }
     std::fs::write(dir.path().join("d.csv"), csv).unwrap();
-    let toml = format!(
-        r#"
-[model]
-path = "{}"
-[data]
-path = "d.csv"
-[[outputs]]
-variable = "x"
-column = "x"
-[[parameters]]
-name = "k"
-start = 1.0
-lower = 0.1
-upper = 5.0
-[[effects]]
+    let toml = common::job_toml(
+        &common::example("decay"),
+        Some(std::path::Path::new("d.csv")),
+        &[("x", "x")],
+        &[],
+        &[("k", 1.0, 0.1, 5.0)],
+        r#"[[effects]]
 kind = "sensor_offset"
 output = "x"
-parameters = {{ offset = {{ start = 0.0, lower = -0.2, upper = 0.2 }} }}
+parameters = { offset = { start = 0.0, lower = -0.2, upper = 0.2 } }
 [simulation]
 tolerance = 1e-10
 [optimizer]
 x_tol = 1e-9
 f_tol = 1e-16
 "#,
-        common::example("decay").display()
     );
     let spec = JobSpec::from_toml(&toml, dir.path()).unwrap();
     let data = MeasurementTable::read(&dir.path().join("d.csv"), "time").unwrap();
@@ -325,9 +300,7 @@ fn hidden_coulomb_data(dir: &std::path::Path) -> std::path::PathBuf {
         let k = measured.time.partition_point(|m| m <= t).saturating_sub(1);
         csv.push_str(&format!("{t},{},{},{}\n", r.columns[0][i], r.columns[1][i], u[k]));
     }
-    let path = dir.join("hidden.csv");
-    std::fs::write(&path, csv).unwrap();
-    path
+    common::write_file(dir, "hidden.csv", csv)
 }
 
 #[test]

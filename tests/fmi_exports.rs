@@ -247,9 +247,7 @@ fn torque_csv(dir: &Path, column: &str) -> PathBuf {
         let t = k as f64 * 0.5;
         text.push_str(&format!("{t},{}\n{t},{}\n", level(k - 1), level(k)));
     }
-    let path = dir.join(format!("torque-{column}.csv"));
-    std::fs::write(&path, text).unwrap();
-    path
+    common::write_file(dir, format!("torque-{column}.csv"), text)
 }
 
 /// `fmucal inspect --json` of `fmu`: its `variables`.
@@ -769,26 +767,14 @@ fn model_exchange_ends_at_the_event_where_the_fmu_asks_to_terminate() {
 fn calibrate_furuta_named(fmu: &Path, n: [&str; 4], dir: &Path, label: &str) -> serde_json::Value {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta/furuta_data.csv");
     let [phi, torque, friction, speed] = n;
-    let job = format!(
-        r#"[model]
-path = "{fmu}"
-[data]
-path = "{data}"
-[[outputs]]
-variable = "{phi}"
-column = "phi"
-[[outputs]]
-variable = "pendulumJoint.phi"
-column = "theta"
-[[inputs]]
-column = "u"
-variable = "{torque}"
-[[parameters]]
-name = "{friction}"
-start = 0.02
-lower = 0.0
-upper = 0.05
-[[effects]]
+    let job = common::job_toml(
+        fmu,
+        Some(&data),
+        &[(phi, "phi"), ("pendulumJoint.phi", "theta")],
+        &[("u", torque)],
+        &[(friction, 0.02, 0.0, 0.05)],
+        &format!(
+            r#"[[effects]]
 kind = "viscous_damping"
 port = "{torque}"
 signal = "{speed}"
@@ -798,9 +784,8 @@ stop_time = 4.0
 tolerance = 1e-8
 [optimizer]
 max_iters = 15
-"#,
-        fmu = fmu.display(),
-        data = data.display()
+"#
+        ),
     );
     let path = dir.join(format!("{label}.toml"));
     std::fs::write(&path, job).unwrap();

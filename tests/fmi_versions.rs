@@ -116,9 +116,7 @@ fn an_array_element_is_set_and_read_as_the_model_equations_say() {
 fn job(dir: &Path, model: &Path, parameters: &[(&str, f64, f64, f64)]) -> PathBuf {
     let tables = "[optimizer]\nalgorithm = \"nelder-mead\"\nx_tol = 1e-8\nf_tol = 1e-14\n[workers]\ncount = 1\n";
     let text = common::job_toml(model, Some(Path::new("data.csv")), &[("x", "x")], &[], parameters, tables);
-    let path = dir.join("job.toml");
-    std::fs::write(&path, text).unwrap();
-    path
+    common::write_file(dir, "job.toml", text)
 }
 
 #[test]

@@ -150,9 +150,7 @@ fn torque_profile(dir: &Path) -> PathBuf {
         let (ub, pb) = level(k);
         text.push_str(&format!("{t},{ua},{pa}\n{t},{ub},{pb}\n"));
     }
-    let path = dir.join("torque.csv");
-    std::fs::write(&path, text).unwrap();
-    path
+    common::write_file(dir, "torque.csv", text)
 }
 
 #[test]

@@ -117,18 +117,8 @@ fn start_worker_with(url: &str, cache: &Path, token: &str, args: &[&str], log: O
 /// The decay example's job (`k` from 1.0 in [0.5, 3]) on data made with k = 1.7, with `extra`
 /// tables appended, as the job spec of `model_id`.
 fn decay_job(dir: &Path, extra: &str, model_id: &str) -> pb::JobSpec {
-    let (spec, data) = decay_spec(dir, extra, &[("k", 1.0, 0.5, 3.0)]);
+    let (spec, data) = common::decay_spec(dir, extra, &[("k", 1.0, 0.5, 3.0)]);
     job_to_proto(&spec, std::slice::from_ref(&data), model_id)
-}
-
-/// The decay example's job calibrating `parameters` (name, start, lower, upper) on data made
-/// with k = 1.7, with `extra` tables appended, and its data.
-fn decay_spec(dir: &Path, extra: &str, parameters: &[(&str, f64, f64, f64)]) -> (JobSpec, MeasurementTable) {
-    let fmu = common::load_example("decay", &dir.join("cache"));
-    let r = simulate(&fmu, &SimSpec { parameters: vec![("k".into(), "1.7".into())], ..Default::default() }).unwrap();
-    let data = MeasurementTable { time: r.time.clone(), columns: vec![("x".into(), r.column("x").unwrap().to_vec())] };
-    let toml = common::job_toml(&common::example("decay"), None, &[("x", "x")], &[], parameters, extra);
-    (JobSpec::from_toml(&toml, dir).unwrap(), data)
 }
 
 /// Waits until `child` exits, for at most `limit`; whether it did (it is killed if not).
@@ -154,10 +144,43 @@ fn wait_for_text(path: &Path, text: &str) {
     }
 }
 
+/// A coordinator with its store in `dir/coord` (workers log in with `worker_token`, if given),
+/// a client, and the Decay example uploaded to it (its model id).
+async fn coordinator_with_decay(dir: &Path, worker_token: Option<&str>) -> (Coordinator, Client, String) {
+    let coord = start_coordinator(&dir.join("coord"), worker_token).await;
+    let mut c = client(&coord.url, TOKEN).await;
+    let model = upload_decay(&mut c).await;
+    (coord, c, model)
+}
+
 async fn upload_decay(c: &mut Client) -> String {
     let bytes = std::fs::read(common::example("decay")).unwrap();
     let chunks = vec![pb::UploadModelRequest { chunk: bytes }];
     c.upload_model(tokio_stream::iter(chunks)).await.unwrap().into_inner().model_id
+}
+
+/// A coordinator, its store in `dir/coord`, on which a worker (stopped since) has run a Decay
+/// job of 5 iterations to its end.
+struct Ended {
+    coord: Coordinator,
+    c: Client,
+    /// The uploaded model's id, and the job's spec and id.
+    model: String,
+    spec: pb::JobSpec,
+    job: String,
+    /// The job as it ended.
+    before: pb::GetJobResponse,
+}
+
+async fn one_job_ended(dir: &Path) -> Ended {
+    let (coord, mut c, model) = coordinator_with_decay(dir, Some(WORKER_TOKEN)).await;
+    let mut worker = start_worker(&coord.url, &dir.join("wcache"), WORKER_TOKEN);
+    let spec = decay_job(dir, "[optimizer]\nmax_iters = 5\n", &model);
+    let job = c.submit_job(pb::SubmitJobRequest { spec: Some(spec.clone()) }).await.unwrap().into_inner().job_id;
+    let before = wait_end(&mut c, &job).await;
+    let _ = worker.kill();
+    let _ = worker.wait();
+    Ended { coord, c, model, spec, job, before }
 }
 
 async fn wait_end(c: &mut Client, job: &str) -> pb::GetJobResponse {
@@ -175,9 +198,7 @@ async fn wait_end(c: &mut Client, job: &str) -> pb::GetJobResponse {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn sizes_past_the_caps_are_refused_and_the_coordinator_keeps_serving() {
     let dir = tempfile::tempdir().unwrap();
-    let coord = start_coordinator(&dir.path().join("coord"), None).await;
-    let mut c = client(&coord.url, TOKEN).await;
-    let model = upload_decay(&mut c).await;
+    let (_coord, mut c, model) = coordinator_with_decay(dir.path(), None).await;
     let base = decay_job(dir.path(), "", &model);
     let huge_population = |algorithm: &str, population: u64| {
         let mut j = base.clone();
@@ -211,9 +232,7 @@ async fn sizes_past_the_caps_are_refused_and_the_coordinator_keeps_serving() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_job_whose_start_point_or_every_evaluation_fails_fails_with_the_first_error() {
     let dir = tempfile::tempdir().unwrap();
-    let coord = start_coordinator(&dir.path().join("coord"), Some(WORKER_TOKEN)).await;
-    let mut c = client(&coord.url, TOKEN).await;
-    let model = upload_decay(&mut c).await;
+    let (coord, mut c, model) = coordinator_with_decay(dir.path(), Some(WORKER_TOKEN)).await;
     let mut worker = start_worker(&coord.url, &dir.path().join("wcache"), WORKER_TOKEN);
     // crashMode = "error" at 0.5 s, within the 2 s simulated: every simulation fails.
     let failing = "[simulation]\nset = { crashMode = \"error\", crashTime = 0.5 }\n";
@@ -240,9 +259,7 @@ async fn a_job_whose_start_point_or_every_evaluation_fails_fails_with_the_first_
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_worker_may_answer_only_the_points_leased_to_it() {
     let dir = tempfile::tempdir().unwrap();
-    let coord = start_coordinator(&dir.path().join("coord"), Some(WORKER_TOKEN)).await;
-    let mut c = client(&coord.url, TOKEN).await;
-    let model = upload_decay(&mut c).await;
+    let (coord, mut c, model) = coordinator_with_decay(dir.path(), Some(WORKER_TOKEN)).await;
     let spec = decay_job(dir.path(), "[optimizer]\nmax_iters = 3\n", &model);
     let job = c.submit_job(pb::SubmitJobRequest { spec: Some(spec) }).await.unwrap().into_inner().job_id;
 
@@ -333,16 +350,8 @@ async fn clients_and_workers_hold_different_tokens() {
 async fn jobs_whose_model_is_gone_after_a_restart_stay_readable() {
     let dir = tempfile::tempdir().unwrap();
     let data_dir = dir.path().join("coord");
-    let coord = start_coordinator(&data_dir, Some(WORKER_TOKEN)).await;
-    let mut c = client(&coord.url, TOKEN).await;
-    let model = upload_decay(&mut c).await;
-    let mut worker = start_worker(&coord.url, &dir.path().join("wcache"), WORKER_TOKEN);
-    let spec = decay_job(dir.path(), "[optimizer]\nmax_iters = 5\n", &model);
-    let done = c.submit_job(pb::SubmitJobRequest { spec: Some(spec.clone()) }).await.unwrap().into_inner().job_id;
-    let before = wait_end(&mut c, &done).await;
+    let Ended { coord, mut c, model, spec, job: done, before } = one_job_ended(dir.path()).await;
     assert_eq!(before.status, pb::JobStatus::Succeeded as i32, "{before:?}");
-    let _ = worker.kill();
-    let _ = worker.wait();
     // With no worker left, this one is still running when the coordinator stops.
     let running = c.submit_job(pb::SubmitJobRequest { spec: Some(spec) }).await.unwrap().into_inner().job_id;
     coord.stop().await;
@@ -408,7 +417,8 @@ async fn a_model_that_never_returns_fails_its_point_and_does_not_wedge_the_worke
         let args = ["--slots", slots, "--evaluation-deadline", "2", "--stop-grace", "1"];
         let mut worker = start_worker_with(&coord.url, &dir.path().join("wcache"), WORKER_TOKEN, &args, Some(&log));
         let parameters = [("k", 1.0, 0.5, 3.0), ("crashTime", 5.0, 0.5, 10.0)];
-        let (spec, data) = decay_spec(dir.path(), "[simulation]\nset = { crashMode = \"hang\" }\n", &parameters);
+        let (spec, data) =
+            common::decay_spec(dir.path(), "[simulation]\nset = { crashMode = \"hang\" }\n", &parameters);
         // The simulation ends at 2 s: the second point hangs, the others do not.
         let points = spec.evaluating_points(vec![vec![1.7, 5.0], vec![1.7, 1.0], vec![1.0, 5.0]]);
         let job = job_to_proto(&points, std::slice::from_ref(&data), &model);
@@ -635,15 +645,7 @@ async fn a_points_job_keeps_its_residuals_once_and_within_the_cap() {
 async fn salvage_gives_back_the_jobs_of_a_damaged_store() {
     let dir = tempfile::tempdir().unwrap();
     let data_dir = dir.path().join("coord");
-    let coord = start_coordinator(&data_dir, Some(WORKER_TOKEN)).await;
-    let mut c = client(&coord.url, TOKEN).await;
-    let model = upload_decay(&mut c).await;
-    let mut worker = start_worker(&coord.url, &dir.path().join("wcache"), WORKER_TOKEN);
-    let spec = decay_job(dir.path(), "[optimizer]\nmax_iters = 5\n", &model);
-    let job = c.submit_job(pb::SubmitJobRequest { spec: Some(spec) }).await.unwrap().into_inner().job_id;
-    let before = wait_end(&mut c, &job).await;
-    let _ = worker.kill();
-    let _ = worker.wait();
+    let Ended { coord, job, before, .. } = one_job_ended(dir.path()).await;
     coord.stop().await;
 
     let store = data_dir.join("jobs.redb");

@@ -24,13 +24,8 @@ fn fmucal(dir: &Path, args: &[&str]) -> Output {
 }
 
 fn command(dir: &Path, args: &[&str]) -> Command {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_fmucal"));
-    cmd.args(args)
-        .current_dir(dir)
-        .env("FMUCAL_CACHE_DIR", dir.join("cache"))
-        .env("TMPDIR", tmp(dir))
-        .env_remove("FMUCAL_TOKEN")
-        .env_remove("FMUCAL_LOG");
+    let mut cmd = common::fmucal_in(dir);
+    cmd.args(args).env("TMPDIR", tmp(dir)).env_remove("FMUCAL_TOKEN").env_remove("FMUCAL_LOG");
     cmd
 }
 
@@ -68,20 +63,11 @@ fn decay_job(dir: &Path, extra: &str) -> PathBuf {
 }
 
 fn decay_text(extra: &str) -> String {
-    common::job_toml(
-        Path::new("example:decay"),
-        Some(Path::new("data.csv")),
-        &[("x", "x")],
-        &[],
-        &[("k", 1.0, 0.1, 5.0)],
-        &format!("[optimizer]\nx_tol = 1e-4\nf_tol = 1e-10\n{extra}"),
-    )
+    common::decay_job_toml(5.0, &format!("[optimizer]\nx_tol = 1e-4\nf_tol = 1e-10\n{extra}"))
 }
 
 fn write_job(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
+    common::write_file(dir, name, text)
 }
 
 /// `examples/NAME`'s job file and its data copied into `dir`, the job's text edited by `edit`.

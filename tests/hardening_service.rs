@@ -25,7 +25,6 @@ use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::calibration_client::CalibrationClient;
 use fmucal_shared::job::{JobSpec, MeasurementTable};
-use fmucal_shared::sim::{SimSpec, simulate};
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
 
@@ -130,15 +129,7 @@ fn certs(dir: &Path) {
 }
 
 async fn client(url: &str) -> Client {
-    let endpoint = tonic::transport::Endpoint::from_shared(url.to_owned()).unwrap();
-    let end = Instant::now() + Duration::from_secs(30);
-    let channel = loop {
-        match endpoint.connect().await {
-            Ok(c) => break c,
-            Err(e) if Instant::now() > end => panic!("cannot reach {url}: {e}"),
-            Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
-        }
-    };
+    let channel = common::channel_within(url, Duration::from_secs(30)).await;
     CalibrationClient::with_interceptor(channel, AttachToken::new(Some(TOKEN)).unwrap())
         .max_encoding_message_size(256 << 20)
         .max_decoding_message_size(256 << 20)
@@ -148,16 +139,6 @@ async fn upload(c: &mut Client, example: &str) -> String {
     let bytes = std::fs::read(common::example(example)).unwrap();
     let chunks = vec![pb::UploadModelRequest { chunk: bytes }];
     c.upload_model(tokio_stream::iter(chunks)).await.unwrap().into_inner().model_id
-}
-
-/// The decay example's job calibrating `parameters` on data made with k = 1.7, with `extra`
-/// tables appended, and its data.
-fn decay_spec(dir: &Path, extra: &str, parameters: &[(&str, f64, f64, f64)]) -> (JobSpec, MeasurementTable) {
-    let fmu = common::load_example("decay", &dir.join("cache"));
-    let r = simulate(&fmu, &SimSpec { parameters: vec![("k".into(), "1.7".into())], ..Default::default() }).unwrap();
-    let data = MeasurementTable { time: r.time.clone(), columns: vec![("x".into(), r.column("x").unwrap().to_vec())] };
-    let toml = common::job_toml(&common::example("decay"), None, &[("x", "x")], &[], parameters, extra);
-    (JobSpec::from_toml(&toml, dir).unwrap(), data)
 }
 
 async fn status_of(c: &mut Client, job: &str) -> i32 {
@@ -198,13 +179,13 @@ async fn over_long_strings_are_refused_naming_the_field_in_a_short_message() {
         assert!(s.message().contains(field), "{what}: {:.300}", s.message());
         assert!(s.message().len() < 1500, "{what}: {} bytes", s.message().len());
     };
-    let (spec, data) = decay_spec(dir.path(), "", &[("k", 1.0, 0.5, 3.0)]);
+    let (spec, data) = common::decay_spec(dir.path(), "", &[("k", 1.0, 0.5, 3.0)]);
     let mut job = job_to_proto(&spec, std::slice::from_ref(&data), &model);
     job.parameters[0].name = "p".repeat(20_000);
     let e = c.submit_job(pb::SubmitJobRequest { spec: Some(job) }).await.unwrap_err();
     check("a long parameter name", e, "parameters[0]");
 
-    let (spec, data) = decay_spec(
+    let (spec, data) = common::decay_spec(
         dir.path(),
         &format!("[simulation]\nset = {{ crashTime = \"{}\" }}\n", "x".repeat(1 << 20)),
         &[("k", 1.0, 0.5, 3.0)],
@@ -448,7 +429,7 @@ async fn a_hung_model_in_one_job_does_not_hold_back_another_jobs_points() {
     let mut c = client(&url).await;
     let model = upload(&mut c, "decay").await;
     let parameters = [("k", 1.0, 0.5, 3.0), ("crashTime", 5.0, 0.5, 10.0)];
-    let (spec, data) = decay_spec(dir.path(), "[simulation]\nset = { crashMode = \"hang\" }\n", &parameters);
+    let (spec, data) = common::decay_spec(dir.path(), "[simulation]\nset = { crashMode = \"hang\" }\n", &parameters);
     // The simulation ends at 2 s: a crash time of 1 s hangs, 5 s does not.
     let hung = job_to_proto(&spec.evaluating_points(vec![vec![1.7, 1.0]]), std::slice::from_ref(&data), &model);
     let quick: Vec<Vec<f64>> = (0..7).map(|i| vec![1.0 + 0.1 * f64::from(i), 5.0]).collect();
@@ -571,7 +552,7 @@ async fn a_worker_stopped_after_its_jobs_leaves_no_warning_about_results() {
     let url = format!("http://127.0.0.1:{port}");
     let mut c = client(&url).await;
     let model = upload(&mut c, "decay").await;
-    let (spec, data) = decay_spec(dir.path(), "", &[("k", 1.0, 0.5, 3.0)]);
+    let (spec, data) = common::decay_spec(dir.path(), "", &[("k", 1.0, 0.5, 3.0)]);
     for round in 0..3 {
         let worker = Proc(
             fmucal(&["worker", "--coordinator", &url, "--cache-dir"])

@@ -17,11 +17,7 @@ use std::path::Path;
 use fmucal_models::Fixture;
 use fmucal_shared::fmu::{Fmu, Interface};
 use fmucal_shared::job::MeasurementTable;
-use fmucal_shared::sim::{InputTable, OutputTimes, PortTerm, SimResult, SimSpec, simulate};
-
-fn fixture(f: Fixture, dir: &Path) -> Fmu {
-    common::load(&f.path(), &dir.join("cache"))
-}
+use fmucal_shared::sim::{InputTable, PortTerm, SimResult, SimSpec, simulate};
 
 fn example_data(relative: &str) -> MeasurementTable {
     MeasurementTable::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join(relative), "time").unwrap()
@@ -33,34 +29,9 @@ fn furuta_torque() -> InputTable {
     common::table(data.time.clone(), vec![("u", data.column("u").unwrap().to_vec())])
 }
 
-/// The exhaust example's five inputs (examples/exhaust/exhaust_data.csv).
-fn exhaust_inputs() -> InputTable {
-    let data = example_data("examples/exhaust/exhaust_data.csv");
-    let names = ["inlet.T", "inlet.p", "turbine1.w", "turbine2.w", "outlet.p"];
-    common::table(data.time.clone(), names.iter().map(|n| (*n, data.column(n).unwrap().to_vec())).collect())
-}
-
-/// F = 3 sin(t) N every 10 ms over 20 s: below the SpringMass resonance (2 rad/s), it drives
-/// the mass to about ±1 m.
-fn spring_force() -> InputTable {
-    let time: Vec<f64> = (0..=2000).map(|k| k as f64 * 0.01).collect();
-    let force = time.iter().map(|t| 3.0 * t.sin()).collect();
-    common::table(time, vec![("F", force)])
-}
-
 /// Model Exchange at a tight tolerance from 0 to `stop`, reporting `outputs` every `dt`.
 fn spec(stop: f64, dt: f64, inputs: InputTable, outputs: &[&str], port_terms: Vec<PortTerm>) -> SimSpec {
-    SimSpec {
-        interface: Some(Interface::ModelExchange),
-        start_time: Some(0.0),
-        stop_time: Some(stop),
-        output_times: Some(OutputTimes::Interval(dt)),
-        inputs: Some(inputs),
-        outputs: outputs.iter().map(|s| s.to_string()).collect(),
-        tolerance: Some(1e-10),
-        port_terms,
-        ..Default::default()
-    }
+    SimSpec { port_terms, ..common::model_exchange_spec(stop, dt, inputs, outputs) }
 }
 
 fn term(kind: &str, port: &str, signal: &str, parameters: Vec<f64>) -> PortTerm {
@@ -74,6 +45,18 @@ fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
 
 fn range(a: &[f64]) -> f64 {
     a.iter().fold(f64::NEG_INFINITY, |m, v| m.max(*v)) - a.iter().fold(f64::INFINITY, |m, v| m.min(*v))
+}
+
+/// The hidden-effect fixture `hidden`, the base model with `term` injected, and the base model
+/// alone, each simulated as `spec` (given the port terms) says.
+fn hidden_injected_and_base(
+    hidden: &Fmu,
+    base: &Fmu,
+    term: PortTerm,
+    spec: impl Fn(Vec<PortTerm>) -> SimSpec,
+) -> (SimResult, SimResult, SimResult) {
+    let run = |fmu: &Fmu, terms: Vec<PortTerm>| simulate(fmu, &spec(terms)).unwrap();
+    (run(hidden, vec![]), run(base, vec![term]), run(base, vec![]))
 }
 
 /// Checks the hidden variant's `outputs` against the base model with the effect injected (must
@@ -105,7 +88,7 @@ fn check_port_effect(
 fn the_sensor_offset_variant_reports_the_arm_angle_plus_the_offset_and_nothing_else() {
     let dir = tempfile::tempdir().unwrap();
     let base = common::load_example("furuta", &dir.path().join("cache"));
-    let hidden = fixture(Fixture::FurutaHiddenSensorOffset, dir.path());
+    let hidden = common::fixture(Fixture::FurutaHiddenSensorOffset, dir.path());
     let outputs = ["armJoint.phi", "pendulumJoint.phi"];
     for interface in [Interface::ModelExchange, Interface::CoSimulation] {
         let s = SimSpec { interface: Some(interface), ..spec(10.0, 0.01, furuta_torque(), &outputs, vec![]) };
@@ -124,23 +107,24 @@ fn the_sensor_offset_variant_reports_the_arm_angle_plus_the_offset_and_nothing_e
 fn injected_quadratic_drag_reproduces_the_hidden_arm_drag() {
     let dir = tempfile::tempdir().unwrap();
     let base = common::load_example("furuta", &dir.path().join("cache"));
-    let hidden = fixture(Fixture::FurutaHiddenArmDrag, dir.path());
+    let hidden = common::fixture(Fixture::FurutaHiddenArmDrag, dir.path());
     let outputs = ["armJoint.phi", "pendulumJoint.phi"];
     let drag = term("quadratic_drag", "armJoint.tauExt", "armJoint.w", vec![1e-3]);
-    let run = |fmu: &Fmu, terms: Vec<PortTerm>| simulate(fmu, &spec(10.0, 0.01, furuta_torque(), &outputs, terms));
-    let (h, i, w) = (run(&hidden, vec![]).unwrap(), run(&base, vec![drag]).unwrap(), run(&base, vec![]).unwrap());
+    let (h, i, w) =
+        hidden_injected_and_base(&hidden, &base, drag, |terms| spec(10.0, 0.01, furuta_torque(), &outputs, terms));
     check_port_effect(&h, &i, &w, &outputs, 1e-9, ("armJoint.phi", 0.01));
 }
 
 #[test]
 fn injected_cubic_spring_reproduces_the_hidden_hardening_spring() {
     let dir = tempfile::tempdir().unwrap();
-    let base = fixture(Fixture::SpringMass, dir.path());
-    let hidden = fixture(Fixture::SpringMassHiddenCubic, dir.path());
+    let base = common::fixture(Fixture::SpringMass, dir.path());
+    let hidden = common::fixture(Fixture::SpringMassHiddenCubic, dir.path());
     let outputs = ["mass.x", "mass.v"];
     let spring = term("cubic_spring", "mass.Fext", "mass.x", vec![0.2]);
-    let run = |fmu: &Fmu, terms: Vec<PortTerm>| simulate(fmu, &spec(20.0, 0.01, spring_force(), &outputs, terms));
-    let (h, i, w) = (run(&hidden, vec![]).unwrap(), run(&base, vec![spring]).unwrap(), run(&base, vec![]).unwrap());
+    let (h, i, w) = hidden_injected_and_base(&hidden, &base, spring, |terms| {
+        spec(20.0, 0.01, common::spring_force(), &outputs, terms)
+    });
     // The input drives the base model to about ±1 m, where the cubic force is 5 % of the
     // linear one.
     let amplitude = w.column("mass.x").unwrap().iter().fold(0.0f64, |m, x| m.max(x.abs()));
@@ -152,24 +136,25 @@ fn injected_cubic_spring_reproduces_the_hidden_hardening_spring() {
 fn injected_radiation_reproduces_the_hidden_radiation_of_the_outlet_wall() {
     let dir = tempfile::tempdir().unwrap();
     let base = common::load_example("exhaust-pipe", &dir.path().join("cache"));
-    let hidden = fixture(Fixture::ExhaustPipeHiddenRadiation, dir.path());
+    let hidden = common::fixture(Fixture::ExhaustPipeHiddenRadiation, dir.path());
     let outputs = ["outlet.T", "rightVolume.wallT"];
     let radiation = term("radiation", "rightVolume.wallQext", "rightVolume.wallT", vec![0.2, 293.15]);
-    let run = |fmu: &Fmu, terms: Vec<PortTerm>| simulate(fmu, &spec(1800.0, 1.0, exhaust_inputs(), &outputs, terms));
-    let (h, i, w) = (run(&hidden, vec![]).unwrap(), run(&base, vec![radiation]).unwrap(), run(&base, vec![]).unwrap());
+    let (h, i, w) = hidden_injected_and_base(&hidden, &base, radiation, |terms| {
+        spec(1800.0, 1.0, common::exhaust_inputs(), &outputs, terms)
+    });
     check_port_effect(&h, &i, &w, &outputs, 1e-9, ("outlet.T", 0.01));
 }
 
 #[test]
 fn the_spring_mass_free_response_is_the_damped_oscillation() {
     let dir = tempfile::tempdir().unwrap();
-    let fmu = fixture(Fixture::SpringMass, dir.path());
+    let fmu = common::fixture(Fixture::SpringMass, dir.path());
     let (m, k, d, x0) = (1.0f64, 4.0f64, 0.3f64, 1.0f64);
     let s = SimSpec {
         parameters: vec![("mass.x".into(), x0.to_string())],
         tolerance: Some(1e-12),
         inputs: None,
-        ..spec(20.0, 0.01, spring_force(), &["mass.x", "mass.v"], vec![])
+        ..spec(20.0, 0.01, common::spring_force(), &["mass.x", "mass.v"], vec![])
     };
     let r = simulate(&fmu, &s).unwrap();
     // m x'' + d x' + k x = 0, x(0) = x0, x'(0) = 0 (underdamped).
@@ -259,7 +244,7 @@ fn dead_zone_reference(x0: f64, k2: f64, w: f64, times: &[f64]) -> (Vec<f64>, Ve
 #[test]
 fn a_dead_zone_springs_edges_are_events_and_the_motion_is_the_piecewise_closed_form() {
     let dir = tempfile::tempdir().unwrap();
-    let fmu = fixture(Fixture::SpringMass, dir.path());
+    let fmu = common::fixture(Fixture::SpringMass, dir.path());
     let (x0, k2, w) = (1.0, 12.0, 0.3);
     let s = SimSpec {
         parameters: vec![("mass.x".into(), x0.to_string())],
@@ -268,7 +253,7 @@ fn a_dead_zone_springs_edges_are_events_and_the_motion_is_the_piecewise_closed_f
         ..spec(
             10.0,
             0.01,
-            spring_force(),
+            common::spring_force(),
             &["mass.x"],
             vec![term("dead_zone_spring", "mass.Fext", "mass.x", vec![k2, w])],
         )

@@ -20,18 +20,7 @@ const TOKEN: &str = "local-model-test-token";
 /// Data of `x` from Decay at k = 1.7 (every 0.04 s of its 1 s default experiment) in
 /// `dir/data.csv`, and a job fitting k in `dir/job.toml` with `extra` TOML appended.
 fn write_job(dir: &Path, extra: &str) -> PathBuf {
-    let fmu = common::load_example("decay", &dir.join("reference-cache"));
-    let spec = fmucal_shared::sim::SimSpec {
-        parameters: vec![("k".into(), "1.7".into())],
-        tolerance: Some(1e-10),
-        ..Default::default()
-    };
-    let r = fmucal_shared::sim::simulate(&fmu, &spec).unwrap();
-    let mut csv = String::from("time,x\n");
-    for (t, x) in r.time.iter().zip(r.column("x").unwrap()).step_by(4) {
-        csv.push_str(&format!("{t},{x}\n"));
-    }
-    std::fs::write(dir.join("data.csv"), csv).unwrap();
+    common::write_decay_csv(dir, common::decay_samples(&dir.join("reference-cache"), Some(1e-10), 4));
     let text = common::job_toml(
         &common::example("decay"),
         Some(Path::new("data.csv")),
@@ -40,9 +29,7 @@ fn write_job(dir: &Path, extra: &str) -> PathBuf {
         &[("k", 1.0, 0.1, 5.0)],
         &format!("[simulation]\ntolerance = 1e-10\n{extra}[optimizer]\nx_tol = 1e-8\nf_tol = 1e-14\nmax_iters = 4\n"),
     );
-    let job = dir.join("job.toml");
-    std::fs::write(&job, text).unwrap();
-    job
+    common::write_file(dir, "job.toml", text)
 }
 
 /// Every file under `dir` (recursively), as paths.
@@ -68,10 +55,8 @@ fn a_local_run_neither_uploads_nor_unpacks_the_model_again() {
     let (tmp, cache) = (dir.path().join("tmp"), dir.path().join("cache"));
     std::fs::create_dir_all(&tmp).unwrap();
     let mut child = common::KillOnDrop(
-        Command::new(env!("CARGO_BIN_EXE_fmucal"))
+        common::fmucal_in(dir.path())
             .args(["calibrate", job.to_str().unwrap(), "--workers", "2", "--out", "out"])
-            .current_dir(dir.path())
-            .env("FMUCAL_CACHE_DIR", &cache)
             .env("TMPDIR", &tmp)
             .stdout(Stdio::null())
             .stderr(Stdio::piped())

@@ -45,28 +45,12 @@ fn scrape_until(port: u16) -> (String, String) {
 }
 
 fn write_job(dir: &Path) -> std::path::PathBuf {
-    let fmu = common::load_example("decay", &dir.join("cache"));
-    let spec = fmucal_shared::sim::SimSpec { parameters: vec![("k".into(), "1.7".into())], ..Default::default() };
-    let r = fmucal_shared::sim::simulate(&fmu, &spec).unwrap();
-    let mut csv = String::from("time,x\n");
-    for (t, x) in r.time.iter().zip(r.column("x").unwrap()) {
-        csv.push_str(&format!("{t},{x}\n"));
-    }
-    std::fs::write(dir.join("data.csv"), csv).unwrap();
+    common::write_decay_csv(dir, common::decay_samples(&dir.join("cache"), None, 1));
     // Long enough (up to 3,000 simulations) to be scraped mid-job.
     let optimizer = "[optimizer]\nalgorithm = \"differential-evolution\"\npopulation = 12\nmax_iters = 250\nseed = 3\n\
                      x_tol = 1e-30\nf_tol = 1e-30\n";
-    let text = common::job_toml(
-        Path::new("example:decay"),
-        Some(Path::new("data.csv")),
-        &[("x", "x")],
-        &[],
-        &[("k", 1.0, 0.1, 5.0)],
-        optimizer,
-    );
-    let job = dir.join("job.toml");
-    std::fs::write(&job, text).unwrap();
-    job
+    let text = common::decay_job_toml(5.0, optimizer);
+    common::write_file(dir, "job.toml", text)
 }
 
 #[test]

@@ -343,9 +343,7 @@ fn write_every_field_job(dir: &Path) -> PathBuf {
     let shared = "phi,\"t\",theta,u,extra\r\n0.1,0,0.2,0,1\r\n\r\n ,0.5, NaN ,1e-3,+2\n.25,1,-0.5,-.5,inf\n1.5e0,1.5,,0,-inf\n3,2,7,-0,nan\n";
     std::fs::write(dir.join("shared.csv"), shared).unwrap();
     std::fs::write(dir.join("other.csv"), "time,phi,theta,u\n0,0.5,-0.3,0\n0.25,0.4,-0.25,0.125\n").unwrap();
-    let job = dir.join("job.toml");
-    std::fs::write(&job, EVERY_FIELD).unwrap();
-    job
+    common::write_file(dir, "job.toml", EVERY_FIELD)
 }
 
 /// Writes Rust's `SubmitJobRequest` for every job file under `examples/` (each run on a copy of

@@ -8,37 +8,12 @@ use std::path::Path;
 
 use fmucal_models::Fixture;
 use fmucal_shared::fmu::{Fmu, Interface};
-use fmucal_shared::sim::{InputTable, OutputTimes, PortTerm, SimError, SimResult, SimSpec, StateTerm, simulate};
-
-fn fixture(f: Fixture, dir: &Path) -> Fmu {
-    common::load(&f.path(), &dir.join("cache"))
-}
-
-/// F = 3 sin(t) N every 10 ms over 20 s.
-fn spring_force() -> InputTable {
-    let time: Vec<f64> = (0..=2000).map(|k| k as f64 * 0.01).collect();
-    let force = time.iter().map(|t| 3.0 * t.sin()).collect();
-    common::table(time, vec![("F", force)])
-}
-
-fn exhaust_inputs() -> InputTable {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/exhaust/exhaust_data.csv");
-    let data = fmucal_shared::job::MeasurementTable::read(&path, "time").unwrap();
-    let names = ["inlet.T", "inlet.p", "turbine1.w", "turbine2.w", "outlet.p"];
-    common::table(data.time.clone(), names.iter().map(|n| (*n, data.column(n).unwrap().to_vec())).collect())
-}
+use fmucal_shared::sim::{InputTable, PortTerm, SimError, SimResult, SimSpec, StateTerm, simulate};
 
 fn spec(stop: f64, dt: f64, inputs: InputTable, outputs: &[&str], set: &[(&str, &str)]) -> SimSpec {
     SimSpec {
-        interface: Some(Interface::ModelExchange),
-        start_time: Some(0.0),
-        stop_time: Some(stop),
-        output_times: Some(OutputTimes::Interval(dt)),
-        inputs: Some(inputs),
-        outputs: outputs.iter().map(|s| s.to_string()).collect(),
         parameters: set.iter().map(|(n, v)| (n.to_string(), v.to_string())).collect(),
-        tolerance: Some(1e-10),
-        ..Default::default()
+        ..common::model_exchange_spec(stop, dt, inputs, outputs)
     }
 }
 
@@ -55,7 +30,21 @@ fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
-fn compare(on_port: &SimResult, on_state: &SimResult, without: &SimResult, outputs: &[&str], moved: &str) {
+/// Simulates `base` with `on_port` injected on a port, with `on_state` on a state, and with
+/// neither: the two terms must give the same `outputs`, and the output `moved` must be far from
+/// where it is without them. Returns the runs with the port term and with the state term.
+fn port_and_state_terms_agree(
+    fmu: &Fmu,
+    base: &SimSpec,
+    on_port: PortTerm,
+    on_state: StateTerm,
+    outputs: &[&str],
+    moved: &str,
+) -> (SimResult, SimResult) {
+    let with_port = SimSpec { port_terms: vec![on_port], ..base.clone() };
+    let with_state = SimSpec { state_terms: vec![on_state], ..base.clone() };
+    let (on_port, on_state, without) =
+        (simulate(fmu, &with_port).unwrap(), simulate(fmu, &with_state).unwrap(), simulate(fmu, base).unwrap());
     assert_eq!(on_port.time, on_state.time);
     for name in outputs {
         let d = max_abs_diff(on_port.column(name).unwrap(), on_state.column(name).unwrap());
@@ -65,54 +54,43 @@ fn compare(on_port: &SimResult, on_state: &SimResult, without: &SimResult, outpu
     // The effect matters: without it the output is far from both.
     let d = max_abs_diff(on_port.column(moved).unwrap(), without.column(moved).unwrap());
     assert!(d > 1e-2, "{moved}: the effect moves it by only {d:e}");
+    (on_port, on_state)
 }
 
 #[test]
 fn coulomb_friction_on_der_v_equals_the_force_over_the_mass_on_the_force_port() {
     let dir = tempfile::tempdir().unwrap();
-    let fmu = fixture(Fixture::SpringMass, dir.path());
+    let fmu = common::fixture(Fixture::SpringMass, dir.path());
     // m = 2 kg, so the state term's strength (an acceleration) is F/m.
     let (force, mass) = (0.3, 2.0);
     // der(mass.v) is recorded too: an output that is the derivative carries the term.
     let outputs = ["mass.x", "mass.v", "der(mass.v)"];
-    let base = SimSpec { port_terms: vec![], ..spec(20.0, 0.01, spring_force(), &outputs, &[("m", "2")]) };
-    let on_port =
-        SimSpec { port_terms: vec![port("coulomb_friction", "mass.Fext", "mass.v", vec![force])], ..base.clone() };
-    let on_state = SimSpec {
-        state_terms: vec![state("coulomb_friction", "mass.v", "mass.v", vec![force / mass])],
-        ..base.clone()
-    };
-    let (p, s, w) =
-        (simulate(&fmu, &on_port).unwrap(), simulate(&fmu, &on_state).unwrap(), simulate(&fmu, &base).unwrap());
-    compare(&p, &s, &w, &outputs, "mass.x");
+    let base = spec(20.0, 0.01, common::spring_force(), &outputs, &[("m", "2")]);
+    let on_port = port("coulomb_friction", "mass.Fext", "mass.v", vec![force]);
+    let on_state = state("coulomb_friction", "mass.v", "mass.v", vec![force / mass]);
+    port_and_state_terms_agree(&fmu, &base, on_port, on_state, &outputs, "mass.x");
 }
 
 #[test]
 fn a_spring_on_der_v_reads_the_position_and_equals_the_port_spring() {
     let dir = tempfile::tempdir().unwrap();
-    let fmu = fixture(Fixture::SpringMass, dir.path());
+    let fmu = common::fixture(Fixture::SpringMass, dir.path());
     let outputs = ["mass.x", "mass.v"];
-    let base = spec(20.0, 0.01, spring_force(), &outputs, &[("m", "2")]);
-    let on_port = SimSpec { port_terms: vec![port("cubic_spring", "mass.Fext", "mass.x", vec![0.6])], ..base.clone() };
-    let on_state = SimSpec { state_terms: vec![state("cubic_spring", "mass.v", "mass.x", vec![0.3])], ..base.clone() };
-    let (p, s, w) =
-        (simulate(&fmu, &on_port).unwrap(), simulate(&fmu, &on_state).unwrap(), simulate(&fmu, &base).unwrap());
-    compare(&p, &s, &w, &outputs, "mass.x");
+    let base = spec(20.0, 0.01, common::spring_force(), &outputs, &[("m", "2")]);
+    let on_port = port("cubic_spring", "mass.Fext", "mass.x", vec![0.6]);
+    let on_state = state("cubic_spring", "mass.v", "mass.x", vec![0.3]);
+    port_and_state_terms_agree(&fmu, &base, on_port, on_state, &outputs, "mass.x");
 }
 
 #[test]
 fn a_dead_zone_on_a_state_stops_the_integrator_at_its_edges_as_on_the_port() {
     let dir = tempfile::tempdir().unwrap();
-    let fmu = fixture(Fixture::SpringMass, dir.path());
+    let fmu = common::fixture(Fixture::SpringMass, dir.path());
     let outputs = ["mass.x", "mass.v"];
-    let base = spec(20.0, 0.01, spring_force(), &outputs, &[]);
-    let on_port =
-        SimSpec { port_terms: vec![port("dead_zone_spring", "mass.Fext", "mass.x", vec![3.0, 0.4])], ..base.clone() };
-    let on_state =
-        SimSpec { state_terms: vec![state("dead_zone_spring", "mass.v", "mass.x", vec![3.0, 0.4])], ..base.clone() };
-    let (p, s, w) =
-        (simulate(&fmu, &on_port).unwrap(), simulate(&fmu, &on_state).unwrap(), simulate(&fmu, &base).unwrap());
-    compare(&p, &s, &w, &outputs, "mass.x");
+    let base = spec(20.0, 0.01, common::spring_force(), &outputs, &[]);
+    let on_port = port("dead_zone_spring", "mass.Fext", "mass.x", vec![3.0, 0.4]);
+    let on_state = state("dead_zone_spring", "mass.v", "mass.x", vec![3.0, 0.4]);
+    let (p, s) = port_and_state_terms_agree(&fmu, &base, on_port, on_state, &outputs, "mass.x");
     // The kinks are events of both.
     assert_eq!(p.stats.events, s.stats.events);
     assert!(s.stats.events > 0);
@@ -124,18 +102,10 @@ fn radiation_on_der_t_equals_the_heat_flow_over_the_capacity_on_the_heat_port() 
     let fmu = common::load_example("exhaust-pipe", &dir.path().join("cache"));
     let capacity = 12_000.0;
     let outputs = ["outlet.T", "rightVolume.wallT"];
-    let base = spec(1800.0, 1.0, exhaust_inputs(), &outputs, &[("rightVolume.wallCapacity", "12000")]);
-    let on_port = SimSpec {
-        port_terms: vec![port("radiation", "rightVolume.wallQext", "rightVolume.wallT", vec![0.2, 293.15])],
-        ..base.clone()
-    };
-    let on_state = SimSpec {
-        state_terms: vec![state("radiation", "rightVolume.wallT", "rightVolume.wallT", vec![0.2 / capacity, 293.15])],
-        ..base.clone()
-    };
-    let (p, s, w) =
-        (simulate(&fmu, &on_port).unwrap(), simulate(&fmu, &on_state).unwrap(), simulate(&fmu, &base).unwrap());
-    compare(&p, &s, &w, &outputs, "outlet.T");
+    let base = spec(1800.0, 1.0, common::exhaust_inputs(), &outputs, &[("rightVolume.wallCapacity", "12000")]);
+    let on_port = port("radiation", "rightVolume.wallQext", "rightVolume.wallT", vec![0.2, 293.15]);
+    let on_state = state("radiation", "rightVolume.wallT", "rightVolume.wallT", vec![0.2 / capacity, 293.15]);
+    port_and_state_terms_agree(&fmu, &base, on_port, on_state, &outputs, "outlet.T");
 }
 
 #[test]
@@ -143,7 +113,7 @@ fn a_generic_relaxation_follows_its_closed_form_on_a_state_without_dynamics_of_i
     // SpringMass at rest with k = 0, d = 0, F = 0: der(v) = 0, so a relaxation −r·(v − v₀)
     // on der(v) gives v(t) = v₀ + (v(0) − v₀)·e^{−r t}.
     let dir = tempfile::tempdir().unwrap();
-    let fmu = fixture(Fixture::SpringMass, dir.path());
+    let fmu = common::fixture(Fixture::SpringMass, dir.path());
     let time: Vec<f64> = vec![0.0, 5.0];
     let zero = common::table(time, vec![("F", vec![0.0, 0.0])]);
     let s = SimSpec {
@@ -161,8 +131,8 @@ fn a_generic_relaxation_follows_its_closed_form_on_a_state_without_dynamics_of_i
 #[test]
 fn bad_state_terms_are_refused_before_any_model_code_runs() {
     let dir = tempfile::tempdir().unwrap();
-    let fmu = fixture(Fixture::SpringMass, dir.path());
-    let base = spec(1.0, 0.1, spring_force(), &["mass.x"], &[]);
+    let fmu = common::fixture(Fixture::SpringMass, dir.path());
+    let base = spec(1.0, 0.1, common::spring_force(), &["mass.x"], &[]);
     let refused = |t: StateTerm, interface: Interface| -> String {
         let s = SimSpec { state_terms: vec![t], interface: Some(interface), ..base.clone() };
         match simulate(&fmu, &s) {
@@ -291,7 +261,7 @@ fn a_reaction_adds_the_same_term_at_its_own_strength_to_the_coupled_velocity() {
     // The Furuta pendulum as Dymola exports it: pendulumJoint.w and armJoint.w are coupled
     // (each derivative depends on the other velocity), which the structure reports.
     let dir = tempfile::tempdir().unwrap();
-    let fmu = fixture(Fixture::FurutaExported, dir.path());
+    let fmu = common::fixture(Fixture::FurutaExported, dir.path());
     let structure = fmucal_shared::structure::Structure::read(&fmu.description, &[]);
     assert_eq!(structure.state("pendulumJoint.w").unwrap().coupled, ["armJoint.w"]);
     assert_eq!(structure.state("armJoint.w").unwrap().coupled, ["pendulumJoint.w"]);

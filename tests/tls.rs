@@ -101,25 +101,8 @@ async fn a_job_runs_over_mutual_tls_and_plaintext_is_refused() {
             .spawn()
             .unwrap(),
     );
-    let fmu = common::load_example("decay", &dir.path().join("cache"));
-    let r = fmucal_shared::sim::simulate(
-        &fmu,
-        &fmucal_shared::sim::SimSpec { parameters: vec![("k".into(), "1.7".into())], ..Default::default() },
-    )
-    .unwrap();
-    let mut csv = String::from("time,x\n");
-    for (t, x) in r.time.iter().zip(r.column("x").unwrap()).step_by(4) {
-        csv.push_str(&format!("{t},{x}\n"));
-    }
-    std::fs::write(dir.path().join("data.csv"), csv).unwrap();
-    let job = common::job_toml(
-        Path::new("example:decay"),
-        Some(Path::new("data.csv")),
-        &[("x", "x")],
-        &[],
-        &[("k", 1.0, 0.1, 5.0)],
-        "[optimizer]\nmax_iters = 40\n",
-    );
+    common::write_decay_csv(dir.path(), common::decay_samples(&dir.path().join("cache"), None, 4));
+    let job = common::decay_job_toml(5.0, "[optimizer]\nmax_iters = 40\n");
     std::fs::write(dir.path().join("job.toml"), job).unwrap();
     let calibrate_args = tls_args(&["calibrate", "job.toml", "--coordinator", &url, "--out", "out"]);
     let out = tokio::task::spawn_blocking({

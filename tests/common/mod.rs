@@ -9,6 +9,8 @@ use std::path::{Path, PathBuf};
 use fmucal_shared::fmu::{ArchiveLimits, Fmu, LoadOptions};
 use fmucal_shared::sim::InputTable;
 
+pub mod diagnosis;
+
 pub fn example(name: &str) -> PathBuf {
     fmucal_models::example(name).unwrap_or_else(|| panic!("no example {name}"))
 }
@@ -21,6 +23,11 @@ pub fn load(path: &Path, cache: &Path) -> Fmu {
 
 pub fn load_example(name: &str, cache: &Path) -> Fmu {
     load(&example(name), cache)
+}
+
+/// Loads fixture `f` with its unpacked files under `dir/cache`.
+pub fn fixture(f: fmucal_models::Fixture, dir: &Path) -> Fmu {
+    load(&f.path(), &dir.join("cache"))
 }
 
 /// Reads every entry of a zip archive as (name, bytes).
@@ -63,6 +70,19 @@ pub fn with_xml(name: &str, dir: &Path, file: &str, f: impl Fn(String) -> String
     })
 }
 
+/// Writes `contents` to `dir/name`; returns that path.
+pub fn write_file(dir: &Path, name: impl AsRef<Path>, contents: impl AsRef<[u8]>) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, contents).unwrap();
+    path
+}
+
+/// Rewrites the text file at `path` with `edit`.
+pub fn edit_file(path: &Path, edit: impl FnOnce(String) -> String) {
+    let text = std::fs::read_to_string(path).unwrap();
+    std::fs::write(path, edit(text)).unwrap();
+}
+
 /// Largest |a - b| over all points, relative to the largest |b|.
 pub fn rel_max_diff(a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len(), "series lengths differ");
@@ -80,6 +100,43 @@ pub fn sine_force() -> InputTable {
     let time: Vec<f64> = (0..=400).map(|k| k as f64 * 0.05).collect();
     let force = time.iter().map(|t| 2.2 * (0.8 * t).sin()).collect();
     table(time, vec![("F", force)])
+}
+
+/// F = 3 sin(t) N every 10 ms over 20 s: below the SpringMass resonance (2 rad/s), it drives
+/// the mass to about ±1 m.
+pub fn spring_force() -> InputTable {
+    let time: Vec<f64> = (0..=2000).map(|k| k as f64 * 0.01).collect();
+    let force = time.iter().map(|t| 3.0 * t.sin()).collect();
+    table(time, vec![("F", force)])
+}
+
+/// The exhaust example's five measured inputs.
+pub const EXHAUST_INPUTS: [&str; 5] = ["inlet.T", "inlet.p", "turbine1.w", "turbine2.w", "outlet.p"];
+
+/// The exhaust example's data (`examples/exhaust/exhaust_data.csv`).
+pub fn exhaust_data() -> fmucal_shared::job::MeasurementTable {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/exhaust/exhaust_data.csv");
+    fmucal_shared::job::MeasurementTable::read(&path, "time").expect("the exhaust data reads")
+}
+
+/// The exhaust example's five inputs over its whole record.
+pub fn exhaust_inputs() -> InputTable {
+    let data = exhaust_data();
+    table(data.time.clone(), EXHAUST_INPUTS.iter().map(|n| (*n, data.column(n).unwrap().to_vec())).collect())
+}
+
+/// Model Exchange at tolerance 1e-10 from 0 to `stop` on `inputs`, reporting `outputs` every `dt`.
+pub fn model_exchange_spec(stop: f64, dt: f64, inputs: InputTable, outputs: &[&str]) -> fmucal_shared::sim::SimSpec {
+    fmucal_shared::sim::SimSpec {
+        interface: Some(fmucal_shared::fmu::Interface::ModelExchange),
+        start_time: Some(0.0),
+        stop_time: Some(stop),
+        output_times: Some(fmucal_shared::sim::OutputTimes::Interval(dt)),
+        inputs: Some(inputs),
+        outputs: outputs.iter().map(|s| s.to_string()).collect(),
+        tolerance: Some(1e-10),
+        ..Default::default()
+    }
 }
 
 /// uc ramps (continuous); ud, n and b change between output points (held).
@@ -142,6 +199,73 @@ pub fn job_toml(
         ));
     }
     text + tables
+}
+
+/// The Decay example's `x` at k = 1.7 (simulated at `tolerance`, if given, with its unpacked
+/// files in `cache`) as (time, x), every `every`-th sample of its default output grid.
+pub fn decay_samples(cache: &Path, tolerance: Option<f64>, every: usize) -> Vec<(f64, f64)> {
+    let fmu = load_example("decay", cache);
+    let spec =
+        fmucal_shared::sim::SimSpec { parameters: vec![("k".into(), "1.7".into())], tolerance, ..Default::default() };
+    let r = fmucal_shared::sim::simulate(&fmu, &spec).unwrap();
+    r.time.iter().copied().zip(r.column("x").unwrap().iter().copied()).step_by(every).collect()
+}
+
+/// Writes `samples` as `dir/data.csv`, with the columns `time` and `x`.
+pub fn write_decay_csv(dir: &Path, samples: impl IntoIterator<Item = (f64, f64)>) {
+    let mut csv = String::from("time,x\n");
+    for (t, x) in samples {
+        csv.push_str(&format!("{t},{x}\n"));
+    }
+    std::fs::write(dir.join("data.csv"), csv).unwrap();
+}
+
+/// The TOML text of a job fitting the Decay example's k (from 1.0, in [0.1, `upper`]) to `x`
+/// in `data.csv`, then `tables` as written.
+pub fn decay_job_toml(upper: f64, tables: &str) -> String {
+    job_toml(
+        Path::new("example:decay"),
+        Some(Path::new("data.csv")),
+        &[("x", "x")],
+        &[],
+        &[("k", 1.0, 0.1, upper)],
+        tables,
+    )
+}
+
+/// The Decay example's job calibrating `parameters` (name, start, lower, upper) on data made
+/// with k = 1.7 (handed over separately, not named in the job), with `extra` tables appended,
+/// and its data.
+pub fn decay_spec(
+    dir: &Path,
+    extra: &str,
+    parameters: &[(&str, f64, f64, f64)],
+) -> (fmucal_shared::job::JobSpec, fmucal_shared::job::MeasurementTable) {
+    let (time, x) = decay_samples(&dir.join("cache"), None, 1).into_iter().unzip();
+    let data = fmucal_shared::job::MeasurementTable { time, columns: vec![("x".into(), x)] };
+    let toml = job_toml(&example("decay"), None, &[("x", "x")], &[], parameters, extra);
+    (fmucal_shared::job::JobSpec::from_toml(&toml, dir).unwrap(), data)
+}
+
+/// A channel to the coordinator at `url`, tried again every 100 ms until it answers; panics if
+/// it has not after `patience`.
+pub async fn channel_within(url: &str, patience: std::time::Duration) -> tonic::transport::Channel {
+    let endpoint = tonic::transport::Endpoint::from_shared(url.to_owned()).unwrap();
+    let end = std::time::Instant::now() + patience;
+    loop {
+        match endpoint.connect().await {
+            Ok(c) => return c,
+            Err(e) if std::time::Instant::now() > end => panic!("cannot reach {url}: {e}"),
+            Err(_) => tokio::time::sleep(std::time::Duration::from_millis(100)).await,
+        }
+    }
+}
+
+/// `fmucal` to be run in `dir`, with its FMU cache in `dir/cache`: add the arguments, then run.
+pub fn fmucal_in(dir: &Path) -> std::process::Command {
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_fmucal"));
+    cmd.current_dir(dir).env("FMUCAL_CACHE_DIR", dir.join("cache"));
+    cmd
 }
 
 /// A coordinator (`fmucal coordinator` on a free 127.0.0.1 port, state in `dir/coord`) and one

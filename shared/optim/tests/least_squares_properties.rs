@@ -43,8 +43,7 @@ fn case() -> impl Strategy<Value = Case> {
 /// A deterministic, nonlinear residual vector (2n + 1 entries) that fails at about one point
 /// in seven.
 fn residuals(x: &[f64]) -> Option<Vec<f64>> {
-    let h = x.iter().fold(0u64, |h, v| h.rotate_left(7) ^ v.to_bits());
-    if h % 7 == 0 {
+    if support::fails_at(x) {
         return None;
     }
     let mut r: Vec<f64> = x.iter().map(|v| (v - 0.3) + 0.1 * (13.0 * v).sin()).collect();
@@ -75,13 +74,7 @@ proptest! {
     #[test]
     fn no_asked_point_leaves_the_bounds(c in case()) {
         let mut opt = build(&c, None);
-        for batch in drive(&mut opt, 60, 0) {
-            for cand in batch {
-                for (i, x) in cand.x.iter().enumerate() {
-                    prop_assert!(x.is_finite() && *x >= c.lower[i] && *x <= c.upper[i], "{:?} outside at {}", cand.x, i);
-                }
-            }
-        }
+        support::within_bounds(&drive(&mut opt, 60, 0), &c.lower, &c.upper)?;
     }
 
     #[test]
@@ -106,25 +99,23 @@ proptest! {
     #[test]
     fn failures_nan_and_infinities_never_panic(c in case(), pattern in prop::collection::vec(0u8..5, 1..50)) {
         let mut opt = build(&c, None);
-        let mut k = 0;
-        for _ in 0..80 {
-            let batch = opt.ask();
-            if batch.is_empty() {
-                break;
-            }
-            for cand in batch {
+        support::tell_by_pattern(
+            &mut opt,
+            80,
+            &pattern,
+            |opt, cand, choice| {
                 let r = residuals(&cand.x);
-                let told = match pattern[k % pattern.len()] {
+                let told = match choice {
                     0 => None,
                     1 => r.map(|mut r| { r[0] = f64::NAN; r }),
                     2 => r.map(|mut r| { r[0] = f64::NEG_INFINITY; r }),
                     3 => r.map(|r| r.iter().map(|v| v * 1e200).collect()),
                     _ => r,
                 };
-                k += 1;
                 opt.tell_residuals(cand.id, told.as_deref()).expect("tell an asked candidate");
-            }
-        }
+            },
+            |_| Ok(()),
+        )?;
         if let Some((x, f)) = opt.best() {
             prop_assert!(f.is_finite() && f >= 0.0);
             prop_assert!(x.iter().all(|v| v.is_finite()));

@@ -103,21 +103,26 @@ fn an_objective_that_always_fails_ends_without_a_best_point() {
     }
 }
 
-#[test]
-fn max_fevals_cuts_the_last_batch() {
-    let s = CmaSettings { population: 10, ..settings(3, 0, 25) };
-    let mut es = CmaEs::new(&[-1.0; 3], &[1.0; 3], None, s).unwrap();
+/// Runs `es` on the sphere to its end; the size of every batch it asked.
+fn batch_sizes_on_the_sphere(es: &mut CmaEs) -> Vec<usize> {
     let mut sizes = vec![];
     loop {
         let batch = es.ask();
         if batch.is_empty() {
-            break;
+            return sizes;
         }
         sizes.push(batch.len());
         for c in batch {
             es.tell(c.id, Outcome::Value(tp::sphere(&c.x))).unwrap();
         }
     }
+}
+
+#[test]
+fn max_fevals_cuts_the_last_batch() {
+    let s = CmaSettings { population: 10, ..settings(3, 0, 25) };
+    let mut es = CmaEs::new(&[-1.0; 3], &[1.0; 3], None, s).unwrap();
+    let sizes = batch_sizes_on_the_sphere(&mut es);
     assert_eq!(sizes, [10, 10, 5]);
     assert_eq!((es.evaluations(), es.iterations()), (25, 2));
     assert_eq!(es.status(), Status::Done(Termination::MaxFevals));
@@ -128,17 +133,7 @@ fn each_restart_doubles_the_population_and_the_last_run_ends_the_optimization() 
     let mut s = CmaSettings { population: 6, restarts: 2, ..settings(2, 4, 1_000_000) };
     s.stopping.x_tol = Some(1e-3);
     let mut es = CmaEs::new(&[-1.0; 2], &[1.0; 2], Some(&[0.5, 0.5]), s).unwrap();
-    let mut sizes = vec![];
-    loop {
-        let batch = es.ask();
-        if batch.is_empty() {
-            break;
-        }
-        sizes.push(batch.len());
-        for c in batch {
-            es.tell(c.id, Outcome::Value(tp::sphere(&c.x))).unwrap();
-        }
-    }
+    let mut sizes = batch_sizes_on_the_sphere(&mut es);
     sizes.dedup();
     assert_eq!(sizes, [6, 12, 24]);
     assert_eq!(es.status(), Status::Done(Termination::XTol));
