@@ -12,9 +12,10 @@ use fmucal_shared::effects;
 use fmucal_shared::fmu::Interface;
 use fmucal_shared::job::choices::{ExperimentRole, Scale};
 use fmucal_shared::job::experiments::ExperimentSpec;
+use fmucal_shared::job::options::FlatOptions;
 use fmucal_shared::job::spec::{
-    Bounds, DataRef, EffectSpec, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec,
-    WorkersSpec,
+    AlgorithmOptions, Bounds, DataRef, EffectSpec, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec,
+    SetValue, SimulationSpec, WorkersSpec,
 };
 use fmucal_shared::job::{Algorithm, JobKind, JobSpec, MeasurementTable};
 use fmucal_shared::sim::Solver;
@@ -208,23 +209,28 @@ fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
                 (seed, initial_step, population, weight, crossover, bits),
                 (crossover_rate, mutation_rate, elitism, restarts),
             )| OptimizerSpec {
-                algorithm,
-                parallel,
                 x_tol,
                 f_tol,
                 max_iters,
                 max_fevals,
                 seed,
-                initial_step,
-                population,
-                weight,
-                crossover,
-                bits,
-                crossover_rate,
-                mutation_rate,
-                elitism,
-                restarts,
                 max_time: Some(12.5),
+                // Only the options the algorithm takes, as a job file holds them.
+                options: AlgorithmOptions::from_flat_lenient(
+                    algorithm,
+                    FlatOptions {
+                        parallel,
+                        initial_step,
+                        population,
+                        restarts,
+                        weight,
+                        crossover,
+                        bits,
+                        crossover_rate,
+                        mutation_rate,
+                        elitism,
+                    },
+                ),
             },
         )
 }
@@ -325,7 +331,13 @@ fn unknown_choices_in_a_message_name_their_field() {
     let spec = small_job(1.0);
     let good = job_to_proto(&spec, &[data()], "m");
     let mut m = good.clone();
-    m.optimizer.as_mut().unwrap().algorithm = "points".into();
+    // A message of protocol version 3, which named the algorithm as text.
+    let o = m.optimizer.as_mut().unwrap();
+    o.algorithm = None;
+    #[allow(deprecated)]
+    {
+        o.legacy_algorithm = "points".into();
+    }
     let e = SubmittedJob::try_from(m).unwrap_err().to_string();
     assert!(e.starts_with("spec.optimizer.algorithm: \"points\" is not nelder-mead"), "{e}");
     let mut m = good.clone();
