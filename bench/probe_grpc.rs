@@ -342,8 +342,16 @@ fn broken_archive() -> Result<Vec<u8>, Box<dyn std::error::Error>> {
 fn population(base: &pb::JobSpec, algorithm: &str, population: u64) -> pb::SubmitJobRequest {
     let mut j = base.clone();
     let o = j.optimizer.get_or_insert_with(Default::default);
-    o.algorithm = algorithm.into();
-    o.population = Some(population);
+    o.algorithm = Some(match algorithm {
+        "genetic" => pb::optimizer_spec::Algorithm::Genetic(pb::GeneticOptions {
+            population: Some(population),
+            ..Default::default()
+        }),
+        _ => pb::optimizer_spec::Algorithm::DifferentialEvolution(pb::DifferentialEvolutionOptions {
+            population: Some(population),
+            ..Default::default()
+        }),
+    });
     submit(j)
 }
 

@@ -73,7 +73,7 @@ pub fn load(file: &str) -> Problem {
 /// The job does not prepare, or the calibration fails.
 pub fn run(problem: &Problem, algorithm: Algorithm, threads: usize, max_fevals: Option<u64>) -> Result<Run, String> {
     let mut spec = problem.spec.clone();
-    spec.optimizer.algorithm = Some(algorithm);
+    spec.optimizer.set_algorithm(algorithm);
     if max_fevals.is_some() {
         spec.optimizer.max_fevals = max_fevals;
     }

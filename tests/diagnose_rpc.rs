@@ -152,8 +152,11 @@ async fn a_client_that_goes_away_stops_its_diagnosis() {
     let mut req = example_request(&mut rpc).await;
     // A base calibration of minutes (10,000 generations of 40), so only a stop ends it soon.
     let optimizer = req.spec.as_mut().unwrap().optimizer.as_mut().unwrap();
-    optimizer.algorithm = "differential-evolution".into();
-    optimizer.population = Some(40);
+    optimizer.algorithm =
+        Some(pb::optimizer_spec::Algorithm::DifferentialEvolution(pb::DifferentialEvolutionOptions {
+            population: Some(40),
+            ..Default::default()
+        }));
     optimizer.max_iters = Some(10_000);
     optimizer.x_tol = Some(1e-300);
     optimizer.f_tol = Some(1e-300);

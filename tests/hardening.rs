@@ -203,8 +203,16 @@ async fn sizes_past_the_caps_are_refused_and_the_coordinator_keeps_serving() {
     let huge_population = |algorithm: &str, population: u64| {
         let mut j = base.clone();
         let o = j.optimizer.get_or_insert_with(Default::default);
-        o.algorithm = algorithm.into();
-        o.population = Some(population);
+        o.algorithm = Some(match algorithm {
+            "genetic" => pb::optimizer_spec::Algorithm::Genetic(pb::GeneticOptions {
+                population: Some(population),
+                ..Default::default()
+            }),
+            _ => pb::optimizer_spec::Algorithm::DifferentialEvolution(pb::DifferentialEvolutionOptions {
+                population: Some(population),
+                ..Default::default()
+            }),
+        });
         j
     };
     let mut many_parameters = base.clone();

@@ -290,7 +290,6 @@ set = { g = 9.81, "some.flag" = true, mode = "fast", quoted = "1.50", plain = "2
 
 [optimizer]
 algorithm = "cma-es"
-parallel = false
 x_tol = 0
 f_tol = 1e-9
 max_iters = 77
@@ -300,12 +299,6 @@ seed = 42
 initial_step = 0.2
 population = 12
 restarts = 2
-weight = 0.7
-crossover = 0.9
-bits = 16
-crossover_rate = 0.8
-mutation_rate = 0.05
-elitism = 2
 
 [workers]
 count = 3
@@ -333,8 +326,30 @@ data = { path = "other.csv", time_column = "time" }
 starts = { "pendulumJoint.phi" = -0.3 }
 "#;
 
+/// The other algorithms' options, each replacing the every-field job's `cma-es` options (an
+/// option exists only for the algorithms that take it): with the every-field job, every
+/// optimizer setting.
+const OTHER_ALGORITHMS: [(&str, &str); 5] = [
+    ("nelder-mead", "algorithm = \"nelder-mead\"\nparallel = false\ninitial_step = 0.2"),
+    ("default", "parallel = false\ninitial_step = 0.3"),
+    (
+        "differential-evolution",
+        "algorithm = \"differential-evolution\"\npopulation = 12\nweight = 0.7\ncrossover = 0.9",
+    ),
+    (
+        "genetic",
+        "algorithm = \"genetic\"\npopulation = 14\nbits = 16\ncrossover_rate = 0.8\nmutation_rate = 0.05\nelitism = 2",
+    ),
+    ("least-squares", "algorithm = \"least-squares\"\ninitial_step = 0.1"),
+];
+
 /// Writes the every-field job and its files into `dir`; returns the job file.
 fn write_every_field_job(dir: &Path) -> PathBuf {
+    write_every_field_job_with(dir, "algorithm = \"cma-es\"\n")
+}
+
+/// The every-field job with `options` in place of its algorithm's, written into `dir`.
+fn write_every_field_job_with(dir: &Path, options: &str) -> PathBuf {
     std::fs::create_dir_all(dir.join("model")).unwrap();
     std::fs::copy(common::example("furuta"), dir.join("model/furuta.fmu")).unwrap();
     std::fs::copy(repo().join("examples/furuta/FurutaData.mat"), dir.join("FurutaData.mat")).unwrap();
@@ -343,7 +358,15 @@ fn write_every_field_job(dir: &Path) -> PathBuf {
     let shared = "phi,\"t\",theta,u,extra\r\n0.1,0,0.2,0,1\r\n\r\n ,0.5, NaN ,1e-3,+2\n.25,1,-0.5,-.5,inf\n1.5e0,1.5,,0,-inf\n3,2,7,-0,nan\n";
     std::fs::write(dir.join("shared.csv"), shared).unwrap();
     std::fs::write(dir.join("other.csv"), "time,phi,theta,u\n0,0.5,-0.3,0\n0.25,0.4,-0.25,0.125\n").unwrap();
-    common::write_file(dir, "job.toml", EVERY_FIELD)
+    let cma_es = "algorithm = \"cma-es\"\n";
+    let text = if options == cma_es {
+        EVERY_FIELD.to_owned()
+    } else {
+        EVERY_FIELD
+            .replace(cma_es, &format!("{options}\n"))
+            .replace("initial_step = 0.2\npopulation = 12\nrestarts = 2\n", "")
+    };
+    common::write_file(dir, "job.toml", &text)
 }
 
 /// Writes Rust's `SubmitJobRequest` for every job file under `examples/` (each run on a copy of
@@ -365,6 +388,10 @@ fn write_rust_requests(out: &Path) -> PathBuf {
     }
     assert!(jobs.len() >= 6, "job files under examples/: {jobs:?}");
     jobs.push(("every-field".into(), write_every_field_job(&out.join("every-field"))));
+    for (algorithm, options) in OTHER_ALGORITHMS {
+        let name = format!("every-field-{algorithm}");
+        jobs.push((name.clone(), write_every_field_job_with(&out.join(&name), options)));
+    }
     for (name, toml) in &jobs {
         let request = out.join(format!("{}.bin", name.replace('/', "_")));
         std::fs::write(&request, rust_request(toml).encode_to_vec()).unwrap();

@@ -5,9 +5,11 @@
 use crate::v1 as pb;
 use fmucal_shared::job::choices::{interface_name, parse_interface};
 use fmucal_shared::job::experiments::ExperimentSpec;
+use fmucal_shared::job::options::FlatOptions;
 use fmucal_shared::job::spec::{
-    Bounds, DataRef, EffectSpec, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec,
-    WorkersSpec,
+    AlgorithmOptions, Bounds, CmaEsOptions, DataRef, DifferentialEvolutionOptions, EffectSpec, GeneticOptions,
+    InputMap, LeastSquaresOptions, ModelRef, NelderMeadOptions, OptimizerSpec, OutputMap, ParameterSpec, SetValue,
+    SimulationSpec, WorkersSpec,
 };
 use fmucal_shared::job::{
     CalibrationResult, EvaluatedPoint, Evaluation, HistoryPoint, JobKind, JobSpec, JobStatus, MeasurementTable,
@@ -178,25 +180,7 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
                 validation_stop_time: sim.validation_stop_time,
                 fixed_from_earlier_stage: vec![],
             },
-            optimizer: OptimizerSpec {
-                algorithm: choice("spec.optimizer.algorithm", Some(o.algorithm))?,
-                parallel: o.parallel.unwrap_or(true),
-                x_tol: o.x_tol,
-                f_tol: o.f_tol,
-                max_iters: o.max_iters,
-                max_fevals: o.max_fevals,
-                seed: o.seed,
-                initial_step: o.initial_step,
-                population: o.population.map(|v| v as usize),
-                weight: o.weight,
-                crossover: o.crossover,
-                bits: o.bits,
-                crossover_rate: o.crossover_rate,
-                mutation_rate: o.mutation_rate,
-                elitism: o.elitism.map(|v| v as usize),
-                restarts: o.restarts,
-                max_time: o.max_time,
-            },
+            optimizer: optimizer_from(o)?,
             effects: p.effects.into_iter().map(EffectSpec::from).collect(),
             workers: WorkersSpec::default(),
             diagnose: None,
@@ -209,6 +193,118 @@ impl TryFrom<pb::JobSpec> for SubmittedJob {
             own_data.into_iter().map(|own| own.or_else(|| shared.clone()).unwrap_or_default()).collect()
         };
         Ok(SubmittedJob { spec, data })
+    }
+}
+
+/// The optimizer settings of a message: its `algorithm` with its options, or, when that is
+/// unset, the `legacy_*` fields of protocol version 3 (a job stored by an older coordinator).
+///
+/// # Errors
+/// [`ConvertError::Invalid`] naming `spec.optimizer.algorithm` for an unknown legacy name.
+pub fn optimizer_from(o: pb::OptimizerSpec) -> Result<OptimizerSpec, ConvertError> {
+    use pb::optimizer_spec::Algorithm as A;
+    let options = match o.algorithm.clone() {
+        Some(A::DefaultAlgorithm(m)) => AlgorithmOptions::Unnamed(nelder_mead_from(m)),
+        Some(A::NelderMead(m)) => AlgorithmOptions::NelderMead(nelder_mead_from(m)),
+        Some(A::DifferentialEvolution(m)) => AlgorithmOptions::DifferentialEvolution(DifferentialEvolutionOptions {
+            population: m.population.map(|v| v as usize),
+            weight: m.weight,
+            crossover: m.crossover,
+        }),
+        Some(A::Genetic(m)) => AlgorithmOptions::Genetic(GeneticOptions {
+            population: m.population.map(|v| v as usize),
+            bits: m.bits,
+            crossover_rate: m.crossover_rate,
+            mutation_rate: m.mutation_rate,
+            elitism: m.elitism.map(|v| v as usize),
+        }),
+        Some(A::CmaEs(m)) => AlgorithmOptions::CmaEs(CmaEsOptions {
+            initial_step: m.initial_step,
+            population: m.population.map(|v| v as usize),
+            restarts: m.restarts,
+        }),
+        Some(A::LeastSquares(m)) => {
+            AlgorithmOptions::LeastSquares(LeastSquaresOptions { initial_step: m.initial_step })
+        }
+        None => legacy_options(&o)?,
+    };
+    Ok(with_shared_settings(&o, options))
+}
+
+/// `options` with the settings every algorithm shares, as `o` carries them in either form.
+fn with_shared_settings(o: &pb::OptimizerSpec, options: AlgorithmOptions) -> OptimizerSpec {
+    OptimizerSpec {
+        x_tol: o.x_tol,
+        f_tol: o.f_tol,
+        max_iters: o.max_iters,
+        max_fevals: o.max_fevals,
+        max_time: o.max_time,
+        seed: o.seed,
+        options,
+    }
+}
+
+fn nelder_mead_from(m: pb::NelderMeadOptions) -> NelderMeadOptions {
+    NelderMeadOptions { parallel: m.parallel.unwrap_or(true), initial_step: m.initial_step }
+}
+
+/// Protocol version 3's flat options: every algorithm's side by side, those of the other
+/// algorithms dropped (they never applied).
+#[allow(deprecated)]
+fn legacy_options(o: &pb::OptimizerSpec) -> Result<AlgorithmOptions, ConvertError> {
+    let algorithm = choice("spec.optimizer.algorithm", Some(o.legacy_algorithm.clone()))?;
+    let flat = FlatOptions {
+        parallel: o.legacy_parallel.unwrap_or(true),
+        initial_step: o.legacy_initial_step,
+        population: o.legacy_population.map(|v| v as usize),
+        restarts: o.legacy_restarts,
+        weight: o.legacy_weight,
+        crossover: o.legacy_crossover,
+        bits: o.legacy_bits,
+        crossover_rate: o.legacy_crossover_rate,
+        mutation_rate: o.legacy_mutation_rate,
+        elitism: o.legacy_elitism.map(|v| v as usize),
+    };
+    Ok(AlgorithmOptions::from_flat_lenient(algorithm, flat))
+}
+
+/// The protobuf form of optimizer settings: the shared settings and the `algorithm` (the
+/// legacy fields stay unset).
+pub fn optimizer_to_proto(o: &OptimizerSpec) -> pb::OptimizerSpec {
+    use pb::optimizer_spec::Algorithm as A;
+    let nelder_mead =
+        |m: &NelderMeadOptions| pb::NelderMeadOptions { parallel: Some(m.parallel), initial_step: m.initial_step };
+    let algorithm = match &o.options {
+        AlgorithmOptions::Unnamed(m) => A::DefaultAlgorithm(nelder_mead(m)),
+        AlgorithmOptions::NelderMead(m) => A::NelderMead(nelder_mead(m)),
+        AlgorithmOptions::DifferentialEvolution(m) => A::DifferentialEvolution(pb::DifferentialEvolutionOptions {
+            population: m.population.map(|v| v as u64),
+            weight: m.weight,
+            crossover: m.crossover,
+        }),
+        AlgorithmOptions::Genetic(m) => A::Genetic(pb::GeneticOptions {
+            population: m.population.map(|v| v as u64),
+            bits: m.bits,
+            crossover_rate: m.crossover_rate,
+            mutation_rate: m.mutation_rate,
+            elitism: m.elitism.map(|v| v as u64),
+        }),
+        AlgorithmOptions::CmaEs(m) => A::CmaEs(pb::CmaEsOptions {
+            initial_step: m.initial_step,
+            population: m.population.map(|v| v as u64),
+            restarts: m.restarts,
+        }),
+        AlgorithmOptions::LeastSquares(m) => A::LeastSquares(pb::LeastSquaresOptions { initial_step: m.initial_step }),
+    };
+    pb::OptimizerSpec {
+        x_tol: o.x_tol,
+        f_tol: o.f_tol,
+        max_iters: o.max_iters,
+        max_fevals: o.max_fevals,
+        seed: o.seed,
+        max_time: o.max_time,
+        algorithm: Some(algorithm),
+        ..Default::default()
     }
 }
 
@@ -253,7 +349,6 @@ pub fn effect_to_proto(e: &EffectSpec) -> pb::EffectSpec {
 /// `data[k]` is the table of experiment `k` of [`JobSpec::experiment_views`]. The job's shared
 /// table travels once, as the data of the first experiment that has none of its own.
 pub fn job_to_proto(spec: &JobSpec, data: &[MeasurementTable], model_id: &str) -> pb::JobSpec {
-    let o = &spec.optimizer;
     let shared = if spec.experiments.is_empty() {
         data.first()
     } else {
@@ -302,25 +397,7 @@ pub fn job_to_proto(spec: &JobSpec, data: &[MeasurementTable], model_id: &str) -
             set: spec.simulation.set.iter().map(|(k, v)| (k.clone(), v.to_string())).collect(),
             validation_stop_time: spec.simulation.validation_stop_time,
         }),
-        optimizer: Some(pb::OptimizerSpec {
-            algorithm: o.algorithm.map(|a| a.to_string()).unwrap_or_default(),
-            parallel: Some(o.parallel),
-            x_tol: o.x_tol,
-            f_tol: o.f_tol,
-            max_iters: o.max_iters,
-            max_fevals: o.max_fevals,
-            seed: o.seed,
-            initial_step: o.initial_step,
-            population: o.population.map(|v| v as u64),
-            weight: o.weight,
-            crossover: o.crossover,
-            bits: o.bits,
-            crossover_rate: o.crossover_rate,
-            mutation_rate: o.mutation_rate,
-            elitism: o.elitism.map(|v| v as u64),
-            restarts: o.restarts,
-            max_time: o.max_time,
-        }),
+        optimizer: Some(optimizer_to_proto(&spec.optimizer)),
         kind: match spec.kind {
             JobKind::Calibration => pb::JobKind::Calibration,
             JobKind::EvaluatePoints(_) => pb::JobKind::EvaluatePoints,

@@ -11,7 +11,7 @@ pub mod diagnose;
 pub mod tls;
 
 /// Version a worker must announce at registration; a mismatch is rejected.
-pub const PROTOCOL_VERSION: u32 = 3;
+pub const PROTOCOL_VERSION: u32 = 4;
 
 /// Largest gRPC message any fmucal client or server encodes or decodes (a job with its data,
 /// a batch of points, a result): 256 MiB.

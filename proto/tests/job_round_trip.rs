@@ -12,9 +12,10 @@ use fmucal_shared::effects;
 use fmucal_shared::fmu::Interface;
 use fmucal_shared::job::choices::{ExperimentRole, Scale};
 use fmucal_shared::job::experiments::ExperimentSpec;
+use fmucal_shared::job::options::FlatOptions;
 use fmucal_shared::job::spec::{
-    Bounds, DataRef, EffectSpec, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec, SetValue, SimulationSpec,
-    WorkersSpec,
+    AlgorithmOptions, Bounds, DataRef, EffectSpec, InputMap, ModelRef, OptimizerSpec, OutputMap, ParameterSpec,
+    SetValue, SimulationSpec, WorkersSpec,
 };
 use fmucal_shared::job::{Algorithm, JobKind, JobSpec, MeasurementTable};
 use fmucal_shared::sim::Solver;
@@ -22,6 +23,13 @@ use proptest::prelude::*;
 
 fn name() -> impl Strategy<Value = String> {
     "[a-z][a-zA-Z0-9_]{0,6}(\\.[a-z][a-z0-9]{0,4})?"
+}
+
+/// Inputs with distinct variables (an FMU input takes one column: a job that maps one twice
+/// is invalid, and is not what this property is about).
+fn inputs(count: std::ops::Range<usize>) -> impl Strategy<Value = Vec<InputMap>> {
+    prop::collection::btree_map(name(), name(), count)
+        .prop_map(|m| m.into_iter().map(|(variable, column)| InputMap { column, variable }).collect())
 }
 
 fn finite() -> impl Strategy<Value = f64> {
@@ -75,10 +83,7 @@ fn experiments() -> impl Strategy<Value = Vec<ExperimentSpec>> {
         any::<bool>(),
         any::<bool>(),
         prop::option::of(prop::collection::vec(output(), 1..3)),
-        prop::option::of(prop::collection::vec(
-            (name(), name()).prop_map(|(column, variable)| InputMap { column, variable }),
-            0..2,
-        )),
+        prop::option::of(inputs(0..2)),
         prop::collection::btree_map(name(), set_value(), 0..2),
         (prop::option::of(0.0..10.0f64), prop::option::of(10.0..100.0f64), prop::option::of(100.0..200.0f64)),
     );
@@ -208,23 +213,28 @@ fn optimizer() -> impl Strategy<Value = OptimizerSpec> {
                 (seed, initial_step, population, weight, crossover, bits),
                 (crossover_rate, mutation_rate, elitism, restarts),
             )| OptimizerSpec {
-                algorithm,
-                parallel,
                 x_tol,
                 f_tol,
                 max_iters,
                 max_fevals,
                 seed,
-                initial_step,
-                population,
-                weight,
-                crossover,
-                bits,
-                crossover_rate,
-                mutation_rate,
-                elitism,
-                restarts,
                 max_time: Some(12.5),
+                // Only the options the algorithm takes, as a job file holds them.
+                options: AlgorithmOptions::from_flat_lenient(
+                    algorithm,
+                    FlatOptions {
+                        parallel,
+                        initial_step,
+                        population,
+                        restarts,
+                        weight,
+                        crossover,
+                        bits,
+                        crossover_rate,
+                        mutation_rate,
+                        elitism,
+                    },
+                ),
             },
         )
 }
@@ -234,7 +244,7 @@ fn job() -> impl Strategy<Value = JobSpec> {
         "[0-9a-f]{8}",
         prop::option::of(prop_oneof![Just(Interface::ModelExchange), Just(Interface::CoSimulation)]),
         prop::collection::vec(output(), 1..4),
-        prop::collection::vec((name(), name()).prop_map(|(column, variable)| InputMap { column, variable }), 0..3),
+        inputs(0..3),
         parameters(),
         simulation(),
         prop::collection::vec(prop_oneof![effect(), state_effect()], 0..3),
@@ -325,7 +335,13 @@ fn unknown_choices_in_a_message_name_their_field() {
     let spec = small_job(1.0);
     let good = job_to_proto(&spec, &[data()], "m");
     let mut m = good.clone();
-    m.optimizer.as_mut().unwrap().algorithm = "points".into();
+    // A message of protocol version 3, which named the algorithm as text.
+    let o = m.optimizer.as_mut().unwrap();
+    o.algorithm = None;
+    #[allow(deprecated)]
+    {
+        o.legacy_algorithm = "points".into();
+    }
     let e = SubmittedJob::try_from(m).unwrap_err().to_string();
     assert!(e.starts_with("spec.optimizer.algorithm: \"points\" is not nelder-mead"), "{e}");
     let mut m = good.clone();

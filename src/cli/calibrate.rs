@@ -190,7 +190,9 @@ pub fn run(args: Args) -> Result<()> {
                 // From the optimum, a local search; the report still compares with the job's
                 // own starts (`t.job`).
                 let mut from_optimum = t.spec.clone().with_starts(&result.x_opt);
-                from_optimum.optimizer.initial_step.get_or_insert(REFIT_STEP);
+                if let Some(step) = from_optimum.optimizer.initial_step_mut() {
+                    step.get_or_insert(REFIT_STEP);
+                }
                 let refit_started = std::time::Instant::now();
                 let second = tokio::select! {
                     r = run_calibration(&mut client, json, &from_optimum, &data, &model) => r?,

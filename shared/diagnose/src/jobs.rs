@@ -31,7 +31,7 @@ pub fn decision_f_tol(ssr: f64, n_eff: f64) -> f64 {
 /// own tolerances afterwards). Returns the settings and the f_tol the decision uses.
 pub fn decision_optimizer(own: &OptimizerSpec, ssr: f64, n_eff: f64) -> (OptimizerSpec, f64) {
     let mut o = own.clone();
-    o.algorithm = Some(Algorithm::LeastSquares);
+    o.set_algorithm(Algorithm::LeastSquares);
     let needed = decision_f_tol(ssr, n_eff);
     let f_tol = match own.f_tol {
         // 0 disables the rule in the job; the decision still stops at what it needs.

@@ -112,11 +112,11 @@ fn round_points(spec: &JobSpec, n: usize) -> usize {
     }
     let o = &spec.optimizer;
     match o.algorithm() {
-        Algorithm::DifferentialEvolution => o.population.unwrap_or(DeSettings::new(n).population),
-        Algorithm::Genetic => o.population.unwrap_or(GaSettings::new(n).population),
+        Algorithm::DifferentialEvolution => o.population().unwrap_or(DeSettings::new(n).population),
+        Algorithm::Genetic => o.population().unwrap_or(GaSettings::new(n).population),
         Algorithm::CmaEs => {
-            let first = o.population.unwrap_or(CmaSettings::new(n).population);
-            let doublings = o.restarts.unwrap_or(0).min(63);
+            let first = o.population().unwrap_or(CmaSettings::new(n).population);
+            let doublings = o.restarts().unwrap_or(0).min(63);
             first.saturating_mul(1usize << doublings)
         }
         // An initial simplex or interpolation set.
@@ -126,9 +126,9 @@ fn round_points(spec: &JobSpec, n: usize) -> usize {
 
 fn check_optimizer(spec: &JobSpec) -> Result<(), JobError> {
     let o = &spec.optimizer;
-    if let Some(p) = o.population {
+    if let Some(p) = o.population() {
         // CMA-ES doubles its population at each IPOP restart.
-        let doublings = if o.algorithm() == Algorithm::CmaEs { o.restarts.unwrap_or(0) } else { 0 };
+        let doublings = o.restarts().unwrap_or(0);
         let largest = 1usize.checked_shl(doublings).filter(|_| doublings < 64).and_then(|f| f.checked_mul(p));
         if largest.is_none_or(|l| l > MAX_POPULATION) {
             let what =

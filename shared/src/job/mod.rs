@@ -1,6 +1,7 @@
 //! Calibration jobs (paper section 6):
 //! - the job specification ([`spec`], TOML for the CLI and the same fields over gRPC), with
-//!   several experiments in one job ([`experiments`]) and the enums a job names ([`choices`]);
+//!   several experiments in one job ([`experiments`]), the optimizer settings with one options
+//!   type per algorithm ([`options`]) and the enums a job names ([`choices`]);
 //! - measurement data ([`data`]: CSV or MATLAB v5) and the quadratic error objective
 //!   ([`objective`], the paper's `quad_err`);
 //! - the job checked against its model and data ([`prepared`]), and the caps on its size
@@ -26,6 +27,7 @@ pub mod limits;
 pub mod local;
 pub mod objective;
 pub mod optimizer;
+pub mod options;
 pub mod pool;
 pub mod prepared;
 pub mod report;

@@ -1,8 +1,10 @@
-//! Builds the job's optimizer from its kind and `[optimizer]` table: unset fields keep each
-//! optimizer's defaults. A parameter with `scale = "log"` enters the optimizer as its logarithm
+//! Builds the job's optimizer from its kind and `[optimizer]` settings: the one place where each
+//! algorithm's options ([`super::options::AlgorithmOptions`]) are merged with its optimizer's
+//! defaults (`*Settings::new(n)`); unset options keep them. A parameter with `scale = "log"` enters the optimizer as its logarithm
 //! (start and bounds alike); [`super::run::JobRun`] turns the points back into user units.
 
 use super::choices::{Algorithm, JobKind};
+use super::options::AlgorithmOptions;
 use super::spec::JobSpec;
 use crate::optim::{
     AnyOptimizer, CmaEs, CmaSettings, DeSettings, DifferentialEvolution, GaSettings, GeneticAlgorithm, LeastSquares,
@@ -57,59 +59,60 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
     };
     let stopping =
         Stopping { x_tol: rule(o.x_tol, defaults.x_tol), f_tol: rule(o.f_tol, defaults.f_tol), max_iters, max_fevals };
-    Ok(match o.algorithm() {
-        Algorithm::DifferentialEvolution => {
+    Ok(match &o.options {
+        AlgorithmOptions::DifferentialEvolution(opts) => {
             let d = DeSettings::new(n);
             let s = DeSettings {
-                population: o.population.unwrap_or(d.population),
-                weight: o.weight.unwrap_or(d.weight),
-                crossover: o.crossover.unwrap_or(d.crossover),
+                population: opts.population.unwrap_or(d.population),
+                weight: opts.weight.unwrap_or(d.weight),
+                crossover: opts.crossover.unwrap_or(d.crossover),
                 seed: o.seed,
                 stopping,
             };
             AnyOptimizer::DifferentialEvolution(DifferentialEvolution::new(&lower, &upper, Some(&x0), s)?)
         }
-        Algorithm::Genetic => {
+        AlgorithmOptions::Genetic(opts) => {
             let d = GaSettings::new(n);
             let s = GaSettings {
-                population: o.population.unwrap_or(d.population),
-                bits: o.bits.unwrap_or(d.bits),
-                crossover_rate: o.crossover_rate.unwrap_or(d.crossover_rate),
-                mutation_rate: o.mutation_rate.unwrap_or(d.mutation_rate),
-                elitism: o.elitism.unwrap_or(d.elitism),
+                population: opts.population.unwrap_or(d.population),
+                bits: opts.bits.unwrap_or(d.bits),
+                crossover_rate: opts.crossover_rate.unwrap_or(d.crossover_rate),
+                mutation_rate: opts.mutation_rate.unwrap_or(d.mutation_rate),
+                elitism: opts.elitism.unwrap_or(d.elitism),
                 seed: o.seed,
                 stopping,
             };
             AnyOptimizer::Genetic(GeneticAlgorithm::new(&lower, &upper, Some(&x0), s)?)
         }
-        Algorithm::CmaEs => {
+        AlgorithmOptions::CmaEs(opts) => {
             let d = CmaSettings::new(n);
             let s = CmaSettings {
-                population: o.population.unwrap_or(d.population),
-                sigma0: o.initial_step.unwrap_or(d.sigma0),
-                restarts: o.restarts.unwrap_or(0),
+                population: opts.population.unwrap_or(d.population),
+                sigma0: opts.initial_step.unwrap_or(d.sigma0),
+                // A job restarts only when it asks to (the library's default is 9).
+                restarts: opts.restarts.unwrap_or(0),
                 seed: o.seed,
                 stopping,
             };
             AnyOptimizer::CmaEs(CmaEs::new(&lower, &upper, Some(&x0), s)?)
         }
-        Algorithm::LeastSquares => {
+        AlgorithmOptions::LeastSquares(opts) => {
             let d = LsSettings::new(n);
             // Its own f_tol rule (f below f_tol × f(x0)) is not the spread the job's f_tol means;
             // the job's f_tol is the gain below which a step is not worth a round.
             let s = LsSettings {
-                initial_radius: o.initial_step.unwrap_or(d.initial_radius),
+                initial_radius: opts.initial_step.unwrap_or(d.initial_radius),
                 min_predicted_gain: stopping.f_tol,
                 stopping: Stopping { f_tol: None, ..stopping },
                 ..d
             };
             AnyOptimizer::LeastSquares(LeastSquares::new(&lower, &upper, &x0, s)?)
         }
-        Algorithm::NelderMead => {
+        AlgorithmOptions::NelderMead(opts) | AlgorithmOptions::Unnamed(opts) => {
             let d = NmSettings::new(n);
             let s = NmSettings {
-                parallel: o.parallel,
-                initial_step: o.initial_step.unwrap_or(d.initial_step),
+                parallel: opts.parallel,
+                initial_step: opts.initial_step.unwrap_or(d.initial_step),
                 stopping,
                 nominal: None,
             };

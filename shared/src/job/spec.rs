@@ -59,8 +59,12 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::JobError;
-use super::choices::{Algorithm, JobKind, Scale, optional_interface, optional_text, text};
+use super::choices::{JobKind, Scale, optional_interface, optional_text, text};
 use super::experiments::ExperimentSpec;
+pub use super::options::{
+    AlgorithmOptions, CmaEsOptions, DifferentialEvolutionOptions, GeneticOptions, LeastSquaresOptions,
+    NelderMeadOptions, OptimizerSpec,
+};
 use crate::effects::{self, Domain};
 use crate::fmu::Interface;
 use crate::quote::quote_user_text;
@@ -392,76 +396,6 @@ impl std::fmt::Display for SetValue {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct OptimizerSpec {
-    /// nelder-mead, differential-evolution, genetic, cma-es or least-squares; unset, the default
-    /// ([`Algorithm::default`], read through [`OptimizerSpec::algorithm`]). Kept apart from the
-    /// default so that a job written back says only what its author chose.
-    #[serde(default, with = "optional_text", skip_serializing_if = "Option::is_none")]
-    pub algorithm: Option<Algorithm>,
-    /// Nelder–Mead: evaluate the four trial points as one batch. Default: true.
-    #[serde(default = "default_true")]
-    pub parallel: bool,
-    /// Simplex/population size rule (scaled); 0 disables it. Default: 1e-6.
-    pub x_tol: Option<f64>,
-    /// Spread of objective values rule; 0 disables it. Default: 1e-8. Least squares does not
-    /// use it: it stops on x_tol (its trust radius), slow progress, max_iters and max_fevals.
-    pub f_tol: Option<f64>,
-    /// Iterations (NM, least squares) or generations (DE, GA, CMA-ES). With `max_fevals`
-    /// unset too, the algorithm's default budget ([`super::optimizer::default_budget`]):
-    /// Nelder–Mead 200·n iterations, least squares 100·n evaluations, DE, GA and CMA-ES 1000·n
-    /// generations, for n parameters.
-    pub max_iters: Option<u64>,
-    /// Objective evaluations (see `max_iters` for the default).
-    pub max_fevals: Option<u64>,
-    /// Wall time in seconds after which the run stops with its best point so far (termination
-    /// `max_time reached`). Enforced by `fmucal calibrate`, local or with `--coordinator`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_time: Option<f64>,
-    /// Seed of DE, GA and CMA-ES. Default: 0.
-    #[serde(default)]
-    pub seed: u64,
-    /// Nelder–Mead initial simplex edge, CMA-ES initial step size σ₀, least-squares initial
-    /// trust radius (scaled). Default: 0.05 (NM), 0.3 (CMA-ES), 0.1 (least squares).
-    pub initial_step: Option<f64>,
-    /// DE, GA and CMA-ES population (CMA-ES: of its first run).
-    pub population: Option<usize>,
-    /// CMA-ES: IPOP restarts, each with twice the population, after a run meets x_tol or f_tol.
-    /// Default: 0.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub restarts: Option<u32>,
-    /// DE weight F.
-    pub weight: Option<f64>,
-    /// DE crossover probability CR.
-    pub crossover: Option<f64>,
-    /// GA bits per parameter.
-    pub bits: Option<u32>,
-    /// GA crossover rate.
-    pub crossover_rate: Option<f64>,
-    /// GA mutation rate.
-    pub mutation_rate: Option<f64>,
-    /// GA elitism.
-    pub elitism: Option<usize>,
-}
-
-fn default_true() -> bool {
-    true
-}
-
-impl Default for OptimizerSpec {
-    fn default() -> Self {
-        toml::from_str("").expect("an empty optimizer table is valid")
-    }
-}
-
-impl OptimizerSpec {
-    /// The algorithm that runs: the one the job names, else the default.
-    pub fn algorithm(&self) -> Algorithm {
-        self.algorithm.unwrap_or_default()
-    }
-}
-
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WorkersSpec {
@@ -569,7 +503,9 @@ impl JobSpec {
     /// [`JobError::Invalid`] with field `toml` and the parser's message in its layout
     /// ([`toml_error`]): several lines, quoting one line of `text` at most.
     pub fn from_toml(text: &str, base_dir: &Path) -> Result<JobSpec, JobError> {
-        let mut spec: JobSpec = toml::from_str(text).map_err(|e| JobError::invalid("toml", toml_error(&e, text)))?;
+        let mut spec: JobSpec = toml::from_str(text).map_err(|e| {
+            super::options::option_error(text, &e).unwrap_or_else(|| JobError::invalid("toml", toml_error(&e, text)))
+        })?;
         for value in spec.simulation.set.values_mut() {
             if let SetValue::Text(t) = value {
                 *value = SetValue::from_text(std::mem::take(t));
@@ -904,6 +840,7 @@ fn check_bounds(lower: f64, upper: f64) -> Result<(), String> {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::job::choices::Algorithm;
 
     /// A minimal valid job: one output, one parameter `k` in [0, 2] from 1.
     pub(crate) const JOB: &str = r#"
@@ -929,7 +866,7 @@ upper = 2.0
         assert_eq!(spec.outputs[0].weight, 1.0);
         assert_eq!(spec.optimizer.algorithm(), Algorithm::NelderMead);
         assert_eq!(spec.kind, JobKind::Calibration);
-        assert!(spec.optimizer.parallel);
+        assert!(spec.optimizer.parallel());
         spec.validate().unwrap();
     }
 
@@ -1014,7 +951,7 @@ upper = 2.0
         .unwrap();
         assert_eq!(spec.model.interface, Some(Interface::CoSimulation));
         assert_eq!(spec.simulation.solver, Some(Solver::Tsit45));
-        assert_eq!(spec.optimizer.algorithm, Some(Algorithm::Genetic));
+        assert_eq!(spec.optimizer.named_algorithm(), Some(Algorithm::Genetic));
         for (from, to, says) in [
             ("path = \"m.fmu\"", "path = \"m.fmu\"\ninterface = \"xx\"", "\"xx\" is not me or cs"),
             ("[data]", "[optimizer]\nalgorithm = \"points\"\n[data]", "\"points\" is not nelder-mead"),

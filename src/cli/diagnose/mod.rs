@@ -221,14 +221,14 @@ pub fn run(args: Args) -> Result<()> {
     // squares from the polish's small trust radius, which confirms the optimum in a few
     // points where Nelder–Mead's simplex must shrink from its first edge down to x_tol. A job
     // that names its algorithm keeps it, with a first step of one standard error.
-    if kept.optimizer.algorithm.is_none() {
-        kept.optimizer.algorithm = Some(Algorithm::LeastSquares);
-        if kept.optimizer.initial_step.is_none() {
-            kept.optimizer.initial_step = Some(polish_step(kept.optimizer.x_tol, None));
+    if kept.optimizer.named_algorithm().is_none() {
+        kept.optimizer.set_algorithm(Algorithm::LeastSquares);
+        if kept.optimizer.initial_step().is_none() {
+            kept.optimizer.set_initial_step(Some(polish_step(kept.optimizer.x_tol, None)));
         }
     }
-    if kept.optimizer.initial_step.is_none() {
-        kept.optimizer.initial_step = local_step(&kept, &report.standard_errors);
+    if kept.optimizer.initial_step().is_none() {
+        kept.optimizer.set_initial_step(local_step(&kept, &report.standard_errors));
     }
     let toml = toml::to_string(&kept).context("cannot write the job with the effect")?;
     let header = "# Written by `fmucal diagnose`: the job with the effects it named added.\n";

@@ -17,9 +17,10 @@ the coordinator reads 0.0. Python's would send -0.0; :func:`_plain` sends what t
 from __future__ import annotations
 
 import math
+from dataclasses import fields
 from decimal import Decimal
 
-from .job import Experiment, InputMap, JobSpec, OutputMap, SetValue
+from .job import Experiment, InputMap, JobSpec, Optimizer, OutputMap, SetValue
 from .proto import pb
 from .tables import Table
 
@@ -86,6 +87,35 @@ def _experiment(e: Experiment, table: Table) -> pb.Experiment:
     return m
 
 
+# The ``OptimizerSpec.algorithm`` member and options message of each algorithm.
+_ALGORITHM_MESSAGES = {
+    "nelder-mead": ("nelder_mead", pb.NelderMeadOptions),
+    "differential-evolution": ("differential_evolution", pb.DifferentialEvolutionOptions),
+    "genetic": ("genetic", pb.GeneticOptions),
+    "cma-es": ("cma_es", pb.CmaEsOptions),
+    "least-squares": ("least_squares", pb.LeastSquaresOptions),
+}
+
+
+def optimizer_message(o: Optimizer) -> pb.OptimizerSpec:
+    """The optimizer settings as the protocol carries them: the shared settings, and the
+    ``algorithm`` member with its options (``default_algorithm`` when the job names none; the
+    ``legacy_*`` fields of protocol version 3 stay unset)."""
+    member, options_type = _ALGORITHM_MESSAGES[o.algorithm or "nelder-mead"]
+    if o.algorithm is None:
+        member = "default_algorithm"
+    options = options_type(**{f.name: getattr(o.options, f.name) for f in fields(o.options)})
+    return pb.OptimizerSpec(
+        x_tol=o.x_tol,
+        f_tol=o.f_tol,
+        max_iters=o.max_iters,
+        max_fevals=o.max_fevals,
+        max_time=o.max_time,
+        seed=o.seed,
+        **{member: options},
+    )
+
+
 def job_message(spec: JobSpec, tables: list[Table], model_id: str) -> pb.JobSpec:
     """The protocol's form of ``spec``; ``tables[k]`` is the table of experiment ``k`` (one
     table for a job without experiments), as :func:`fmucal_client.tables.read_all` gives them."""
@@ -112,25 +142,7 @@ def job_message(spec: JobSpec, tables: list[Table], model_id: str) -> pb.JobSpec
             set={k: set_text(v) for k, v in s.set.items()},
             validation_stop_time=s.validation_stop_time,
         ),
-        optimizer=pb.OptimizerSpec(
-            algorithm=o.algorithm or "",
-            parallel=o.parallel,
-            x_tol=o.x_tol,
-            f_tol=o.f_tol,
-            max_iters=o.max_iters,
-            max_fevals=o.max_fevals,
-            max_time=o.max_time,
-            seed=o.seed,
-            initial_step=o.initial_step,
-            population=o.population,
-            weight=o.weight,
-            crossover=o.crossover,
-            bits=o.bits,
-            crossover_rate=o.crossover_rate,
-            mutation_rate=o.mutation_rate,
-            elitism=o.elitism,
-            restarts=o.restarts,
-        ),
+        optimizer=optimizer_message(o),
         kind=pb.JOB_KIND_CALIBRATION,
         effects=[
             pb.EffectSpec(

@@ -21,7 +21,7 @@ import json
 import os
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -125,27 +125,83 @@ class Simulation:
 
 
 @dataclass(frozen=True)
+class NelderMead:
+    """Nelder–Mead's options (``algorithm = "nelder-mead"``, and the default algorithm's)."""
+
+    parallel: bool = True
+    initial_step: float | None = None
+
+
+@dataclass(frozen=True)
+class DifferentialEvolution:
+    """Differential evolution's options (``algorithm = "differential-evolution"``)."""
+
+    population: int | None = None
+    weight: float | None = None
+    crossover: float | None = None
+
+
+@dataclass(frozen=True)
+class Genetic:
+    """The genetic algorithm's options (``algorithm = "genetic"``)."""
+
+    population: int | None = None
+    bits: int | None = None
+    crossover_rate: float | None = None
+    mutation_rate: float | None = None
+    elitism: int | None = None
+
+
+@dataclass(frozen=True)
+class CmaEs:
+    """CMA-ES's options (``algorithm = "cma-es"``)."""
+
+    initial_step: float | None = None
+    population: int | None = None
+    restarts: int | None = None
+
+
+@dataclass(frozen=True)
+class LeastSquares:
+    """The least-squares solver's options (``algorithm = "least-squares"``)."""
+
+    initial_step: float | None = None
+
+
+AlgorithmOptions = NelderMead | DifferentialEvolution | Genetic | CmaEs | LeastSquares
+"""One algorithm's own options."""
+
+#: The options type of each algorithm.
+OPTIONS_OF: dict[str, type] = {
+    "nelder-mead": NelderMead,
+    "differential-evolution": DifferentialEvolution,
+    "genetic": Genetic,
+    "cma-es": CmaEs,
+    "least-squares": LeastSquares,
+}
+
+
+@dataclass(frozen=True)
 class Optimizer:
-    """``[optimizer]``; ``None`` leaves a setting at the optimizer's default."""
+    """``[optimizer]``: the settings every algorithm shares, and the algorithm with its own
+    options (``options``, of the algorithm's type: :class:`NelderMead` when ``algorithm`` is
+    ``None``). ``None`` leaves a setting at the optimizer's default."""
 
     #: ``None``: the default algorithm (Nelder–Mead), sent as none, as the CLI does.
     algorithm: str | None = None
-    parallel: bool = True
+    options: AlgorithmOptions = field(default_factory=NelderMead)
     x_tol: float | None = None
     f_tol: float | None = None
     max_iters: int | None = None
     max_fevals: int | None = None
     max_time: float | None = None
     seed: int = 0
-    initial_step: float | None = None
-    population: int | None = None
-    restarts: int | None = None
-    weight: float | None = None
-    crossover: float | None = None
-    bits: int | None = None
-    crossover_rate: float | None = None
-    mutation_rate: float | None = None
-    elitism: int | None = None
+
+    def __post_init__(self) -> None:
+        expected = OPTIONS_OF.get(self.algorithm or "nelder-mead")
+        if expected is None or type(self.options) is not expected:
+            raise ValueError(f"algorithm {self.algorithm!r} takes {expected.__name__ if expected else 'no'} options, "
+                             f"not {type(self.options).__name__}")
 
 
 @dataclass(frozen=True)
@@ -243,6 +299,19 @@ SIMULATION_FIELDS = ("start_time", "stop_time", "tolerance", "tolerance_guard", 
 OPTIMIZER_FIELDS = ("algorithm", "parallel", "x_tol", "f_tol", "max_iters", "max_fevals", "max_time", "seed", "initial_step",
                     "population", "restarts", "weight", "crossover", "bits", "crossover_rate", "mutation_rate",
                     "elitism")
+# The algorithms that take each option of the flat ``[optimizer]`` table, in the CLI's order.
+TAKEN_BY = {
+    "parallel": ("nelder-mead",),
+    "initial_step": ("nelder-mead", "cma-es", "least-squares"),
+    "population": ("differential-evolution", "genetic", "cma-es"),
+    "restarts": ("cma-es",),
+    "weight": ("differential-evolution",),
+    "crossover": ("differential-evolution",),
+    "bits": ("genetic",),
+    "crossover_rate": ("genetic",),
+    "mutation_rate": ("genetic",),
+    "elitism": ("genetic",),
+}
 EXPERIMENT_FIELDS = ("name", "role", "data", "outputs", "inputs", "set", "start_time", "stop_time",
                      "validation_stop_time", "starts")
 
@@ -370,25 +439,55 @@ def _earlier_optimum(path: Path, field_name: str) -> dict[str, float]:
 def _optimizer(t: Table | None) -> Optimizer:
     if t is None:
         return Optimizer()
+    algorithm = _choice(t, "algorithm", ALGORITHMS)
+    flat = {
+        "parallel": t.flag("parallel", True),
+        "x_tol": t.number("x_tol"),
+        "f_tol": t.number("f_tol"),
+        "max_iters": t.count("max_iters"),
+        "max_fevals": t.count("max_fevals"),
+        "max_time": t.number("max_time"),
+        "seed": t.count("seed") or 0,
+        "initial_step": t.number("initial_step"),
+        "population": t.count("population"),
+        "restarts": t.count("restarts", bits=32),
+        "weight": t.number("weight"),
+        "crossover": t.number("crossover"),
+        "bits": t.count("bits", bits=32),
+        "crossover_rate": t.number("crossover_rate"),
+        "mutation_rate": t.number("mutation_rate"),
+        "elitism": t.count("elitism"),
+    }
+    runs = algorithm or "nelder-mead"
+    # An option of another algorithm is refused, as the CLI refuses it (`parallel` only when
+    # false: every job the CLI writes back says `parallel = true`).
+    for name, takers in TAKEN_BY.items():
+        given = flat[name] is False if name == "parallel" else flat[name] is not None
+        if given and runs not in takers:
+            listed = takers[0] if len(takers) == 1 else ", ".join(takers[:-1]) + f" or {takers[-1]}"
+            default = "" if algorithm is not None else " (the default algorithm)"
+            raise JobFileError(t.field(name), f"applies to {listed}, not {runs}{default}")
+    options_type = OPTIONS_OF[runs]
+    options = options_type(**{f.name: flat[f.name] for f in fields(options_type)})
     return Optimizer(
-        algorithm=_choice(t, "algorithm", ALGORITHMS),
-        parallel=t.flag("parallel", True),
-        x_tol=t.number("x_tol"),
-        f_tol=t.number("f_tol"),
-        max_iters=t.count("max_iters"),
-        max_fevals=t.count("max_fevals"),
-        max_time=t.number("max_time"),
-        seed=t.count("seed") or 0,
-        initial_step=t.number("initial_step"),
-        population=t.count("population"),
-        restarts=t.count("restarts", bits=32),
-        weight=t.number("weight"),
-        crossover=t.number("crossover"),
-        bits=t.count("bits", bits=32),
-        crossover_rate=t.number("crossover_rate"),
-        mutation_rate=t.number("mutation_rate"),
-        elitism=t.count("elitism"),
+        algorithm=algorithm,
+        options=options,
+        x_tol=flat["x_tol"],
+        f_tol=flat["f_tol"],
+        max_iters=flat["max_iters"],
+        max_fevals=flat["max_fevals"],
+        max_time=flat["max_time"],
+        seed=flat["seed"],
     )
+
+
+def optimizer_table(o: Optimizer) -> dict[str, Any]:
+    """The flat ``[optimizer]`` table of ``o``, every field in the job file's order (unset
+    options ``None``; ``parallel`` true for the algorithms without it), as the CLI writes it."""
+    values = {"algorithm": o.algorithm, "parallel": True, "x_tol": o.x_tol, "f_tol": o.f_tol,
+              "max_iters": o.max_iters, "max_fevals": o.max_fevals, "max_time": o.max_time, "seed": o.seed}
+    values.update({f.name: getattr(o.options, f.name) for f in fields(o.options)})
+    return {name: values.get(name) for name in OPTIMIZER_FIELDS}
 
 
 def _experiment(t: Table, base_dir: Path) -> Experiment:
@@ -444,7 +543,7 @@ def job_table(spec: JobSpec) -> dict[str, Any]:
         ],
         "simulation": some(start_time=s.start_time, stop_time=s.stop_time, tolerance=s.tolerance, solver=s.solver,
                            set=dict(s.set) or None, validation_stop_time=s.validation_stop_time),
-        "optimizer": some(**{f: getattr(o, f) for f in OPTIMIZER_FIELDS}),
+        "optimizer": some(**optimizer_table(o)),
         "experiments": [
             some(name=x.name, role=x.role, data=data(x.data) if x.data is not None else None,
                  outputs=outputs(x.outputs) if x.outputs is not None else None,

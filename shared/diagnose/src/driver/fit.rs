@@ -165,8 +165,8 @@ pub async fn polish(
     let mut termination = "Gauss–Newton polish";
     if gain > decision_f_tol(ssr, n_eff) {
         let mut ls = job.clone().with_starts(&names.iter().cloned().zip(x.iter().copied()).collect());
-        ls.optimizer.algorithm = Some(Algorithm::LeastSquares);
-        ls.optimizer.initial_step = Some(polish_step(ls.optimizer.x_tol, ls.optimizer.initial_step));
+        ls.optimizer.set_algorithm(Algorithm::LeastSquares);
+        ls.optimizer.set_initial_step(Some(polish_step(ls.optimizer.x_tol, ls.optimizer.initial_step())));
         let r = gn.eval.calibrate(&ls, &ctx.data, &ctx.model, &|_| {}).await?;
         simulations += r.evaluations;
         if r.f_opt < ssr {

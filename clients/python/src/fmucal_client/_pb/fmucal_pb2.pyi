@@ -128,42 +128,102 @@ class SimulationSpec(_message.Message):
     def __init__(self, start_time: _Optional[float] = ..., stop_time: _Optional[float] = ..., tolerance: _Optional[float] = ..., solver: _Optional[str] = ..., set: _Optional[_Mapping[str, str]] = ..., validation_stop_time: _Optional[float] = ...) -> None: ...
 
 class OptimizerSpec(_message.Message):
-    __slots__ = ("algorithm", "parallel", "x_tol", "f_tol", "max_iters", "max_fevals", "seed", "initial_step", "population", "weight", "crossover", "bits", "crossover_rate", "mutation_rate", "elitism", "restarts", "max_time")
-    ALGORITHM_FIELD_NUMBER: _ClassVar[int]
-    PARALLEL_FIELD_NUMBER: _ClassVar[int]
+    __slots__ = ("x_tol", "f_tol", "max_iters", "max_fevals", "seed", "max_time", "default_algorithm", "nelder_mead", "differential_evolution", "genetic", "cma_es", "least_squares", "legacy_algorithm", "legacy_parallel", "legacy_initial_step", "legacy_population", "legacy_weight", "legacy_crossover", "legacy_bits", "legacy_crossover_rate", "legacy_mutation_rate", "legacy_elitism", "legacy_restarts")
     X_TOL_FIELD_NUMBER: _ClassVar[int]
     F_TOL_FIELD_NUMBER: _ClassVar[int]
     MAX_ITERS_FIELD_NUMBER: _ClassVar[int]
     MAX_FEVALS_FIELD_NUMBER: _ClassVar[int]
     SEED_FIELD_NUMBER: _ClassVar[int]
-    INITIAL_STEP_FIELD_NUMBER: _ClassVar[int]
-    POPULATION_FIELD_NUMBER: _ClassVar[int]
-    WEIGHT_FIELD_NUMBER: _ClassVar[int]
-    CROSSOVER_FIELD_NUMBER: _ClassVar[int]
-    BITS_FIELD_NUMBER: _ClassVar[int]
-    CROSSOVER_RATE_FIELD_NUMBER: _ClassVar[int]
-    MUTATION_RATE_FIELD_NUMBER: _ClassVar[int]
-    ELITISM_FIELD_NUMBER: _ClassVar[int]
-    RESTARTS_FIELD_NUMBER: _ClassVar[int]
     MAX_TIME_FIELD_NUMBER: _ClassVar[int]
-    algorithm: str
-    parallel: bool
+    DEFAULT_ALGORITHM_FIELD_NUMBER: _ClassVar[int]
+    NELDER_MEAD_FIELD_NUMBER: _ClassVar[int]
+    DIFFERENTIAL_EVOLUTION_FIELD_NUMBER: _ClassVar[int]
+    GENETIC_FIELD_NUMBER: _ClassVar[int]
+    CMA_ES_FIELD_NUMBER: _ClassVar[int]
+    LEAST_SQUARES_FIELD_NUMBER: _ClassVar[int]
+    LEGACY_ALGORITHM_FIELD_NUMBER: _ClassVar[int]
+    LEGACY_PARALLEL_FIELD_NUMBER: _ClassVar[int]
+    LEGACY_INITIAL_STEP_FIELD_NUMBER: _ClassVar[int]
+    LEGACY_POPULATION_FIELD_NUMBER: _ClassVar[int]
+    LEGACY_WEIGHT_FIELD_NUMBER: _ClassVar[int]
+    LEGACY_CROSSOVER_FIELD_NUMBER: _ClassVar[int]
+    LEGACY_BITS_FIELD_NUMBER: _ClassVar[int]
+    LEGACY_CROSSOVER_RATE_FIELD_NUMBER: _ClassVar[int]
+    LEGACY_MUTATION_RATE_FIELD_NUMBER: _ClassVar[int]
+    LEGACY_ELITISM_FIELD_NUMBER: _ClassVar[int]
+    LEGACY_RESTARTS_FIELD_NUMBER: _ClassVar[int]
     x_tol: float
     f_tol: float
     max_iters: int
     max_fevals: int
     seed: int
+    max_time: float
+    default_algorithm: NelderMeadOptions
+    nelder_mead: NelderMeadOptions
+    differential_evolution: DifferentialEvolutionOptions
+    genetic: GeneticOptions
+    cma_es: CmaEsOptions
+    least_squares: LeastSquaresOptions
+    legacy_algorithm: str
+    legacy_parallel: bool
+    legacy_initial_step: float
+    legacy_population: int
+    legacy_weight: float
+    legacy_crossover: float
+    legacy_bits: int
+    legacy_crossover_rate: float
+    legacy_mutation_rate: float
+    legacy_elitism: int
+    legacy_restarts: int
+    def __init__(self, x_tol: _Optional[float] = ..., f_tol: _Optional[float] = ..., max_iters: _Optional[int] = ..., max_fevals: _Optional[int] = ..., seed: _Optional[int] = ..., max_time: _Optional[float] = ..., default_algorithm: _Optional[_Union[NelderMeadOptions, _Mapping]] = ..., nelder_mead: _Optional[_Union[NelderMeadOptions, _Mapping]] = ..., differential_evolution: _Optional[_Union[DifferentialEvolutionOptions, _Mapping]] = ..., genetic: _Optional[_Union[GeneticOptions, _Mapping]] = ..., cma_es: _Optional[_Union[CmaEsOptions, _Mapping]] = ..., least_squares: _Optional[_Union[LeastSquaresOptions, _Mapping]] = ..., legacy_algorithm: _Optional[str] = ..., legacy_parallel: _Optional[bool] = ..., legacy_initial_step: _Optional[float] = ..., legacy_population: _Optional[int] = ..., legacy_weight: _Optional[float] = ..., legacy_crossover: _Optional[float] = ..., legacy_bits: _Optional[int] = ..., legacy_crossover_rate: _Optional[float] = ..., legacy_mutation_rate: _Optional[float] = ..., legacy_elitism: _Optional[int] = ..., legacy_restarts: _Optional[int] = ...) -> None: ...
+
+class NelderMeadOptions(_message.Message):
+    __slots__ = ("parallel", "initial_step")
+    PARALLEL_FIELD_NUMBER: _ClassVar[int]
+    INITIAL_STEP_FIELD_NUMBER: _ClassVar[int]
+    parallel: bool
     initial_step: float
+    def __init__(self, parallel: _Optional[bool] = ..., initial_step: _Optional[float] = ...) -> None: ...
+
+class DifferentialEvolutionOptions(_message.Message):
+    __slots__ = ("population", "weight", "crossover")
+    POPULATION_FIELD_NUMBER: _ClassVar[int]
+    WEIGHT_FIELD_NUMBER: _ClassVar[int]
+    CROSSOVER_FIELD_NUMBER: _ClassVar[int]
     population: int
     weight: float
     crossover: float
+    def __init__(self, population: _Optional[int] = ..., weight: _Optional[float] = ..., crossover: _Optional[float] = ...) -> None: ...
+
+class GeneticOptions(_message.Message):
+    __slots__ = ("population", "bits", "crossover_rate", "mutation_rate", "elitism")
+    POPULATION_FIELD_NUMBER: _ClassVar[int]
+    BITS_FIELD_NUMBER: _ClassVar[int]
+    CROSSOVER_RATE_FIELD_NUMBER: _ClassVar[int]
+    MUTATION_RATE_FIELD_NUMBER: _ClassVar[int]
+    ELITISM_FIELD_NUMBER: _ClassVar[int]
+    population: int
     bits: int
     crossover_rate: float
     mutation_rate: float
     elitism: int
+    def __init__(self, population: _Optional[int] = ..., bits: _Optional[int] = ..., crossover_rate: _Optional[float] = ..., mutation_rate: _Optional[float] = ..., elitism: _Optional[int] = ...) -> None: ...
+
+class CmaEsOptions(_message.Message):
+    __slots__ = ("initial_step", "population", "restarts")
+    INITIAL_STEP_FIELD_NUMBER: _ClassVar[int]
+    POPULATION_FIELD_NUMBER: _ClassVar[int]
+    RESTARTS_FIELD_NUMBER: _ClassVar[int]
+    initial_step: float
+    population: int
     restarts: int
-    max_time: float
-    def __init__(self, algorithm: _Optional[str] = ..., parallel: _Optional[bool] = ..., x_tol: _Optional[float] = ..., f_tol: _Optional[float] = ..., max_iters: _Optional[int] = ..., max_fevals: _Optional[int] = ..., seed: _Optional[int] = ..., initial_step: _Optional[float] = ..., population: _Optional[int] = ..., weight: _Optional[float] = ..., crossover: _Optional[float] = ..., bits: _Optional[int] = ..., crossover_rate: _Optional[float] = ..., mutation_rate: _Optional[float] = ..., elitism: _Optional[int] = ..., restarts: _Optional[int] = ..., max_time: _Optional[float] = ...) -> None: ...
+    def __init__(self, initial_step: _Optional[float] = ..., population: _Optional[int] = ..., restarts: _Optional[int] = ...) -> None: ...
+
+class LeastSquaresOptions(_message.Message):
+    __slots__ = ("initial_step",)
+    INITIAL_STEP_FIELD_NUMBER: _ClassVar[int]
+    initial_step: float
+    def __init__(self, initial_step: _Optional[float] = ...) -> None: ...
 
 class Point(_message.Message):
     __slots__ = ("x",)
