@@ -16,7 +16,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context, Result};
-use fmucal_shared::job::{ExperimentErrors, JobSpec, ParameterRange, PreparedJob, report, tolerance};
+use fmucal_shared::job::{ExperimentErrors, JobSpec, ParameterRange, PreparedJob, identifiability, report, tolerance};
 use fmucal_shared::quote::quote_user_text;
 
 use super::client::Client;
@@ -105,6 +105,38 @@ pub(super) fn model_path(spec: &JobSpec) -> Result<PathBuf> {
 /// Logs (at debug level, with the log's timestamp) that a step of the run has ended, and the
 /// milliseconds since the command started: `FMUCAL_LOG=fmucal=debug` shows where a run's time
 /// goes.
+/// The first-order move of the estimates at `result`'s optimum when `job`'s tolerance tightens
+/// to `tight`'s ([`tolerance::LinearisedMove`]), with the standard errors at the tighter
+/// tolerance that come with it. Two batches on the workers: the difference points at the
+/// tighter tolerance, and the optimum at the first.
+async fn first_order_move(
+    client: &mut Client,
+    job: &PreparedJob,
+    tight: &tolerance::Tightened,
+    result: &fmucal_shared::job::CalibrationResult,
+    data: &[fmucal_shared::job::MeasurementTable],
+    model: &std::path::Path,
+) -> Result<(tolerance::LinearisedMove, identifiability::Identifiability)> {
+    let started = std::time::Instant::now();
+    let names = &tight.job.parameter_names;
+    let x = result.x_opt_in(names);
+    let plan = identifiability::difference_points(&tight.job, &x);
+    let fine = identifiability::residuals_of(&client.evaluate(&tight.spec, plan.points.clone(), data, model).await?)?;
+    let coarse = identifiability::residuals_of(&client.evaluate(&job.spec, vec![x.clone()], data, model).await?)?;
+    let change: Vec<f64> = fine[0].iter().zip(&coarse[0]).map(|(f, c)| f - c).collect();
+    let (step, errors) = identifiability::linearised_step(names, &plan, &fine, &change)?;
+    let (_, _, lower, upper) = tight.spec.parameter_vectors();
+    let x_tol = fmucal_shared::job::optimizer::stopping(&tight.spec, names.len()).x_tol;
+    let tolerance = tight.spec.simulation.tolerance.context("the tightened job has a tolerance")?;
+    let bounds = (&lower[..], &upper[..], &tight.spec.log_scaled()[..]);
+    let moved = tolerance::LinearisedMove {
+        simulations: (plan.points.len() as u64 + 1) * job.fitted.len() as u64,
+        seconds: started.elapsed().as_secs_f64(),
+        ..tolerance::LinearisedMove::new(tolerance, names, &x, &step, &errors, bounds, x_tol)
+    };
+    Ok((moved, identifiability::from_residuals(names, &plan, &fine)?))
+}
+
 fn step(since: std::time::Instant, step: &str) {
     tracing::debug!(step, ms = format_args!("{:.1}", since.elapsed().as_secs_f64() * 1e3), "calibrate");
 }
@@ -178,6 +210,9 @@ pub fn run(args: Args) -> Result<()> {
         let mut job = prepared.clone();
         let mut checks = vec![];
         let mut refit = None;
+        let mut linearised_move = None;
+        // The standard errors, when the guard's first-order move already computed them.
+        let mut identified = None;
         if guarded && result.termination != "max_time reached" {
             let x = result.x_opt_in(&job.parameter_names);
             let t = tokio::task::block_in_place(|| tolerance::tighten(&fmu, job.clone(), &data, &x, "optimum"))
@@ -187,32 +222,50 @@ pub fn run(args: Args) -> Result<()> {
                 checks = t.checks.clone();
             }
             if let Some(t) = t.filter(|t| t.tightened(&job.spec)) {
-                // From the optimum, a local search; the report still compares with the job's
-                // own starts (`t.job`).
-                let mut from_optimum = t.spec.clone().with_starts(&result.x_opt);
-                if let Some(step) = from_optimum.optimizer.initial_step_mut() {
-                    step.get_or_insert(REFIT_STEP);
-                }
-                let refit_started = std::time::Instant::now();
-                let second = tokio::select! {
-                    r = run_calibration(&mut client, json, &from_optimum, &data, &model) => r?,
+                // How far the estimates move at the tighter tolerance, to first order: the
+                // check's bound is often loose, and a refit costs a local search.
+                let moved = tokio::select! {
+                    m = first_order_move(&mut client, &job, &t, &result, &data, &model) => m,
                     () = super::servers::terminate_signal() => return Ok(Err(stopper.interrupt().await?)),
                 };
-                refit = Some(tolerance::Refit {
-                    from_tolerance: tolerance::effective_tolerance(&job.spec, &fmu),
-                    evaluations: second.evaluations,
-                    seconds: refit_started.elapsed().as_secs_f64(),
-                });
-                result = result.followed_by(second);
-                job = t.job;
+                let moved = moved.map_err(|e| tracing::warn!("no first-order move at the optimum: {e:#}")).ok();
+                if let Some((m, id)) = moved.as_ref().filter(|(m, _)| !m.refit_needed) {
+                    linearised_move = Some(m.clone());
+                    identified = Some(id.clone());
+                    job = t.job;
+                } else {
+                    linearised_move = moved.map(|(m, _)| m);
+                    // From the optimum, a local search; the report still compares with the
+                    // job's own starts (`t.job`).
+                    let mut from_optimum = t.spec.clone().with_starts(&result.x_opt);
+                    if let Some(step) = from_optimum.optimizer.initial_step_mut() {
+                        step.get_or_insert(REFIT_STEP);
+                    }
+                    let refit_started = std::time::Instant::now();
+                    let second = tokio::select! {
+                        r = run_calibration(&mut client, json, &from_optimum, &data, &model) => r?,
+                        () = super::servers::terminate_signal() => return Ok(Err(stopper.interrupt().await?)),
+                    };
+                    refit = Some(tolerance::Refit {
+                        from_tolerance: tolerance::effective_tolerance(&job.spec, &fmu),
+                        evaluations: second.evaluations,
+                        seconds: refit_started.elapsed().as_secs_f64(),
+                    });
+                    result = result.followed_by(second);
+                    job = t.job;
+                }
             }
         }
         step(t0, "tolerance guard at the optimum");
         let guard = guarded.then(|| {
             let mut all = start_checks.clone();
             all.extend(checks);
-            tolerance::Guard { tolerance: tolerance::effective_tolerance(&job.spec, &fmu), checks: all, refit }
+            let tolerance = tolerance::effective_tolerance(&job.spec, &fmu);
+            tolerance::Guard { tolerance, checks: all, linearised_move, refit }
         });
+        if let Some(identified) = identified {
+            return Ok(Ok((result, Ok(identified), job, guard)));
+        }
         tokio::select! {
             identified = client.identify(&job, &result, &data, &model) => {
                 step(t0, "identifiability points evaluated");
@@ -395,7 +448,7 @@ impl Drop for WaitOnDrop<'_> {
 
 /// The pair of different parameters with the largest |correlation|, and that correlation with
 /// its sign.
-fn largest_correlation(id: &fmucal_shared::job::identifiability::Identifiability) -> Option<(&str, &str, f64)> {
+fn largest_correlation(id: &identifiability::Identifiability) -> Option<(&str, &str, f64)> {
     let n = id.names.len();
     let mut best: Option<(&str, &str, f64)> = None;
     for i in 0..n {

@@ -76,6 +76,49 @@ pub fn difference_points(job: &PreparedJob, x: &[f64]) -> DifferencePlan {
     DifferencePlan { points, pairs }
 }
 
+/// The linearised least-squares problem at the optimum: the Jacobian J of the residuals by
+/// differences, (JᵀJ)⁻¹ and s² = Σr²/(m − n).
+struct Linearised {
+    jac: nalgebra::DMatrix<f64>,
+    inv: nalgebra::DMatrix<f64>,
+    s2: f64,
+}
+
+impl Linearised {
+    fn new(names: &[String], plan: &DifferencePlan, residuals: &[Vec<f64>]) -> Result<Self, JobError> {
+        let n = plan.pairs.len();
+        if residuals.len() != plan.points.len() || residuals.iter().any(|r| r.len() != residuals[0].len()) {
+            return Err(JobError::invalid("identifiability", "the residual vectors do not match the points"));
+        }
+        let r0 = &residuals[0];
+        let m = r0.len();
+        if m <= n {
+            return Err(JobError::invalid("identifiability", format!("{m} residuals cannot determine {n} parameters")));
+        }
+        let mut jac = nalgebra::DMatrix::<f64>::zeros(m, n);
+        for (i, &(up, down, dist)) in plan.pairs.iter().enumerate() {
+            if dist <= 0.0 {
+                return Err(JobError::invalid(
+                    "identifiability",
+                    format!("parameter {} has no room for a difference step", names[i]),
+                ));
+            }
+            for k in 0..m {
+                jac[(k, i)] = (residuals[up][k] - residuals[down][k]) / dist;
+            }
+        }
+        let s2 = r0.iter().map(|v| v * v).sum::<f64>() / (m - n) as f64;
+        let inv = (jac.transpose() * &jac).try_inverse().ok_or_else(|| {
+            JobError::invalid("identifiability", "JᵀJ is singular: the parameters are not identifiable")
+        })?;
+        Ok(Linearised { jac, inv, s2 })
+    }
+
+    fn standard_errors(&self) -> Vec<f64> {
+        (0..self.inv.ncols()).map(|i| (self.inv[(i, i)] * self.s2).max(0.0).sqrt()).collect()
+    }
+}
+
 /// Standard errors and correlations from the residual vectors of `plan.points`.
 ///
 /// # Errors
@@ -85,42 +128,40 @@ pub fn from_residuals(
     plan: &DifferencePlan,
     residuals: &[Vec<f64>],
 ) -> Result<Identifiability, JobError> {
+    let lin = Linearised::new(names, plan, residuals)?;
     let n = plan.pairs.len();
-    if residuals.len() != plan.points.len() || residuals.iter().any(|r| r.len() != residuals[0].len()) {
-        return Err(JobError::invalid("identifiability", "the residual vectors do not match the points"));
-    }
-    let r0 = &residuals[0];
-    let m = r0.len();
-    if m <= n {
-        return Err(JobError::invalid("identifiability", format!("{m} residuals cannot determine {n} parameters")));
-    }
-    let mut jac = nalgebra::DMatrix::<f64>::zeros(m, n);
-    for (i, &(up, down, dist)) in plan.pairs.iter().enumerate() {
-        if dist <= 0.0 {
-            return Err(JobError::invalid(
-                "identifiability",
-                format!("parameter {} has no room for a difference step", names[i]),
-            ));
-        }
-        for k in 0..m {
-            jac[(k, i)] = (residuals[up][k] - residuals[down][k]) / dist;
-        }
-    }
-    let s2 = r0.iter().map(|v| v * v).sum::<f64>() / (m - n) as f64;
-    let jtj = jac.transpose() * &jac;
-    let inv = jtj
-        .try_inverse()
-        .ok_or_else(|| JobError::invalid("identifiability", "JᵀJ is singular: the parameters are not identifiable"))?;
-    let cov = inv * s2;
-    let se: Vec<f64> = (0..n).map(|i| cov[(i, i)].max(0.0).sqrt()).collect();
+    let cov = &lin.inv * lin.s2;
+    let se = lin.standard_errors();
     let correlation = (0..n).map(|i| (0..n).map(|j| cov[(i, j)] / (se[i] * se[j])).collect()).collect();
     Ok(Identifiability {
         names: names.to_vec(),
         standard_errors: se,
         correlation,
-        residuals: m,
+        residuals: residuals[0].len(),
         steps: plan.pairs.iter().map(|p| p.2).collect(),
     })
+}
+
+/// How each estimate moves, to first order, when the residuals at the optimum change by
+/// `change` (same length and order as the plan's residual vectors): the Gauss–Newton step
+/// δ = −(JᵀJ)⁻¹Jᵀ·change in user units, with each parameter's standard error. The tolerance
+/// guard's ‖e‖/σ bounds |δᵢ|/SEᵢ (Cauchy–Schwarz); this is its value.
+///
+/// # Errors
+/// As [`from_residuals`], or if `change` has another length.
+pub fn linearised_step(
+    names: &[String],
+    plan: &DifferencePlan,
+    residuals: &[Vec<f64>],
+    change: &[f64],
+) -> Result<(Vec<f64>, Vec<f64>), JobError> {
+    let lin = Linearised::new(names, plan, residuals)?;
+    if change.len() != lin.jac.nrows() {
+        return Err(JobError::invalid("identifiability", "the residual change does not match the residuals"));
+    }
+    let e = nalgebra::DVector::from_column_slice(change);
+    let step = -(&lin.inv * (lin.jac.transpose() * e));
+    Ok((step.iter().copied().collect(), lin.standard_errors()))
 }
 
 /// The residual vectors of an evaluated difference plan, in the order of its points.
@@ -150,4 +191,30 @@ pub fn analyze(fmu: Arc<Fmu>, job: &PreparedJob, x: &[f64], pool: &EvaluatorPool
     execute(&mut run, &mut backend, |_| {})?;
     let residuals = residuals_of(&run.take_result(&job.spec, 0.0, None).evaluated)?;
     from_residuals(&job.parameter_names, &plan, &residuals)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_change_along_a_parameter_moves_it_by_that_much() {
+        // r(a) = a·t − y for t = 1..m: J = t, SE(a) = s/‖t‖. A change c·t in the residuals is a
+        // change −c in a, closed form.
+        let m = 50;
+        let t: Vec<f64> = (1..=m).map(f64::from).collect();
+        let y: Vec<f64> = t.iter().enumerate().map(|(i, t)| 2.0 * t + if i % 2 == 0 { 0.1 } else { -0.1 }).collect();
+        let r = |a: f64| -> Vec<f64> { t.iter().zip(&y).map(|(t, y)| a * t - y).collect() };
+        let (a, h) = (2.0, 1e-3);
+        let plan = DifferencePlan { points: vec![vec![a], vec![a + h], vec![a - h]], pairs: vec![(1, 2, 2.0 * h)] };
+        let residuals = vec![r(a), r(a + h), r(a - h)];
+        let names = vec!["a".to_owned()];
+        let se = from_residuals(&names, &plan, &residuals).unwrap().standard_errors[0];
+        let c = 3e-4;
+        let change: Vec<f64> = t.iter().map(|t| c * t).collect();
+        let (step, errors) = linearised_step(&names, &plan, &residuals, &change).unwrap();
+        assert!((step[0] + c).abs() < 1e-6 * c, "{} vs {}", step[0], -c);
+        assert_eq!(errors, vec![se]);
+        assert!(linearised_step(&names, &plan, &residuals, &change[1..]).is_err());
+    }
 }

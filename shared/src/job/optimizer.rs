@@ -25,6 +25,26 @@ pub fn default_budget(algorithm: Algorithm, n: usize) -> (Option<u64>, Option<u6
     }
 }
 
+/// The stopping rules of `spec`'s optimizer on `n` parameters: each tolerance as the job sets it
+/// (0 turns its rule off), else [`Stopping::default_for`]; the budget exactly as the job sets
+/// it, else the algorithm's [`default_budget`].
+pub fn stopping(spec: &JobSpec, n: usize) -> Stopping {
+    let o = &spec.optimizer;
+    let defaults = Stopping::default_for(n);
+    // 0 disables a tolerance rule; unset takes the default.
+    let rule = |v: Option<f64>, default: Option<f64>| match v {
+        Some(t) if t == 0.0 => None,
+        Some(t) => Some(t),
+        None => default,
+    };
+    // A job that sets either budget gets exactly what it set; else the algorithm's default.
+    let (max_iters, max_fevals) = match (o.max_iters, o.max_fevals) {
+        (None, None) => default_budget(o.algorithm(), n),
+        set => set,
+    };
+    Stopping { x_tol: rule(o.x_tol, defaults.x_tol), f_tol: rule(o.f_tol, defaults.f_tol), max_iters, max_fevals }
+}
+
 /// The optimizer of `spec`, starting at the parameters' start values (for an
 /// [`JobKind::EvaluatePoints`] job: one batch of its points).
 ///
@@ -45,20 +65,7 @@ pub fn build(spec: &JobSpec) -> Result<AnyOptimizer, OptimError> {
     }
     let o = &spec.optimizer;
     let n = x0.len();
-    let defaults = Stopping::default_for(n);
-    // 0 disables a tolerance rule; unset takes the default.
-    let rule = |v: Option<f64>, default: Option<f64>| match v {
-        Some(t) if t == 0.0 => None,
-        Some(t) => Some(t),
-        None => default,
-    };
-    // A job that sets either budget gets exactly what it set; else the algorithm's default.
-    let (max_iters, max_fevals) = match (o.max_iters, o.max_fevals) {
-        (None, None) => default_budget(o.algorithm(), n),
-        set => set,
-    };
-    let stopping =
-        Stopping { x_tol: rule(o.x_tol, defaults.x_tol), f_tol: rule(o.f_tol, defaults.f_tol), max_iters, max_fevals };
+    let stopping = stopping(spec, n);
     Ok(match &o.options {
         AlgorithmOptions::DifferentialEvolution(opts) => {
             let d = DeSettings::new(n);

@@ -14,8 +14,12 @@
 //! least-squares estimate), so a systematic error far below the noise still biases an estimate
 //! from thousands of samples. [`tighten`] divides the job's tolerance by [`FINER`] until
 //! the check passes, down to [`MIN_GUARDED_TOLERANCE`]. `fmucal calibrate` runs it at the
-//! start point before calibrating and at the optimum after; a failure there refits from the
-//! optimum at the tighter tolerance. `[simulation] tolerance_guard = false` turns it off.
+//! start point before calibrating and at the optimum after. A failure at the optimum is then
+//! measured instead of bounded: the residuals at the tighter tolerance give the Jacobian, and
+//! the Gauss–Newton step that the change in the residuals makes is the estimates' move to first
+//! order ([`LinearisedMove`]). Only a move of more than [`GUARD_SHIFT`] standard errors that is
+//! also larger than the optimizer's x_tol refits from the optimum at the tighter tolerance.
+//! `[simulation] tolerance_guard = false` turns it off.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -88,9 +92,86 @@ pub struct Guard {
     /// Every check, in order: at the start point (tightening before the calibration), then at
     /// the optimum.
     pub checks: Vec<ToleranceCheck>,
-    /// The refit at a tighter tolerance, when the check at the optimum failed.
+    /// When the check at the optimum failed: how far the estimates move at the tighter
+    /// tolerance, to first order, and whether that calls for a refit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub linearised_move: Option<LinearisedMove>,
+    /// The refit at a tighter tolerance, when the check at the optimum failed and the move
+    /// calls for one (or could not be computed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refit: Option<Refit>,
+}
+
+/// The first-order move of the estimates at the optimum when the tolerance tightens: the
+/// Gauss–Newton step that the change in the residuals makes
+/// ([`super::identifiability::linearised_step`]). The check's ‖e‖/σ is an upper bound of its
+/// size in standard errors. A refit is worth its local search only where the move is both
+/// larger than [`GUARD_SHIFT`] standard errors and larger than the optimizer's x_tol, the
+/// precision the job asks of its optimum (in the optimizer's scaled variables: a fraction of
+/// the parameter's range, of its logarithm's with `scale = "log"`): a refit ends where it
+/// starts when the move is below x_tol.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LinearisedMove {
+    /// The tighter tolerance.
+    pub tolerance: f64,
+    /// The parameter that moves most in standard errors, and by how many.
+    pub parameter: String,
+    #[serde(with = "crate::optim::serde_float")]
+    pub shift: f64,
+    /// The optimizer's x_tol the move was compared with (none: no x_tol rule).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x_tol: Option<f64>,
+    /// Whether some parameter moves by more than [`GUARD_SHIFT`] standard errors and by more
+    /// than x_tol: then the calibration refits from the optimum.
+    pub refit_needed: bool,
+    /// Simulations it took (the difference points at the tighter tolerance, whose residuals
+    /// also give the standard errors when there is no refit, and the optimum at the first
+    /// tolerance), and their wall time.
+    pub simulations: u64,
+    pub seconds: f64,
+}
+
+impl LinearisedMove {
+    /// The move of the estimates `x` by `step` (user units), with their standard errors, for a
+    /// job whose parameters have these bounds and log scales and whose optimizer stops at
+    /// `x_tol`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        tolerance: f64,
+        names: &[String],
+        x: &[f64],
+        step: &[f64],
+        standard_errors: &[f64],
+        (lower, upper, log): (&[f64], &[f64], &[bool]),
+        x_tol: Option<f64>,
+    ) -> LinearisedMove {
+        let shifts: Vec<f64> = step.iter().zip(standard_errors).map(|(d, se)| d.abs() / se).collect();
+        let scaled = |i: usize| {
+            if log[i] {
+                let moved = x[i] + step[i];
+                if x[i] > 0.0 && moved > 0.0 {
+                    (moved / x[i]).ln().abs() / (upper[i] / lower[i]).ln()
+                } else {
+                    f64::INFINITY
+                }
+            } else {
+                step[i].abs() / (upper[i] - lower[i])
+            }
+        };
+        // NaN (a zero standard error or range) counts as needing a refit.
+        let refit_needed =
+            (0..shifts.len()).any(|i| !(shifts[i] <= GUARD_SHIFT) && !(scaled(i) <= x_tol.unwrap_or(0.0)));
+        let largest = (0..shifts.len()).max_by(|&a, &b| shifts[a].total_cmp(&shifts[b])).unwrap_or(0);
+        LinearisedMove {
+            tolerance,
+            parameter: names.get(largest).cloned().unwrap_or_default(),
+            shift: shifts.get(largest).copied().unwrap_or(0.0),
+            x_tol,
+            refit_needed,
+            simulations: 0,
+            seconds: 0.0,
+        }
+    }
 }
 
 /// The cost of a refit: the calibration at the tighter tolerance that started from the first
@@ -132,6 +213,21 @@ impl Guard {
             ),
             None => format!("rtol {:e}", self.tolerance),
         };
+        let moved = match &self.linearised_move {
+            Some(m) => {
+                let verdict = match (m.refit_needed, m.x_tol) {
+                    (true, _) => "",
+                    (false, _) if m.shift <= GUARD_SHIFT => ": no refit",
+                    (false, Some(t)) => &format!(": no refit, as no estimate moves by more than x_tol ({t:e})"),
+                    (false, None) => ": no refit",
+                };
+                format!(
+                    "; at rtol {:e} the optimum moves by {:.2} SE ({}), to first order{verdict}",
+                    m.tolerance, m.shift, m.parameter
+                )
+            }
+            None => String::new(),
+        };
         let refit = match &self.refit {
             Some(r) => format!(
                 "; refitted from rtol {:e}: {} evaluations, {:.2} s",
@@ -139,7 +235,7 @@ impl Guard {
             ),
             None => String::new(),
         };
-        format!("tolerance guard: {verdict} ({simulations} simulations, {seconds:.2} s){refit}")
+        format!("tolerance guard: {verdict} ({simulations} simulations, {seconds:.2} s){moved}{refit}")
     }
 }
 
@@ -325,6 +421,33 @@ mod tests {
         gaps[3] = f64::NAN;
         assert!(error_over_noise(&run(&coarse), &run(&fine), "y", &gaps).1 < shift);
         assert_eq!(error_over_noise(&run(&coarse), &run(&fine), "z", &measured).0, f64::INFINITY);
+    }
+
+    #[test]
+    fn a_refit_is_needed_only_for_a_move_beyond_both_the_standard_error_and_x_tol() {
+        let names = ["a".to_owned(), "b".to_owned()];
+        let linear = (&[0.0, 0.0][..], &[1.0, 10.0][..], &[false, false][..]);
+        let moved = |step: [f64; 2], se: [f64; 2], x_tol| {
+            LinearisedMove::new(1e-8, &names, &[0.5, 5.0], &step, &se, linear, x_tol)
+        };
+        // b moves by 3 SE (the largest), but 3e-5 of its range: below x_tol 1e-3.
+        let m = moved([1e-6, -3e-4], [1e-5, 1e-4], Some(1e-3));
+        assert_eq!((m.parameter.as_str(), m.refit_needed), ("b", false), "{m:?}");
+        assert!((m.shift - 3.0).abs() < 1e-12, "{m:?}");
+        // The same move against a finer x_tol, or no x_tol rule: a refit.
+        assert!(moved([1e-6, -3e-4], [1e-5, 1e-4], Some(1e-6)).refit_needed);
+        assert!(moved([1e-6, -3e-4], [1e-5, 1e-4], None).refit_needed);
+        // Beyond x_tol but within 0.2 SE: none.
+        assert!(!moved([1e-6, -3e-2], [1e-5, 1.0], Some(1e-6)).refit_needed);
+        // A zero standard error cannot say the move is small.
+        assert!(moved([1e-6, -3e-2], [1e-5, 0.0], None).refit_needed);
+        // With scale = "log", x_tol is a fraction of the logarithm's range: ln(1.01) of
+        // ln(1000) is 1.4e-3.
+        let log = (&[0.01, 0.01][..], &[10.0, 10.0][..], &[true, true][..]);
+        let m = LinearisedMove::new(1e-8, &names, &[1.0, 1.0], &[0.01, 0.0], &[1e-3, 1.0], log, Some(1e-3));
+        assert!(m.refit_needed, "{m:?}");
+        let m = LinearisedMove::new(1e-8, &names, &[1.0, 1.0], &[0.01, 0.0], &[1e-3, 1.0], log, Some(2e-3));
+        assert!(!m.refit_needed, "{m:?}");
     }
 
     #[test]
