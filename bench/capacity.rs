@@ -193,6 +193,32 @@ struct Counters {
     simulated_us: AtomicU64,
 }
 
+/// What the measured window saw.
+struct Measured {
+    /// Its length, s.
+    wall: f64,
+    /// Results acknowledged in it.
+    done: u64,
+    /// CPU seconds of the coordinator and of this process.
+    coord_cpu: f64,
+    bench_cpu: f64,
+    /// The machine's busy fraction.
+    machine_busy: f64,
+    /// (results done, coordinator RSS in MB), every half second.
+    samples: Vec<(f64, f64)>,
+    /// The coordinator's peak RSS, MB.
+    peak: f64,
+    /// The store file's largest size, bytes.
+    file_max: u64,
+    /// Mean simulated time of a point, ms.
+    mean_sim_ms: f64,
+    polls: u64,
+    empty: u64,
+    jobs_submitted: u64,
+    /// The coordinator's CPU seconds by thread: store writer, tokio runtime, other.
+    threads: Vec<f64>,
+}
+
 fn record(h: &Mutex<Vec<u64>>, values: &[Duration]) {
     let mut h = h.lock().unwrap();
     for d in values {
@@ -501,7 +527,7 @@ fn main() {
         simulated: AtomicU64::new(0),
         simulated_us: AtomicU64::new(0),
     });
-    let report = rt.block_on(async {
+    let m = rt.block_on(async {
         let mut c = service_common::client(connect(&url).await, TOKEN);
         let bytes = std::fs::read(fmucal_models::example("decay").unwrap()).unwrap();
         let model = service_common::upload_model(&mut c, bytes).await;
@@ -586,12 +612,12 @@ fn main() {
         let empty = counters.empty_polls.load(Ordering::Relaxed) - empty0;
         let peak = rss_mb(pid, "VmHWM:");
         let jobs_submitted = submitted.load(Ordering::Relaxed);
-        (
+        Measured {
             wall,
             done,
-            cc1 - cc0,
-            bc1 - bc0,
-            (m1.0 - m0.0) / (m1.1 - m0.1),
+            coord_cpu: cc1 - cc0,
+            bench_cpu: bc1 - bc0,
+            machine_busy: (m1.0 - m0.0) / (m1.1 - m0.1),
             samples,
             peak,
             file_max,
@@ -600,23 +626,8 @@ fn main() {
             empty,
             jobs_submitted,
             threads,
-        )
+        }
     });
-    let (
-        wall,
-        done,
-        coord_cpu,
-        bench_cpu,
-        machine_busy,
-        samples,
-        peak,
-        file_max,
-        mean_sim_ms,
-        polls,
-        empty,
-        jobs_submitted,
-        threads,
-    ) = report;
     // SIGKILL with the jobs running, as a crash would, and read what the store holds.
     let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
     let _ = coordinator.child.wait();
@@ -624,10 +635,12 @@ fn main() {
     let store = store_size(&data_dir.join("jobs.redb"));
     let lease = counters.lease_to_ack.lock().unwrap();
     let trip = counters.round_trip.lock().unwrap();
-    let rate = done as f64 / wall;
-    let half: Vec<(f64, f64)> = samples.iter().filter(|s| s.0 >= done as f64 / 2.0).map(|s| (s.0 / 1e6, s.1)).collect();
+    let rate = m.done as f64 / m.wall;
+    let half: Vec<(f64, f64)> =
+        m.samples.iter().filter(|s| s.0 >= m.done as f64 / 2.0).map(|s| (s.0 / 1e6, s.1)).collect();
     let rss_slope = if half.len() >= 3 { slope(&half) } else { f64::NAN };
-    let rss_at = |f: f64| samples.iter().find(|s| s.0 >= f * done as f64).or(samples.last()).map_or(f64::NAN, |s| s.1);
+    let rss_at =
+        |f: f64| m.samples.iter().find(|s| s.0 >= f * m.done as f64).or(m.samples.last()).map_or(f64::NAN, |s| s.1);
     let errors = counters.errors.load(Ordering::Relaxed);
     let registrations = counters.registrations.load(Ordering::Relaxed);
 
@@ -641,18 +654,22 @@ fn main() {
     println!("|---|---|");
     println!(
         "| jobs | {} running at once, {} on {} parameter(s), {} evaluations each; {} submitted in all |",
-        k.jobs, k.optimizer, k.parameters, k.fevals, jobs_submitted
+        k.jobs, k.optimizer, k.parameters, k.fevals, m.jobs_submitted
     );
     if k.sim.is_zero() {
         println!(
-            "| sustained results | {rate:.0}/s over {wall:.1} s ({done} results; answered at once: the ceiling) |"
+            "| sustained results | {rate:.0}/s over {:.1} s ({} results; answered at once: the ceiling) |",
+            m.wall, m.done
         );
     } else {
         println!(
-            "| sustained results | {rate:.0}/s over {wall:.1} s ({done} results): {:.1} % of the ideal {ideal:.0}/s; \
-             {:.1} % of slots / mean simulated time ({mean_sim_ms:.2} ms) |",
+            "| sustained results | {rate:.0}/s over {:.1} s ({} results): {:.1} % of the ideal {ideal:.0}/s; \
+             {:.1} % of slots / mean simulated time ({:.2} ms) |",
+            m.wall,
+            m.done,
             100.0 * rate / ideal,
-            100.0 * rate / (k.slots as f64 / (mean_sim_ms / 1e3))
+            100.0 * rate / (k.slots as f64 / (m.mean_sim_ms / 1e3)),
+            m.mean_sim_ms
         );
     }
     println!(
@@ -661,35 +678,41 @@ fn main() {
         quantile(&lease, 0.99)
     );
     println!(
-        "| poll round trip carrying results, p50 / p99 | {:.2} / {:.2} ms ({polls} polls, {:.2} results per poll, \
+        "| poll round trip carrying results, p50 / p99 | {:.2} / {:.2} ms ({} polls, {:.2} results per poll, \
          {:.1} % without a point) |",
         quantile(&trip, 0.5),
         quantile(&trip, 0.99),
-        done as f64 / polls.max(1) as f64,
-        100.0 * empty as f64 / polls.max(1) as f64
+        m.polls,
+        m.done as f64 / m.polls.max(1) as f64,
+        100.0 * m.empty as f64 / m.polls.max(1) as f64
     );
-    println!("| coordinator CPU | {:.1} µs per result, {:.2} cores |", 1e6 * coord_cpu / done as f64, coord_cpu / wall);
+    println!(
+        "| coordinator CPU | {:.1} µs per result, {:.2} cores |",
+        1e6 * m.coord_cpu / m.done as f64,
+        m.coord_cpu / m.wall
+    );
     println!(
         "| coordinator CPU by thread: store writer / tokio runtime (scheduler, gRPC) / other | {:.1} / {:.1} / {:.1} µs per result |",
-        1e6 * threads[0] / done as f64,
-        1e6 * threads[1] / done as f64,
-        1e6 * threads[2] / done as f64
+        1e6 * m.threads[0] / m.done as f64,
+        1e6 * m.threads[1] / m.done as f64,
+        1e6 * m.threads[2] / m.done as f64
     );
     println!(
         "| CPU of the simulated slots (this process) / machine busy | {:.2} cores / {:.0} % of 2 cores |",
-        bench_cpu / wall,
-        100.0 * machine_busy
+        m.bench_cpu / m.wall,
+        100.0 * m.machine_busy
     );
     println!(
-        "| coordinator RSS at 0 / 50 / 100 % of the results; peak | {:.1} / {:.1} / {:.1} MB; {peak:.1} MB |",
+        "| coordinator RSS at 0 / 50 / 100 % of the results; peak | {:.1} / {:.1} / {:.1} MB; {:.1} MB |",
         rss_at(0.0),
         rss_at(0.5),
-        rss_at(1.0)
+        rss_at(1.0),
+        m.peak
     );
     println!("| RSS slope over the second half | {rss_slope:+.2} MB per million results |");
     println!(
         "| store file: largest during the run / at the kill | {:.1} / {:.1} MB |",
-        file_max as f64 / 1e6,
+        m.file_max as f64 / 1e6,
         store.file as f64 / 1e6
     );
     println!(

@@ -340,19 +340,7 @@ fn broken_archive() -> Result<Vec<u8>, Box<dyn std::error::Error>> {
 }
 
 fn population(base: &pb::JobSpec, algorithm: &str, population: u64) -> pb::SubmitJobRequest {
-    let mut j = base.clone();
-    let o = j.optimizer.get_or_insert_with(Default::default);
-    o.algorithm = Some(match algorithm {
-        "genetic" => pb::optimizer_spec::Algorithm::Genetic(pb::GeneticOptions {
-            population: Some(population),
-            ..Default::default()
-        }),
-        _ => pb::optimizer_spec::Algorithm::DifferentialEvolution(pb::DifferentialEvolutionOptions {
-            population: Some(population),
-            ..Default::default()
-        }),
-    });
-    submit(j)
+    submit(proto::with_population(base, algorithm, population))
 }
 
 /// Requests a worker (or a holder of the worker token) sends: registrations past the caps, and
@@ -462,6 +450,8 @@ async fn worker_cases(url: &str, c: &mut Client, model: &str) {
 
 #[path = "probe_processes.rs"]
 mod processes;
+#[path = "../tests/common/proto.rs"]
+mod proto;
 
 /// `probe_grpc` replays the request cases against $FMUCAL_PROBE_URL; `probe_grpc processes
 /// DIR` the process-level cases, in the scratch folder DIR; `probe_grpc full-disk DIR` the

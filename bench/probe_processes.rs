@@ -127,6 +127,35 @@ async fn upload(c: &mut Client, example: &str) -> Result<String, String> {
     c.upload_model(tokio_stream::iter(chunks)).await.map(|r| r.into_inner().model_id).map_err(|e| e.to_string())
 }
 
+/// A coordinator as [`coordinator`] starts it and a client of it once it serves; when it does
+/// not, reports `case` failed with the end of its log.
+async fn serving_coordinator(case: &str, data_dir: &Path, args: &[&str], log: &Path) -> Option<(Proc, String, Client)> {
+    let (coord, url) = coordinator(data_dir, args, log);
+    let Some(c) = serving(&url).await else {
+        report(case, false, &format!("did not serve: {}", tail(log)));
+        return None;
+    };
+    Some((coord, url, c))
+}
+
+/// [`serving_coordinator`] for the case folder `dir` (the data in `dir/coord`, the log
+/// `dir/coordinator.log`) with example `example` uploaded, and its model id; when the upload
+/// fails, reports `case` failed.
+async fn serving_with_model(
+    case: &str,
+    dir: &Path,
+    args: &[&str],
+    example: &str,
+) -> Option<(Proc, String, Client, String)> {
+    let (data_dir, log) = (dir.join("coord"), dir.join("coordinator.log"));
+    let (coord, url, mut c) = serving_coordinator(case, &data_dir, args, &log).await?;
+    let model = upload(&mut c, example)
+        .await
+        .map_err(|e| report(case, false, &format!("cannot upload {example}: {e}")))
+        .ok()?;
+    Some((coord, url, c, model))
+}
+
 /// The decay model (x' = −k x, 0..2 s) evaluated at `points` of (k, crashTime), with
 /// `crashMode = "hang"`: a point whose crash time is before 2 s never returns. Its data are
 /// x = exp(−1.7 t) every `dt` seconds.
@@ -231,17 +260,9 @@ fn uploads_left(data_dir: &Path) -> Vec<String> {
 /// restart. After a restart the failed job is still FAILED.
 pub async fn full_disk(disk: &Path) {
     let data_dir = disk.join("coord");
-    let (mut coord, url) = coordinator(&data_dir, &[], &disk.join("coordinator.log"));
-    let Some(mut c) = serving(&url).await else {
-        return report(
-            "full disk: coordinator",
-            false,
-            &format!("did not serve: {}", tail(&disk.join("coordinator.log"))),
-        );
-    };
-    let model = match upload(&mut c, "decay").await {
-        Ok(m) => m,
-        Err(e) => return report("full disk: coordinator", false, &format!("cannot upload decay: {e}")),
+    let case = "full disk: coordinator";
+    let Some((mut coord, url, mut c, model)) = serving_with_model(case, disk, &[], "decay").await else {
+        return;
     };
     // A points job whose log (each point's 20,001 residuals) needs new pages of the store;
     // submitted while the disk has room, evaluated once it is full (no worker until then).
@@ -325,14 +346,9 @@ pub async fn full_disk(disk: &Path) {
     if coord.terminate(Duration::from_secs(20)).is_none() {
         report("full disk: restart", false, "the coordinator did not stop on SIGTERM within 20 s");
     }
-    let (_coord, url) = coordinator(&data_dir, &[], &disk.join("restarted.log"));
-    let Some(mut c) = serving(&url).await else {
-        return report(
-            "full disk: after a restart",
-            false,
-            &format!("did not serve: {}", tail(&disk.join("restarted.log"))),
-        );
-    };
+    let restarted =
+        serving_coordinator("full disk: after a restart", &data_dir, &[], &disk.join("restarted.log")).await;
+    let Some((_coord, _, mut c)) = restarted else { return };
     ended(
         "full disk: after a restart the job is still failed",
         get(&mut c, &job).await.as_ref(),
@@ -346,42 +362,33 @@ pub async fn full_disk(disk: &Path) {
 /// gone; the job that was running fails naming the model id.
 pub async fn model_gone(dir: &Path) {
     let data_dir = dir.join("coord");
-    let (mut coord, url) = coordinator(&data_dir, &[], &dir.join("coordinator.log"));
-    let Some(mut c) = serving(&url).await else {
-        return report(
-            "model gone at restart",
-            false,
-            &format!("did not serve: {}", tail(&dir.join("coordinator.log"))),
-        );
-    };
-    let model = match upload(&mut c, "decay").await {
-        Ok(m) => m,
-        Err(e) => return report("model gone at restart", false, &format!("cannot upload decay: {e}")),
+    let case = "model gone at restart";
+    let Some((mut coord, url, mut c, model)) = serving_with_model(case, dir, &[], "decay").await else {
+        return;
     };
     let mut work = worker(&url, &[], &dir.join("worker.log"));
     let done = match submit(&mut c, super::decay_job(&model, "[optimizer]\nmax_iters = 5\n")).await {
         Ok(j) => j,
-        Err(e) => return report("model gone at restart", false, &format!("refused: {e}")),
+        Err(e) => return report(case, false, &format!("refused: {e}")),
     };
     let before = wait_end(&mut c, &done, Duration::from_secs(60)).await;
     if before.as_ref().is_none_or(|r| r.status != SUCCEEDED) {
-        return report("model gone at restart", false, &format!("the first job did not succeed: {before:?}"));
+        return report(case, false, &format!("the first job did not succeed: {before:?}"));
     }
     work.kill();
     // No worker left: this one is still running when the coordinator stops.
     let running = match submit(&mut c, super::decay_job(&model, "")).await {
         Ok(j) => j,
-        Err(e) => return report("model gone at restart", false, &format!("refused: {e}")),
+        Err(e) => return report(case, false, &format!("refused: {e}")),
     };
     drop(c);
     if coord.terminate(Duration::from_secs(20)).is_none() {
-        report("model gone at restart", false, "the coordinator did not stop on SIGTERM within 20 s");
+        report(case, false, "the coordinator did not stop on SIGTERM within 20 s");
     }
     let _ = std::fs::remove_file(data_dir.join("models").join(format!("{model}.fmu")));
     let _ = std::fs::remove_dir_all(data_dir.join("unpacked"));
-    let (_coord, url) = coordinator(&data_dir, &[], &dir.join("restarted.log"));
-    let Some(mut c) = serving(&url).await else {
-        return report("model gone at restart", false, &format!("did not serve: {}", tail(&dir.join("restarted.log"))));
+    let Some((_coord, _, mut c)) = serving_coordinator(case, &data_dir, &[], &dir.join("restarted.log")).await else {
+        return;
     };
     let after = get(&mut c, &done).await;
     let kept = after.as_ref().is_some_and(|a| before.as_ref().is_some_and(|b| a.result == b.result));
@@ -401,13 +408,11 @@ pub async fn model_gone(dir: &Path) {
 /// shown); SIGTERM stops a worker whose model hangs within its grace.
 pub async fn hung_model(dir: &Path) {
     // The coordinator would re-send a point only after 10 minutes.
-    let (_coord, url) = coordinator(&dir.join("coord"), &["--evaluation-timeout", "600"], &dir.join("coordinator.log"));
-    let Some(mut c) = serving(&url).await else {
-        return report("hung model", false, &format!("did not serve: {}", tail(&dir.join("coordinator.log"))));
-    };
-    let model = match upload(&mut c, "decay").await {
-        Ok(m) => m,
-        Err(e) => return report("hung model", false, &format!("cannot upload decay: {e}")),
+    let case = "hung model";
+    let Some((_coord, url, mut c, model)) =
+        serving_with_model(case, dir, &["--evaluation-timeout", "600"], "decay").await
+    else {
+        return;
     };
 
     // One slot, a 2 s deadline: the middle point hangs.
@@ -524,13 +529,8 @@ fn processes_mentioning(needle: &str) -> Vec<u32> {
 pub async fn killed_diagnosis(dir: &Path) {
     let case = "SIGKILL of the coordinator during Diagnose";
     let data_dir: PathBuf = dir.join("coord");
-    let (mut coord, url) = coordinator(&data_dir, &[], &dir.join("coordinator.log"));
-    let Some(mut c) = serving(&url).await else {
-        return report(case, false, &format!("did not serve: {}", tail(&dir.join("coordinator.log"))));
-    };
-    let model = match upload(&mut c, "furuta").await {
-        Ok(m) => m,
-        Err(e) => return report(case, false, &format!("cannot upload furuta: {e}")),
+    let Some((mut coord, _, mut c, model)) = serving_with_model(case, dir, &[], "furuta").await else {
+        return;
     };
     let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose");
     let (mut spec, data) = match (

@@ -88,31 +88,33 @@ fn cases() -> Vec<Case> {
     let generated = |name, g| Case { name, source: Source::Generated(g) };
     let furuta = || fmucal_models::example("furuta").expect("the furuta example");
     let exhaust = || fmucal_models::example("exhaust-pipe").expect("the exhaust example");
-    let grid_furuta = |data_fmu: PathBuf, profile, seed| {
-        let (time, inputs) = furuta_inputs(profile);
-        Generated {
-            data_fmu,
-            job_fmu: furuta(),
-            time,
-            inputs,
-            outputs: Model::Furuta.outputs(),
-            body: body(Model::Furuta.parameters(), GRID_SIMULATION),
-            seed,
-            ..Default::default()
-        }
+    let grid_furuta = |data_fmu, profile, seed| {
+        base_job(Model::Furuta, data_fmu, furuta(), furuta_inputs(profile), GRID_SIMULATION, seed)
     };
-    let exported_spring = |data_fmu: PathBuf, driven: bool, seed| {
-        let (time, inputs) = exported_spring_mass_inputs(driven);
-        Generated {
+    let grid_spring = |data_fmu, profile, seed| {
+        base_job(
+            Model::SpringMass,
             data_fmu,
-            job_fmu: Fixture::SpringMassExported.path(),
-            time,
-            inputs,
-            outputs: Model::SpringMass.outputs(),
-            body: body(Model::SpringMass.parameters(), SPRING_MASS_EXPORTED_SIMULATION),
+            Fixture::SpringMass.path(),
+            spring_mass_inputs(profile),
+            GRID_SIMULATION,
             seed,
-            ..Default::default()
-        }
+        )
+    };
+    let exported_furuta = |data_fmu, profile, seed| {
+        let inputs = furuta_inputs(profile);
+        base_job(Model::Furuta, data_fmu, Fixture::FurutaExported.path(), inputs, FURUTA_EXPORTED_SIMULATION, seed)
+    };
+    let exported_spring = |data_fmu, driven, seed| {
+        let inputs = exported_spring_mass_inputs(driven);
+        base_job(
+            Model::SpringMass,
+            data_fmu,
+            Fixture::SpringMassExported.path(),
+            inputs,
+            SPRING_MASS_EXPORTED_SIMULATION,
+            seed,
+        )
     };
     let (exhaust_time, exhaust_in) = exhaust_inputs();
     let exhaust_case = |data_fmu, job_fmu, seed| Generated {
@@ -138,19 +140,7 @@ fn cases() -> Vec<Case> {
         generated("grid Furuta, arm sensor offset", grid_furuta(Fixture::FurutaHiddenSensorOffset.path(), 0, 12)),
         generated("grid Furuta, arm drag", grid_furuta(Fixture::FurutaHiddenArmDrag.path(), 1, 13)),
         generated("grid Furuta, nothing hidden", grid_furuta(furuta(), 1, 14)),
-        generated("grid spring-mass, cubic spring", {
-            let (time, inputs) = spring_mass_inputs(0);
-            Generated {
-                data_fmu: Fixture::SpringMassHiddenCubic.path(),
-                job_fmu: Fixture::SpringMass.path(),
-                time,
-                inputs,
-                outputs: Model::SpringMass.outputs(),
-                body: body(Model::SpringMass.parameters(), GRID_SIMULATION),
-                seed: 15,
-                ..Default::default()
-            }
-        }),
+        generated("grid spring-mass, cubic spring", grid_spring(Fixture::SpringMassHiddenCubic.path(), 0, 15)),
         generated("grid exhaust, radiation", exhaust_case(Fixture::ExhaustPipeHiddenRadiation.path(), exhaust(), 16)),
         // Base jobs of the exported grid: Dymola-shaped descriptions.
         generated(
@@ -165,19 +155,10 @@ fn cases() -> Vec<Case> {
             "exported spring-mass, nothing hidden",
             exported_spring(Fixture::SpringMassExported.path(), true, 23),
         ),
-        generated("exported Furuta, pendulum Coulomb", {
-            let (time, inputs) = furuta_inputs(1);
-            Generated {
-                data_fmu: Fixture::FurutaExportedHiddenCoulomb.path(),
-                job_fmu: Fixture::FurutaExported.path(),
-                time,
-                inputs,
-                outputs: Model::Furuta.outputs(),
-                body: body(Model::Furuta.parameters(), FURUTA_EXPORTED_SIMULATION),
-                seed: 24,
-                ..Default::default()
-            }
-        }),
+        generated(
+            "exported Furuta, pendulum Coulomb",
+            exported_furuta(Fixture::FurutaExportedHiddenCoulomb.path(), 1, 24),
+        ),
         generated(
             "exported exhaust, radiation",
             exhaust_case(Fixture::ExhaustPipeExportedHiddenRadiation.path(), Fixture::ExhaustPipeExported.path(), 25),
@@ -188,63 +169,14 @@ fn cases() -> Vec<Case> {
             // Fc > Fs, so the bounds keep Fc below Fs everywhere.
             let time = time_grid(400, 0.05);
             let f = time.iter().map(|t| 2.2 * (0.8 * t).sin()).collect();
-            Generated {
-                data_fmu: Fixture::StickSlip.path(),
-                job_fmu: Fixture::StickSlip.path(),
-                time,
-                inputs: vec![("F", "F", f)],
-                outputs: &[("x", "x")],
-                body: body(
-                    r#"
-[[parameters]]
-name = "Fs"
-start = 1.4
-lower = 0.7
-upper = 2.0
-[[parameters]]
-name = "Fc"
-start = 0.3
-lower = 0.1
-upper = 0.7
-[[parameters]]
-name = "d"
-start = 0.2
-lower = 0.0
-upper = 0.5
-"#,
-                    GRID_SIMULATION,
-                ),
-                seed: 31,
-                ..Default::default()
-            }
+            let parameters = include_str!("../tests/data/parameters/stick_slip.toml");
+            own_data(Fixture::StickSlip.path(), time, vec![("F", "F", f)], &[("x", "x")], parameters, 31)
         }),
-        generated(
-            "hybrid bouncing ball",
-            Generated {
-                data_fmu: fmucal_models::example("bouncing-ball").expect("the bouncing-ball example"),
-                job_fmu: fmucal_models::example("bouncing-ball").expect("the bouncing-ball example"),
-                time: time_grid(300, 0.01),
-                inputs: vec![],
-                outputs: &[("h", "h")],
-                body: body(
-                    r#"
-[[parameters]]
-name = "e"
-start = 0.5
-lower = 0.3
-upper = 0.95
-[[parameters]]
-name = "g"
-start = 8.0
-lower = 5.0
-upper = 15.0
-"#,
-                    GRID_SIMULATION,
-                ),
-                seed: 32,
-                ..Default::default()
-            },
-        ),
+        generated("hybrid bouncing ball", {
+            let ball = fmucal_models::example("bouncing-ball").expect("the bouncing-ball example");
+            let parameters = include_str!("../tests/data/parameters/bouncing_ball.toml");
+            own_data(ball, time_grid(300, 0.01), vec![], &[("h", "h")], parameters, 32)
+        }),
         generated(
             "hybrid dead-zone spring",
             Generated {
@@ -280,6 +212,35 @@ f_tol = 1e-10
             },
         ),
     ]
+}
+
+/// A diagnosis grid's base job of `model` (its outputs and parameters, `simulation` and the
+/// tight optimizer table) on `job_fmu`, fitted to data from `data_fmu` on the input columns over
+/// the times of `time_inputs`.
+fn base_job(
+    model: Model,
+    data_fmu: PathBuf,
+    job_fmu: PathBuf,
+    (time, inputs): (Vec<f64>, Inputs),
+    simulation: &str,
+    seed: u64,
+) -> Generated {
+    let body = body(model.parameters(), simulation);
+    Generated { data_fmu, job_fmu, time, inputs, outputs: model.outputs(), body, seed, ..Default::default() }
+}
+
+/// A case whose data come from the job's own model `fmu` at its defaults, on `inputs` over
+/// `time`: the job fits `parameters` to `outputs` (with [`GRID_SIMULATION`]).
+fn own_data(
+    fmu: PathBuf,
+    time: Vec<f64>,
+    inputs: Inputs,
+    outputs: &'static [(&'static str, &'static str)],
+    parameters: &str,
+    seed: u64,
+) -> Generated {
+    let body = body(parameters, GRID_SIMULATION);
+    Generated { data_fmu: fmu.clone(), job_fmu: fmu, time, inputs, outputs, body, seed, ..Default::default() }
 }
 
 /// `parameters`, `simulation` and the grids' tight optimizer table, as one job body.

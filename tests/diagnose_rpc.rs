@@ -47,6 +47,15 @@ async fn example_request(rpc: &mut Rpc) -> pb::DiagnoseRequest {
     }
 }
 
+/// Servers with `slots` worker slots in `dir`, a client of their coordinator, and the example's
+/// request with its model uploaded there.
+async fn serving_the_example(dir: &Path, slots: usize) -> (common::Servers, Rpc, pb::DiagnoseRequest) {
+    let servers = common::Servers::start(dir, slots);
+    let mut rpc = connect(&servers.url).await;
+    let req = example_request(&mut rpc).await;
+    (servers, rpc, req)
+}
+
 /// Every event of a diagnosis: its progress lines and its result (or the error ending it).
 async fn run(rpc: &mut Rpc, req: pb::DiagnoseRequest) -> Result<(Vec<String>, pb::DiagnoseResult), tonic::Status> {
     let mut stream = rpc.diagnose(req).await?.into_inner();
@@ -74,9 +83,7 @@ fn scratch_folders(data_dir: &Path) -> Vec<String> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_grpc_client_diagnoses_the_example_as_the_cli_does() {
     let dir = tempfile::tempdir().unwrap();
-    let servers = common::Servers::start(dir.path(), 2);
-    let mut rpc = connect(&servers.url).await;
-    let req = example_request(&mut rpc).await;
+    let (servers, mut rpc, req) = serving_the_example(dir.path(), 2).await;
     let (lines, result) = run(&mut rpc, req).await.unwrap();
     assert_eq!(lines.first().map(String::as_str), Some("round 1: calibrating the base model"), "{lines:?}");
     assert!(lines.iter().any(|l| l.starts_with("round 1: fitting the")), "{lines:?}");
@@ -112,9 +119,7 @@ async fn a_grpc_client_diagnoses_the_example_as_the_cli_does() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn bad_diagnose_requests_name_the_field() {
     let dir = tempfile::tempdir().unwrap();
-    let servers = common::Servers::start(dir.path(), 1);
-    let mut rpc = connect(&servers.url).await;
-    let good = example_request(&mut rpc).await;
+    let (servers, mut rpc, good) = serving_the_example(dir.path(), 1).await;
     let refused = async |rpc: &mut Rpc, req: pb::DiagnoseRequest| {
         let status = run(rpc, req).await.map(|_| ()).unwrap_err();
         assert_eq!(status.code(), tonic::Code::InvalidArgument, "{status:?}");
@@ -147,9 +152,7 @@ async fn bad_diagnose_requests_name_the_field() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_client_that_goes_away_stops_its_diagnosis() {
     let dir = tempfile::tempdir().unwrap();
-    let servers = common::Servers::start(dir.path(), 1);
-    let mut rpc = connect(&servers.url).await;
-    let mut req = example_request(&mut rpc).await;
+    let (servers, mut rpc, mut req) = serving_the_example(dir.path(), 1).await;
     // A base calibration of minutes (10,000 generations of 40), so only a stop ends it soon.
     let optimizer = req.spec.as_mut().unwrap().optimizer.as_mut().unwrap();
     optimizer.algorithm =

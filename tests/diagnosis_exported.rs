@@ -193,33 +193,13 @@ upper = 10.0
     }
 }
 
-/// The outputs of `fmu` at its default parameters on the model's inputs, without noise.
-fn noise_free(fmu: &Path, model: Model, driven: bool, dir: &Path) -> SimResult {
-    let (time, columns) = inputs(model, driven);
-    let fmu = common::load(fmu, &dir.join("cache"));
-    simulate(&fmu, &diagnosis::noise_free_spec(&time, &columns, model.outputs())).unwrap()
-}
-
 /// Writes the case's noisy data and job into `dir`; returns the job file, the noise floor (the
 /// RMS a perfect model has on the data) and the noise-free truth.
 fn write_case(case: &Case, dir: &Path) -> (PathBuf, f64, SimResult) {
     let model = case.truth.model();
-    let (time, columns) = inputs(model, case.driven);
-    let clean = noise_free(&case.truth.fmu(), model, case.driven, dir);
-    let sigma = diagnosis::noise_sigmas(&clean, case.noise);
     let body = job_body(case.truth);
-    let path = diagnosis::write_noisy_case(
-        dir,
-        &model.fmu(),
-        &time,
-        &columns,
-        model.outputs(),
-        &clean,
-        &sigma,
-        case.seed,
-        &body,
-    );
-    (path, diagnosis::noise_floor(&sigma), clean)
+    let data = inputs(model, case.driven);
+    diagnosis::write_case(dir, &case.truth.fmu(), &model.fmu(), model, data, case.noise, case.seed, &body)
 }
 
 /// A case's diagnosis, the noise floor of its data and the gap against the truth.

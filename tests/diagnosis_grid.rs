@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use common::diagnosis::{self, Inputs, Model, case_dir, fmucal, noise_sigmas};
 use fmucal_diagnose::report::Diagnosis;
 use fmucal_models::Fixture;
-use fmucal_shared::sim::{SimResult, simulate};
+use fmucal_shared::sim::SimResult;
 
 /// What is hidden in the data.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -152,30 +152,25 @@ fn mechanical_port(port: &str, velocity: &str, position: &str) -> String {
 /// default parameters) on the input profile, without noise.
 fn noise_free(fmu: &Path, model: Model, profile: usize, dir: &Path) -> SimResult {
     let (time, columns) = inputs(model, profile);
-    let fmu = common::load(fmu, &dir.join("cache"));
-    simulate(&fmu, &diagnosis::noise_free_spec(&time, &columns, model.outputs())).unwrap()
+    diagnosis::noise_free(fmu, &time, &columns, model.outputs(), dir)
 }
 
 /// Writes the case's noisy data and job into `dir`; returns the job file and the noise floor:
 /// the RMS error (weighted as the job weighs it, all weights 1) a perfect model would have.
 fn write_case(case: &Case, dir: &Path) -> (PathBuf, f64) {
     let model = case.truth.model();
-    let (time, columns) = inputs(model, case.input);
-    let clean = noise_free(&case.truth.fmu(), model, case.input, dir);
-    let sigma = noise_sigmas(&clean, case.noise);
     let body = job_body(model);
-    let path = diagnosis::write_noisy_case(
+    let (job, floor, _) = diagnosis::write_case(
         dir,
+        &case.truth.fmu(),
         &model.fmu(),
-        &time,
-        &columns,
-        model.outputs(),
-        &clean,
-        &sigma,
+        model,
+        inputs(model, case.input),
+        case.noise,
         case.seed,
         &body,
     );
-    (path, diagnosis::noise_floor(&sigma))
+    (job, floor)
 }
 
 /// A case's diagnosis and the noise floor of its data.

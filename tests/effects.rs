@@ -6,6 +6,7 @@
 
 mod common;
 
+use common::port_term;
 use fmucal_shared::fmu::{Fmu, Interface};
 use fmucal_shared::job::{JobSpec, MeasurementTable, PreparedJob, local};
 use fmucal_shared::sim::{OutputTimes, PortTerm, SimResult, SimSpec, simulate};
@@ -36,7 +37,7 @@ fn spec(interface: Interface, frictions: (f64, f64), port_terms: Vec<PortTerm>, 
 }
 
 fn damping(port: &str, signal: &str, c: f64) -> PortTerm {
-    PortTerm { kind: "viscous_damping".into(), port: port.into(), signal: signal.into(), parameters: vec![c] }
+    port_term("viscous_damping", port, signal, vec![c])
 }
 
 /// The model's own frictions moved out of the model into two injected viscous dampings.
@@ -87,26 +88,23 @@ fn in_co_simulation_the_error_is_first_order_in_the_communication_step() {
 fn bad_port_terms_are_refused_naming_the_culprit() {
     let dir = tempfile::tempdir().unwrap();
     let fmu = furuta(dir.path());
-    let term = |kind: &str, port: &str, signal: &str, parameters: Vec<f64>| PortTerm {
-        kind: kind.into(),
-        port: port.into(),
-        signal: signal.into(),
-        parameters,
-    };
     let cases = [
-        (term("coulomb", "armJoint.tauExt", "armJoint.w", vec![0.1]), "\"coulomb\" is not an effect kind"),
-        (term("sensor_offset", "armJoint.tauExt", "armJoint.w", vec![0.1]), "sensor_offset changes a measured series"),
+        (port_term("coulomb", "armJoint.tauExt", "armJoint.w", vec![0.1]), "\"coulomb\" is not an effect kind"),
         (
-            term("viscous_damping", "armFriction", "armJoint.w", vec![0.1]),
+            port_term("sensor_offset", "armJoint.tauExt", "armJoint.w", vec![0.1]),
+            "sensor_offset changes a measured series",
+        ),
+        (
+            port_term("viscous_damping", "armFriction", "armJoint.w", vec![0.1]),
             "port \"armFriction\" is not a continuous Real input",
         ),
-        (term("viscous_damping", "nope", "armJoint.w", vec![0.1]), "port \"nope\" is not a variable"),
+        (port_term("viscous_damping", "nope", "armJoint.w", vec![0.1]), "port \"nope\" is not a variable"),
         (
-            term("viscous_damping", "armJoint.tauExt", "armJoint.v", vec![0.1]),
+            port_term("viscous_damping", "armJoint.tauExt", "armJoint.v", vec![0.1]),
             "signal \"armJoint.v\" is not a variable",
         ),
         (
-            term("linear_spring", "armJoint.tauExt", "armJoint.phi", vec![0.1]),
+            port_term("linear_spring", "armJoint.tauExt", "armJoint.phi", vec![0.1]),
             "linear_spring takes 2 parameters (k, x0), got 1",
         ),
     ];
@@ -135,37 +133,9 @@ fn furuta_toml(data: &std::path::Path, body: &str, simulation: &str, optimizer: 
 fn furuta_job(dir: &std::path::Path, injected: bool) -> JobSpec {
     let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta/FurutaData.mat");
     let (parameters, effects) = if injected {
-        (
-            "",
-            r#"
-[[effects]]
-kind = "viscous_damping"
-port = "armJoint.tauExt"
-signal = "armJoint.w"
-parameters = { c = { start = 0.012, lower = 0.0, upper = 0.022 } }
-[[effects]]
-kind = "viscous_damping"
-port = "pendulumJoint.tauExt"
-signal = "pendulumJoint.w"
-parameters = { c = { start = 0.002, lower = 0.0, upper = 0.012 } }
-"#,
-        )
+        ("", include_str!("data/effects/furuta_injected_damping.toml"))
     } else {
-        (
-            r#"
-[[parameters]]
-name = "armFriction"
-start = 0.012
-lower = 0.0
-upper = 0.022
-[[parameters]]
-name = "pendulumFriction"
-start = 0.002
-lower = 0.0
-upper = 0.012
-"#,
-            "",
-        )
+        (include_str!("data/effects/furuta_frictions.toml"), "")
     };
     let set = if injected { "set = { armFriction = 0.0, pendulumFriction = 0.0 }" } else { "" };
     let toml = furuta_toml(

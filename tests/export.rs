@@ -11,7 +11,7 @@ use std::process::Command;
 
 use fmucal_models::Fixture;
 use fmucal_shared::fmu::Interface;
-use fmucal_shared::sim::{InputTable, OutputTimes, PortTerm, SimResult, SimSpec, Simulator, StateTerm, simulate};
+use fmucal_shared::sim::{InputTable, OutputTimes, SimResult, SimSpec, Simulator, simulate};
 
 const FMUCAL: &str = env!("CARGO_BIN_EXE_fmucal");
 const REPO: &str = env!("CARGO_MANIFEST_DIR");
@@ -65,57 +65,32 @@ fn export(dir: &Path, job: &str, out: &str) -> PathBuf {
     fmu
 }
 
+/// A job on the Furuta pendulum as an FMI 1.0 Co-Simulation FMU fitting armJoint.phi to two
+/// zero samples (written to `data`), with `parameters` and then `tables`.
+fn fmi1_cs_job(data: &Path, parameters: &[(&str, f64, f64, f64)], tables: &str) -> String {
+    common::write_input_csv(&common::table(vec![0.0, 1.0], vec![("phi", vec![0.0, 0.0])]), data);
+    common::job_toml(&Fixture::FurutaFmi1Cs.path(), Some(data), &[("armJoint.phi", "phi")], &[], parameters, tables)
+}
+
+/// A job on the spring–mass FMU `model` fitting k to mass.x in the data of [`write_data`]
+/// (written to `dir/data.csv`), with `inputs` and `effects`; also the force it writes.
+fn spring_mass_job_on(dir: &Path, model: &Path, inputs: &[(&str, &str)], effects: &str) -> (String, InputTable) {
+    let data = dir.join("data.csv");
+    let force = write_data(&data);
+    (common::job_toml(model, Some(&data), &[("mass.x", "x")], inputs, &[("k", 5.0, 1.0, 10.0)], effects), force)
+}
+
 /// The spring–mass with an input force and an injection port, with a port, a sensor and an
 /// actuator effect (a gain of 2).
 fn spring_mass_job(dir: &Path) -> (String, InputTable) {
-    let data = dir.join("data.csv");
-    let force = write_data(&data);
-    let job = common::job_toml(
-        &Fixture::SpringMass.path(),
-        Some(&data),
-        &[("mass.x", "x")],
-        &[("F", "F")],
-        &[("k", 5.0, 1.0, 10.0)],
-        r#"
-[[effects]]
-kind = "coulomb_friction"
-port = "mass.Fext"
-signal = "mass.v"
-parameters = { force = { start = 0.4, lower = 0.0, upper = 2.0 } }
-[[effects]]
-kind = "sensor_offset"
-output = "mass.x"
-parameters = { offset = { start = 0.1, lower = -1.0, upper = 1.0 } }
-[[effects]]
-kind = "actuator_gain"
-input = "F"
-parameters = { gain = { start = 2.0, lower = 0.5, upper = 3.0 } }
-"#,
-    );
-    (job, force)
+    let effects = include_str!("data/effects/spring_mass_port_sensor_actuator.toml");
+    spring_mass_job_on(dir, &Fixture::SpringMass.path(), &[("F", "F")], effects)
 }
 
 /// The spring–mass as Dymola exports it (no ports), with two state effects, one with kinks.
 fn exported_spring_mass_job(dir: &Path) -> String {
-    let data = dir.join("data.csv");
-    write_data(&data);
-    common::job_toml(
-        &common::example("spring-mass"),
-        Some(&data),
-        &[("mass.x", "x")],
-        &[],
-        &[("k", 5.0, 1.0, 10.0)],
-        r#"
-[[effects]]
-kind = "coulomb_friction"
-state = "mass.v"
-parameters = { force = { start = 0.05, lower = 0.0, upper = 1.0 } }
-[[effects]]
-kind = "dead_zone_spring"
-state = "mass.v"
-parameters = { k = { start = 2.0, lower = 0.0, upper = 5.0 }, width = { start = 0.3, lower = 0.0, upper = 1.0 } }
-"#,
-    )
+    let effects = include_str!("data/effects/spring_mass_exported_state.toml");
+    spring_mass_job_on(dir, &common::example("spring-mass"), &[], effects).0
 }
 
 #[test]
@@ -137,12 +112,7 @@ fn port_sensor_and_actuator_effects_run_inside_the_exported_model_exchange_fmu()
     // to the last bit for a gain of 2.
     let gained = common::table(force.time.clone(), vec![("F", force.columns[0].1.iter().map(|f| 2.0 * f).collect())]);
     let mut with_effects = spec(Interface::ModelExchange, 1e-8, Some(gained), &["mass.x", "mass.v"], &[("k", 5.0)]);
-    with_effects.port_terms = vec![PortTerm {
-        kind: "coulomb_friction".into(),
-        port: "mass.Fext".into(),
-        signal: "mass.v".into(),
-        parameters: vec![0.4],
-    }];
+    with_effects.port_terms = vec![common::port_term("coulomb_friction", "mass.Fext", "mass.v", vec![0.4])];
     let want = simulate(&original, &with_effects).unwrap();
     let got = simulate(
         &exported,
@@ -193,18 +163,8 @@ fn state_effects_run_inside_both_interfaces_and_instances_are_independent() {
     let outputs = ["mass.x", "mass.v", "mass.a"];
     let mut with_effects = spec(Interface::ModelExchange, 1e-8, None, &outputs, &[("k", 5.0)]);
     with_effects.state_terms = vec![
-        StateTerm {
-            kind: "coulomb_friction".into(),
-            state: "mass.v".into(),
-            signal: "mass.v".into(),
-            parameters: vec![0.05],
-        },
-        StateTerm {
-            kind: "dead_zone_spring".into(),
-            state: "mass.v".into(),
-            signal: "mass.x".into(),
-            parameters: vec![2.0, 0.3],
-        },
+        common::state_term("coulomb_friction", "mass.v", "mass.v", vec![0.05]),
+        common::state_term("dead_zone_spring", "mass.v", "mass.x", vec![2.0, 0.3]),
     ];
     let want = simulate(&original, &with_effects).unwrap();
     let me = simulate(&exported, &spec(Interface::ModelExchange, 1e-8, None, &outputs, &[])).unwrap();
@@ -248,13 +208,7 @@ fn a_joint_friction_with_its_reaction_runs_inside_the_exported_fmu_and_its_stren
         &[("armJoint.phi", "x")],
         &[],
         &[("armFriction", 0.012, 0.0, 0.05)],
-        r#"
-[[effects]]
-kind = "coulomb_friction"
-state = "pendulumJoint.w"
-reaction = "armJoint.w"
-parameters = { force = { start = 0.8, lower = 0.0, upper = 2.0 }, reaction = { start = -0.15, lower = -1.0, upper = 1.0 } }
-"#,
+        include_str!("data/effects/furuta_exported_reaction.toml"),
     );
     let fmu = export(dir.path(), &job, "corrected.fmu");
     let exported = common::load(&fmu, &dir.path().join("cache"));
@@ -267,18 +221,8 @@ parameters = { force = { start = 0.8, lower = 0.0, upper = 2.0 }, reaction = { s
     let outputs = ["armJoint.phi", "pendulumJoint.phi", "armJoint.w", "pendulumJoint.w"];
     let terms = |force: f64, reaction: f64| {
         vec![
-            StateTerm {
-                kind: "coulomb_friction".into(),
-                state: "pendulumJoint.w".into(),
-                signal: "pendulumJoint.w".into(),
-                parameters: vec![force],
-            },
-            StateTerm {
-                kind: "coulomb_friction".into(),
-                state: "armJoint.w".into(),
-                signal: "pendulumJoint.w".into(),
-                parameters: vec![reaction],
-            },
+            common::state_term("coulomb_friction", "pendulumJoint.w", "pendulumJoint.w", vec![force]),
+            common::state_term("coulomb_friction", "armJoint.w", "pendulumJoint.w", vec![reaction]),
         ]
     };
     for (set, (force, reaction)) in [(vec![], (0.8, -0.15)), (vec![("effects[0].reaction", -0.4)], (0.8, -0.4))] {
@@ -329,12 +273,7 @@ fn a_co_simulation_only_original_exports_co_simulation_with_its_port_effect() {
         output_times: Some(OutputTimes::Interval(0.1)),
         ..spec(Interface::CoSimulation, 1e-8, Some(inputs.clone()), &outputs, &[("armFriction", 0.02)])
     };
-    s.port_terms = vec![PortTerm {
-        kind: "viscous_damping".into(),
-        port: "pendulumJoint.tauExt".into(),
-        signal: "pendulumJoint.w".into(),
-        parameters: vec![0.01],
-    }];
+    s.port_terms = vec![common::port_term("viscous_damping", "pendulumJoint.tauExt", "pendulumJoint.w", vec![0.01])];
     let want = simulate(&original, &s).unwrap();
     let mut plain = SimSpec { port_terms: vec![], parameters: vec![], ..s.clone() };
     plain.outputs.push("effects[1].output".into());
@@ -358,16 +297,7 @@ fn fmpy_validates_and_runs_the_exported_fmu_as_fmucal_does() {
     // actuator effect; an FMI 1.0 Co-Simulation original.
     let (ports, _) = spring_mass_job(dir.path());
     let ports = export(dir.path(), &ports, "ports.fmu");
-    let data = dir.path().join("phi.csv");
-    common::write_input_csv(&common::table(vec![0.0, 1.0], vec![("phi", vec![0.0, 0.0])]), &data);
-    let fmi1 = common::job_toml(
-        &Fixture::FurutaFmi1Cs.path(),
-        Some(&data),
-        &[("armJoint.phi", "phi")],
-        &[],
-        &[("armFriction", 0.02, 0.0, 0.1)],
-        "",
-    );
+    let fmi1 = fmi1_cs_job(&dir.path().join("phi.csv"), &[("armFriction", 0.02, 0.0, 0.1)], "");
     let fmi1 = export(dir.path(), &fmi1, "fmi1.fmu");
     let exported = common::load(&fmu, &dir.path().join("cache"));
     let outputs = ["mass.x", "mass.v"];
@@ -494,13 +424,8 @@ fn what_cannot_be_exported_is_refused_in_one_line_and_writes_nothing() {
     assert!(!o.status.success() && err.contains("-o:") && err.contains(".fmu"), "{err}");
     assert_eq!(std::fs::read(&data_path).unwrap(), before);
     // A state effect on a Co-Simulation-only original.
-    let data = dir.path().join("d.csv");
-    common::write_input_csv(&common::table(vec![0.0, 1.0], vec![("phi", vec![0.0, 0.0])]), &data);
-    let job = common::job_toml(
-        &Fixture::FurutaFmi1Cs.path(),
-        Some(&data),
-        &[("armJoint.phi", "phi")],
-        &[],
+    let job = fmi1_cs_job(
+        &dir.path().join("d.csv"),
         &[],
         "[[effects]]\nkind = \"viscous_damping\"\nstate = \"pendulumJoint.w\"\nparameters = { c = { start = 0.01, lower = 0.0, upper = 1.0 } }\n",
     );

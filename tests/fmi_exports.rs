@@ -148,6 +148,12 @@ struct Run<'a> {
 }
 
 impl Run<'_> {
+    /// `fmu` through `iface` to `stop`, sampled every `interval`: its default outputs, no start
+    /// values and no input.
+    fn new(fmu: PathBuf, iface: Iface, stop: f64, interval: f64) -> Self {
+        Run { fmu, iface, stop, interval, outputs: &[], set: &[], input: None }
+    }
+
     fn tag(&self) -> String {
         format!("{} {:?}", self.fmu.file_stem().unwrap().to_string_lossy(), self.iface)
     }
@@ -292,15 +298,7 @@ fn alias_outputs_follow_their_base_variables_as_in_fmpy() {
     let recorded = ["armAngleSensor.phi", "pendulumSpeedSensor.w", "der(armAngleSensor.phi)", "armJoint.phi"];
     for (fixture, ifaces) in alias_fixtures() {
         for &iface in ifaces {
-            let run = Run {
-                fmu: fixture.path(),
-                iface,
-                stop: 10.0,
-                interval: 0.01,
-                outputs: &recorded,
-                set: &[],
-                input: None,
-            };
+            let run = Run { outputs: &recorded, ..Run::new(fixture.path(), iface, 10.0, 0.01) };
             let what = run.tag();
             let ours = simulate_fmucal(&run, d, "outputs");
             assert_same(&ours, "armAngleSensor.phi", "armJoint.phi", 1.0, &what);
@@ -322,15 +320,7 @@ fn default_outputs_are_the_outputs_fmpy_records_less_the_fmi3_aliases() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     for (fixture, _) in alias_fixtures() {
-        let run = Run {
-            fmu: fixture.path(),
-            iface: Iface::Me,
-            stop: 2.0,
-            interval: 0.01,
-            outputs: &[],
-            set: &[],
-            input: None,
-        };
+        let run = Run::new(fixture.path(), Iface::Me, 2.0, 0.01);
         let what = run.tag();
         let ours = simulate_fmucal(&run, d, "defaults");
         let theirs = simulate_fmpy(&run, &[], d, "defaults");
@@ -380,13 +370,10 @@ fn parameter_and_input_aliases_set_and_feed_their_base_variables_as_in_fmpy() {
     for (fixture, ifaces) in alias_fixtures() {
         for &iface in ifaces {
             let base = Run {
-                fmu: fixture.path(),
-                iface,
-                stop: 10.0,
-                interval: 0.01,
                 outputs: &outputs,
                 set: &[("armFriction", "0.03")],
                 input: Some(&by_base),
+                ..Run::new(fixture.path(), iface, 10.0, 0.01)
             };
             let what = base.tag();
             let alias = Run { set: &[("armBearing.d", "0.03")], input: Some(&by_alias), ..base.clone() };
@@ -411,13 +398,9 @@ fn fmi1_negated_alias_reads_and_sets_the_negative_of_its_base() {
     // armBearing.tauPerSpeed is the negated alias of armFriction: −0.03 there is 0.03 here.
     let ours = simulate_fmucal(
         &Run {
-            fmu: fmu.clone(),
-            iface: Iface::Me,
-            stop: 10.0,
-            interval: 0.01,
             outputs: &outputs,
             set: &[("armBearing.tauPerSpeed", "-0.03")],
-            input: None,
+            ..Run::new(fmu.clone(), Iface::Me, 10.0, 0.01)
         },
         d,
         "negated",
@@ -528,8 +511,7 @@ fn string_and_binary_fmus_load_and_their_numeric_outputs_match_fmpy() {
     for (fixture, ifaces, binary) in string_fixtures() {
         let numeric: &[&str] = if binary { &["x", "y", "Binary_length"] } else { &["x", "y"] };
         for &iface in ifaces {
-            let run =
-                Run { fmu: fixture.path(), iface, stop: 2.0, interval: 0.01, outputs: &[], set: &[], input: None };
+            let run = Run::new(fixture.path(), iface, 2.0, 0.01);
             let what = run.tag();
             // The default outputs are the numeric ones; a CSV of numbers has no place for a
             // String or Binary value.
@@ -569,7 +551,7 @@ fn string_and_binary_start_values_change_the_outputs_as_fmpy_start_values_do() {
         };
         let numeric: &[&str] = if binary { &["y", "Binary_length"] } else { &["y"] };
         for &iface in ifaces {
-            let run = Run { fmu: fixture.path(), iface, stop: 2.0, interval: 0.01, outputs: numeric, set, input: None };
+            let run = Run { outputs: numeric, set, ..Run::new(fixture.path(), iface, 2.0, 0.01) };
             let what = run.tag();
             let ours = simulate_fmucal(&run, d, "set");
             let theirs = simulate_fmpy(&Run { set: &[], ..run }, set, d, "set");
@@ -623,15 +605,7 @@ fn recording_a_string_output_is_refused_in_one_line_naming_it() {
     for (fixture, _, binary) in string_fixtures() {
         let names: &[&str] = if binary { &["String_output", "Binary_output"] } else { &["String_output"] };
         for name in names {
-            let run = Run {
-                fmu: fixture.path(),
-                iface: Iface::Me,
-                stop: 1.0,
-                interval: 0.1,
-                outputs: &[name, "y"],
-                set: &[],
-                input: None,
-            };
+            let run = Run { outputs: &[name, "y"], ..Run::new(fixture.path(), Iface::Me, 1.0, 0.1) };
             let (out, _) = try_fmucal(&run, dir.path(), "string-output");
             assert!(!out.status.success(), "{}: --output {name} succeeded", run.tag());
             let err = String::from_utf8_lossy(&out.stderr).trim().to_owned();
@@ -649,15 +623,7 @@ fn an_array_output_by_name_gives_its_elements_as_fmpy_does() {
     let d = dir.path();
     let elements = ["y[1]", "y[2]", "y[3]"];
     for iface in [Iface::Me, Iface::Cs] {
-        let run = Run {
-            fmu: Fixture::ArrayOutputsFmi3.path(),
-            iface,
-            stop: 5.0,
-            interval: 0.01,
-            outputs: &["y"],
-            set: &[],
-            input: None,
-        };
+        let run = Run { outputs: &["y"], ..Run::new(Fixture::ArrayOutputsFmi3.path(), iface, 5.0, 0.01) };
         let what = run.tag();
         let ours = simulate_fmucal(&run, d, "y");
         assert_eq!(ours.names, elements, "{what}: --output y");
@@ -687,7 +653,7 @@ fn default_outputs_include_every_element_of_an_array_output() {
     let dir = tempfile::tempdir().unwrap();
     for fixture in [Fixture::ArrayOutputsFmi3, Fixture::ArrayOutputs] {
         for iface in [Iface::Me, Iface::Cs] {
-            let run = Run { fmu: fixture.path(), iface, stop: 1.0, interval: 0.1, outputs: &[], set: &[], input: None };
+            let run = Run::new(fixture.path(), iface, 1.0, 0.1);
             let ours = simulate_fmucal(&run, dir.path(), "default");
             assert_eq!(ours.names, ["y[1]", "y[2]", "y[3]"], "{}: default outputs", run.tag());
         }
@@ -704,15 +670,7 @@ fn co_simulation_ends_where_the_fmu_asks_to_terminate_as_in_fmpy() {
         // The default experiment's step (0.2), and a step that makes t = 9 the end of a short
         // step (0.02: the last step before 10 would start at 9.98).
         for interval in [0.2, 0.02] {
-            let run = Run {
-                fmu: fixture.path(),
-                iface: Iface::Cs,
-                stop: 10.0,
-                interval,
-                outputs: &["counter"],
-                set: &[],
-                input: None,
-            };
+            let run = Run { outputs: &["counter"], ..Run::new(fixture.path(), Iface::Cs, 10.0, interval) };
             let what = format!("{} interval {interval}", run.tag());
             let ours = simulate_fmucal(&run, d, &format!("{interval}"));
             let theirs = simulate_fmpy(&run, &[], d, &format!("{interval}"));
@@ -734,15 +692,7 @@ fn model_exchange_ends_at_the_event_where_the_fmu_asks_to_terminate() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     for fixture in [Fixture::StairFmi3, Fixture::Stair] {
-        let run = Run {
-            fmu: fixture.path(),
-            iface: Iface::Me,
-            stop: 10.0,
-            interval: 0.2,
-            outputs: &["counter"],
-            set: &[],
-            input: None,
-        };
+        let run = Run { outputs: &["counter"], ..Run::new(fixture.path(), Iface::Me, 10.0, 0.2) };
         let what = run.tag();
         let ours = simulate_fmucal(&run, d, "me");
         let theirs = simulate_fmpy(&run, &[], d, "me");

@@ -39,7 +39,7 @@ impl Rng {
 }
 
 /// One to four random edits of `input`.
-fn mutate(rng: &mut Rng, input: &[u8], tokens: &[&str]) -> Vec<u8> {
+fn mutate(rng: &mut Rng, input: &[u8], tokens: &[impl AsRef<[u8]>]) -> Vec<u8> {
     let mut out = input.to_vec();
     for _ in 0..=rng.below(4) {
         let at = rng.below(out.len() + 1);
@@ -63,8 +63,8 @@ fn mutate(rng: &mut Rng, input: &[u8], tokens: &[&str]) -> Vec<u8> {
                 out[i] = rng.next() as u8;
             }
             _ => {
-                let token = tokens[rng.below(tokens.len())];
-                out.splice(at..at, token.bytes());
+                let token = tokens[rng.below(tokens.len())].as_ref();
+                out.splice(at..at, token.iter().copied());
             }
         }
     }
@@ -73,7 +73,7 @@ fn mutate(rng: &mut Rng, input: &[u8], tokens: &[&str]) -> Vec<u8> {
 
 /// Runs `target` on mutations of `seeds` until the budget is spent; fails with the first input
 /// that panics (saved under `target/tmp/fuzz-failures/NAME-N`). Returns the number of inputs tried.
-fn fuzz(name: &str, seeds: &[Vec<u8>], tokens: &[&str], target: impl Fn(&[u8])) -> u64 {
+fn fuzz(name: &str, seeds: &[Vec<u8>], tokens: &[impl AsRef<[u8]>], target: impl Fn(&[u8])) -> u64 {
     assert!(!seeds.is_empty(), "{name}: no seed inputs");
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15 ^ name.len() as u64);
     let started = Instant::now();
@@ -93,6 +93,12 @@ fn fuzz(name: &str, seeds: &[Vec<u8>], tokens: &[&str], target: impl Fn(&[u8])) 
     }
     eprintln!("{name}: {tried} inputs in {:.0} s", started.elapsed().as_secs_f64());
     tried
+}
+
+/// The tokens of a fuzz dictionary (`tests/data/fuzz/*.json`: a JSON array of strings), which
+/// [`mutate`] inserts.
+fn dictionary(json: &str) -> Vec<String> {
+    serde_json::from_str(json).expect("a fuzz dictionary is a JSON array of strings")
 }
 
 fn files(dir: &Path, ext: &str) -> Vec<Vec<u8>> {
@@ -115,33 +121,7 @@ fn repo(path: &str) -> PathBuf {
 #[test]
 fn job_files_never_panic_the_parser_or_validation() {
     let seeds = files(&repo("examples"), "toml");
-    let tokens = [
-        "[[parameters]]\n",
-        "[[experiments]]\n",
-        "[[effects]]\n",
-        "[optimizer]\n",
-        "population = ",
-        "= ",
-        "\"",
-        "'",
-        "1e308",
-        "-1e308",
-        "inf",
-        "-inf",
-        "nan",
-        "18446744073709551615",
-        "-1",
-        "0",
-        "[",
-        "]",
-        "{",
-        "}",
-        "\n",
-        ",",
-        "scale = \"log\"\n",
-        "per_experiment = true\n",
-        "restarts = 4000000000\n",
-    ];
+    let tokens = dictionary(include_str!("data/fuzz/job_toml.json"));
     let n = fuzz("job-toml", &seeds, &tokens, |input| {
         let text = String::from_utf8_lossy(input);
         if let Ok(spec) = JobSpec::from_toml(&text, Path::new("/nonexistent")) {
@@ -154,29 +134,7 @@ fn job_files_never_panic_the_parser_or_validation() {
 #[test]
 fn model_descriptions_never_panic_the_parser() {
     let seeds = files(&repo("models/xml"), "xml");
-    let tokens = [
-        "<",
-        ">",
-        "/>",
-        "</",
-        "\"",
-        "&amp;",
-        "&#0;",
-        "<ScalarVariable name=\"x\" valueReference=\"4294967296\">",
-        "valueReference=\"",
-        "causality=\"output\"",
-        "variability=\"",
-        "<Real start=\"nan\"/>",
-        "<Real/>",
-        "<ModelStructure>",
-        "<Outputs><Unknown index=\"0\"/></Outputs>",
-        "<Unknown index=\"99999\" dependencies=\"0 1\"/>",
-        "derivative=\"0\"",
-        "fmiVersion=\"3.0\"",
-        "numberOfEventIndicators=\"-1\"",
-        "]]>",
-        "<![CDATA[",
-    ];
+    let tokens = dictionary(include_str!("data/fuzz/model_description.json"));
     let n = fuzz("model-description", &seeds, &tokens, |input| {
         let _ = ModelDescription::parse(&String::from_utf8_lossy(input));
     });

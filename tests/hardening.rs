@@ -200,21 +200,8 @@ async fn sizes_past_the_caps_are_refused_and_the_coordinator_keeps_serving() {
     let dir = tempfile::tempdir().unwrap();
     let (_coord, mut c, model) = coordinator_with_decay(dir.path(), None).await;
     let base = decay_job(dir.path(), "", &model);
-    let huge_population = |algorithm: &str, population: u64| {
-        let mut j = base.clone();
-        let o = j.optimizer.get_or_insert_with(Default::default);
-        o.algorithm = Some(match algorithm {
-            "genetic" => pb::optimizer_spec::Algorithm::Genetic(pb::GeneticOptions {
-                population: Some(population),
-                ..Default::default()
-            }),
-            _ => pb::optimizer_spec::Algorithm::DifferentialEvolution(pb::DifferentialEvolutionOptions {
-                population: Some(population),
-                ..Default::default()
-            }),
-        });
-        j
-    };
+    let huge_population =
+        |algorithm: &str, population: u64| common::proto::with_population(&base, algorithm, population);
     let mut many_parameters = base.clone();
     let p = many_parameters.parameters[0].clone();
     many_parameters.parameters =

@@ -14,6 +14,7 @@ mod common;
 
 use std::path::Path;
 
+use common::port_term;
 use fmucal_models::Fixture;
 use fmucal_shared::fmu::{Fmu, Interface};
 use fmucal_shared::job::MeasurementTable;
@@ -34,10 +35,6 @@ fn spec(stop: f64, dt: f64, inputs: InputTable, outputs: &[&str], port_terms: Ve
     SimSpec { port_terms, ..common::model_exchange_spec(stop, dt, inputs, outputs) }
 }
 
-fn term(kind: &str, port: &str, signal: &str, parameters: Vec<f64>) -> PortTerm {
-    PortTerm { kind: kind.into(), port: port.into(), signal: signal.into(), parameters }
-}
-
 fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len());
     a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
@@ -47,16 +44,18 @@ fn range(a: &[f64]) -> f64 {
     a.iter().fold(f64::NEG_INFINITY, |m, v| m.max(*v)) - a.iter().fold(f64::INFINITY, |m, v| m.min(*v))
 }
 
-/// The hidden-effect fixture `hidden`, the base model with `term` injected, and the base model
-/// alone, each simulated as `spec` (given the port terms) says.
+/// The hidden-effect fixture `hidden`, the base model (the FMU at `base`) with `term` injected,
+/// and the base model alone, each simulated as `spec` (given the port terms) says.
 fn hidden_injected_and_base(
-    hidden: &Fmu,
-    base: &Fmu,
+    hidden: Fixture,
+    base: &Path,
     term: PortTerm,
     spec: impl Fn(Vec<PortTerm>) -> SimSpec,
 ) -> (SimResult, SimResult, SimResult) {
+    let dir = tempfile::tempdir().unwrap();
+    let (hidden, base) = (common::fixture(hidden, dir.path()), common::load(base, &dir.path().join("cache")));
     let run = |fmu: &Fmu, terms: Vec<PortTerm>| simulate(fmu, &spec(terms)).unwrap();
-    (run(hidden, vec![]), run(base, vec![term]), run(base, vec![]))
+    (run(&hidden, vec![]), run(&base, vec![term]), run(&base, vec![]))
 }
 
 /// Checks the hidden variant's `outputs` against the base model with the effect injected (must
@@ -105,26 +104,22 @@ fn the_sensor_offset_variant_reports_the_arm_angle_plus_the_offset_and_nothing_e
 
 #[test]
 fn injected_quadratic_drag_reproduces_the_hidden_arm_drag() {
-    let dir = tempfile::tempdir().unwrap();
-    let base = common::load_example("furuta", &dir.path().join("cache"));
-    let hidden = common::fixture(Fixture::FurutaHiddenArmDrag, dir.path());
     let outputs = ["armJoint.phi", "pendulumJoint.phi"];
-    let drag = term("quadratic_drag", "armJoint.tauExt", "armJoint.w", vec![1e-3]);
-    let (h, i, w) =
-        hidden_injected_and_base(&hidden, &base, drag, |terms| spec(10.0, 0.01, furuta_torque(), &outputs, terms));
+    let drag = port_term("quadratic_drag", "armJoint.tauExt", "armJoint.w", vec![1e-3]);
+    let (h, i, w) = hidden_injected_and_base(Fixture::FurutaHiddenArmDrag, &common::example("furuta"), drag, |terms| {
+        spec(10.0, 0.01, furuta_torque(), &outputs, terms)
+    });
     check_port_effect(&h, &i, &w, &outputs, 1e-9, ("armJoint.phi", 0.01));
 }
 
 #[test]
 fn injected_cubic_spring_reproduces_the_hidden_hardening_spring() {
-    let dir = tempfile::tempdir().unwrap();
-    let base = common::fixture(Fixture::SpringMass, dir.path());
-    let hidden = common::fixture(Fixture::SpringMassHiddenCubic, dir.path());
     let outputs = ["mass.x", "mass.v"];
-    let spring = term("cubic_spring", "mass.Fext", "mass.x", vec![0.2]);
-    let (h, i, w) = hidden_injected_and_base(&hidden, &base, spring, |terms| {
-        spec(20.0, 0.01, common::spring_force(), &outputs, terms)
-    });
+    let spring = port_term("cubic_spring", "mass.Fext", "mass.x", vec![0.2]);
+    let (h, i, w) =
+        hidden_injected_and_base(Fixture::SpringMassHiddenCubic, &Fixture::SpringMass.path(), spring, |terms| {
+            spec(20.0, 0.01, common::spring_force(), &outputs, terms)
+        });
     // The input drives the base model to about ±1 m, where the cubic force is 5 % of the
     // linear one.
     let amplitude = w.column("mass.x").unwrap().iter().fold(0.0f64, |m, x| m.max(x.abs()));
@@ -134,14 +129,14 @@ fn injected_cubic_spring_reproduces_the_hidden_hardening_spring() {
 
 #[test]
 fn injected_radiation_reproduces_the_hidden_radiation_of_the_outlet_wall() {
-    let dir = tempfile::tempdir().unwrap();
-    let base = common::load_example("exhaust-pipe", &dir.path().join("cache"));
-    let hidden = common::fixture(Fixture::ExhaustPipeHiddenRadiation, dir.path());
     let outputs = ["outlet.T", "rightVolume.wallT"];
-    let radiation = term("radiation", "rightVolume.wallQext", "rightVolume.wallT", vec![0.2, 293.15]);
-    let (h, i, w) = hidden_injected_and_base(&hidden, &base, radiation, |terms| {
-        spec(1800.0, 1.0, common::exhaust_inputs(), &outputs, terms)
-    });
+    let radiation = port_term("radiation", "rightVolume.wallQext", "rightVolume.wallT", vec![0.2, 293.15]);
+    let (h, i, w) = hidden_injected_and_base(
+        Fixture::ExhaustPipeHiddenRadiation,
+        &common::example("exhaust-pipe"),
+        radiation,
+        |terms| spec(1800.0, 1.0, common::exhaust_inputs(), &outputs, terms),
+    );
     check_port_effect(&h, &i, &w, &outputs, 1e-9, ("outlet.T", 0.01));
 }
 
@@ -255,7 +250,7 @@ fn a_dead_zone_springs_edges_are_events_and_the_motion_is_the_piecewise_closed_f
             0.01,
             common::spring_force(),
             &["mass.x"],
-            vec![term("dead_zone_spring", "mass.Fext", "mass.x", vec![k2, w])],
+            vec![port_term("dead_zone_spring", "mass.Fext", "mass.x", vec![k2, w])],
         )
     };
     let r = simulate(&fmu, &s).unwrap();

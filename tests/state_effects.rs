@@ -6,6 +6,7 @@ mod common;
 
 use std::path::Path;
 
+use common::{port_term, state_term};
 use fmucal_models::Fixture;
 use fmucal_shared::fmu::{Fmu, Interface};
 use fmucal_shared::sim::{InputTable, PortTerm, SimError, SimResult, SimSpec, StateTerm, simulate};
@@ -15,14 +16,6 @@ fn spec(stop: f64, dt: f64, inputs: InputTable, outputs: &[&str], set: &[(&str, 
         parameters: set.iter().map(|(n, v)| (n.to_string(), v.to_string())).collect(),
         ..common::model_exchange_spec(stop, dt, inputs, outputs)
     }
-}
-
-fn port(kind: &str, port: &str, signal: &str, parameters: Vec<f64>) -> PortTerm {
-    PortTerm { kind: kind.into(), port: port.into(), signal: signal.into(), parameters }
-}
-
-fn state(kind: &str, state: &str, signal: &str, parameters: Vec<f64>) -> StateTerm {
-    StateTerm { kind: kind.into(), state: state.into(), signal: signal.into(), parameters }
 }
 
 fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
@@ -57,40 +50,49 @@ fn port_and_state_terms_agree(
     (on_port, on_state)
 }
 
-#[test]
-fn coulomb_friction_on_der_v_equals_the_force_over_the_mass_on_the_force_port() {
+/// [`port_and_state_terms_agree`] on the spring–mass with `set`, under [`common::spring_force`]
+/// for 20 s: the term `kind` reading `signal`, with `port_parameters` on the force port and
+/// `state_parameters` on der(mass.v), moves mass.x.
+fn spring_mass_terms_agree(
+    set: &[(&str, &str)],
+    outputs: &[&str],
+    kind: &str,
+    signal: &str,
+    port_parameters: Vec<f64>,
+    state_parameters: Vec<f64>,
+) -> (SimResult, SimResult) {
     let dir = tempfile::tempdir().unwrap();
     let fmu = common::fixture(Fixture::SpringMass, dir.path());
+    let base = spec(20.0, 0.01, common::spring_force(), outputs, set);
+    let on_port = port_term(kind, "mass.Fext", signal, port_parameters);
+    let on_state = state_term(kind, "mass.v", signal, state_parameters);
+    port_and_state_terms_agree(&fmu, &base, on_port, on_state, outputs, "mass.x")
+}
+
+#[test]
+fn coulomb_friction_on_der_v_equals_the_force_over_the_mass_on_the_force_port() {
     // m = 2 kg, so the state term's strength (an acceleration) is F/m.
     let (force, mass) = (0.3, 2.0);
     // der(mass.v) is recorded too: an output that is the derivative carries the term.
     let outputs = ["mass.x", "mass.v", "der(mass.v)"];
-    let base = spec(20.0, 0.01, common::spring_force(), &outputs, &[("m", "2")]);
-    let on_port = port("coulomb_friction", "mass.Fext", "mass.v", vec![force]);
-    let on_state = state("coulomb_friction", "mass.v", "mass.v", vec![force / mass]);
-    port_and_state_terms_agree(&fmu, &base, on_port, on_state, &outputs, "mass.x");
+    spring_mass_terms_agree(&[("m", "2")], &outputs, "coulomb_friction", "mass.v", vec![force], vec![force / mass]);
 }
 
 #[test]
 fn a_spring_on_der_v_reads_the_position_and_equals_the_port_spring() {
-    let dir = tempfile::tempdir().unwrap();
-    let fmu = common::fixture(Fixture::SpringMass, dir.path());
-    let outputs = ["mass.x", "mass.v"];
-    let base = spec(20.0, 0.01, common::spring_force(), &outputs, &[("m", "2")]);
-    let on_port = port("cubic_spring", "mass.Fext", "mass.x", vec![0.6]);
-    let on_state = state("cubic_spring", "mass.v", "mass.x", vec![0.3]);
-    port_and_state_terms_agree(&fmu, &base, on_port, on_state, &outputs, "mass.x");
+    spring_mass_terms_agree(&[("m", "2")], &["mass.x", "mass.v"], "cubic_spring", "mass.x", vec![0.6], vec![0.3]);
 }
 
 #[test]
 fn a_dead_zone_on_a_state_stops_the_integrator_at_its_edges_as_on_the_port() {
-    let dir = tempfile::tempdir().unwrap();
-    let fmu = common::fixture(Fixture::SpringMass, dir.path());
-    let outputs = ["mass.x", "mass.v"];
-    let base = spec(20.0, 0.01, common::spring_force(), &outputs, &[]);
-    let on_port = port("dead_zone_spring", "mass.Fext", "mass.x", vec![3.0, 0.4]);
-    let on_state = state("dead_zone_spring", "mass.v", "mass.x", vec![3.0, 0.4]);
-    let (p, s) = port_and_state_terms_agree(&fmu, &base, on_port, on_state, &outputs, "mass.x");
+    let (p, s) = spring_mass_terms_agree(
+        &[],
+        &["mass.x", "mass.v"],
+        "dead_zone_spring",
+        "mass.x",
+        vec![3.0, 0.4],
+        vec![3.0, 0.4],
+    );
     // The kinks are events of both.
     assert_eq!(p.stats.events, s.stats.events);
     assert!(s.stats.events > 0);
@@ -103,8 +105,8 @@ fn radiation_on_der_t_equals_the_heat_flow_over_the_capacity_on_the_heat_port() 
     let capacity = 12_000.0;
     let outputs = ["outlet.T", "rightVolume.wallT"];
     let base = spec(1800.0, 1.0, common::exhaust_inputs(), &outputs, &[("rightVolume.wallCapacity", "12000")]);
-    let on_port = port("radiation", "rightVolume.wallQext", "rightVolume.wallT", vec![0.2, 293.15]);
-    let on_state = state("radiation", "rightVolume.wallT", "rightVolume.wallT", vec![0.2 / capacity, 293.15]);
+    let on_port = port_term("radiation", "rightVolume.wallQext", "rightVolume.wallT", vec![0.2, 293.15]);
+    let on_state = state_term("radiation", "rightVolume.wallT", "rightVolume.wallT", vec![0.2 / capacity, 293.15]);
     port_and_state_terms_agree(&fmu, &base, on_port, on_state, &outputs, "outlet.T");
 }
 
@@ -117,7 +119,7 @@ fn a_generic_relaxation_follows_its_closed_form_on_a_state_without_dynamics_of_i
     let time: Vec<f64> = vec![0.0, 5.0];
     let zero = common::table(time, vec![("F", vec![0.0, 0.0])]);
     let s = SimSpec {
-        state_terms: vec![state("linear_relaxation", "mass.v", "mass.v", vec![0.7, 0.5])],
+        state_terms: vec![state_term("linear_relaxation", "mass.v", "mass.v", vec![0.7, 0.5])],
         tolerance: Some(1e-12),
         ..spec(5.0, 0.05, zero, &["mass.v"], &[("k", "0"), ("d", "0"), ("mass.v", "2")])
     };
@@ -140,18 +142,18 @@ fn bad_state_terms_are_refused_before_any_model_code_runs() {
             other => panic!("accepted: {:?}", other.map(|r| r.time.len())),
         }
     };
-    let m = refused(state("viscous_damping", "m", "mass.v", vec![1.0]), Interface::ModelExchange);
+    let m = refused(state_term("viscous_damping", "m", "mass.v", vec![1.0]), Interface::ModelExchange);
     assert!(
         m.starts_with("state \"m\" is not a continuous state of the model (its states: \"mass.x, mass.v\")"),
         "{m}"
     );
-    let m = refused(state("viscous_damping", "mass.v", "F", vec![1.0]), Interface::ModelExchange);
+    let m = refused(state_term("viscous_damping", "mass.v", "F", vec![1.0]), Interface::ModelExchange);
     assert!(m.starts_with("signal \"F\" is not a continuous state"), "{m}");
-    let m = refused(state("viscous_damping", "mass.v", "mass.v", vec![1.0]), Interface::CoSimulation);
+    let m = refused(state_term("viscous_damping", "mass.v", "mass.v", vec![1.0]), Interface::CoSimulation);
     assert!(m.starts_with("state effects need Model Exchange"), "{m}");
-    let m = refused(state("sensor_offset", "mass.v", "mass.v", vec![1.0]), Interface::ModelExchange);
+    let m = refused(state_term("sensor_offset", "mass.v", "mass.v", vec![1.0]), Interface::ModelExchange);
     assert!(m.contains("changes a measured series"), "{m}");
-    let m = refused(state("viscous_damping", "mass.v", "mass.v", vec![1.0, 2.0]), Interface::ModelExchange);
+    let m = refused(state_term("viscous_damping", "mass.v", "mass.v", vec![1.0, 2.0]), Interface::ModelExchange);
     assert!(m.starts_with("viscous_damping takes 1 parameters"), "{m}");
 }
 
@@ -288,8 +290,8 @@ fn a_reaction_adds_the_same_term_at_its_own_strength_to_the_coupled_velocity() {
     assert_eq!(
         sim.state_terms,
         [
-            state("quadratic_drag", "pendulumJoint.w", "pendulumJoint.w", vec![0.7]),
-            state("quadratic_drag", "armJoint.w", "pendulumJoint.w", vec![-0.2]),
+            state_term("quadratic_drag", "pendulumJoint.w", "pendulumJoint.w", vec![0.7]),
+            state_term("quadratic_drag", "armJoint.w", "pendulumJoint.w", vec![-0.2]),
         ]
     );
     // The arm's acceleration gets −(−0.2)·w|w| of the pendulum's velocity: against the same

@@ -21,7 +21,10 @@ fn noise(n: usize, sigma: f64) -> Vec<f64> {
     (0..n).map(|_| sigma * (-2.0 * uniform().ln()).sqrt() * (std::f64::consts::TAU * uniform()).cos()).collect()
 }
 
-fn write_data(dir: &Path, fmu: &Path) {
+/// A new folder holding `data.csv`: 20 s of `fmu`'s position every 10 ms at rtol 1e-10, with
+/// noise of 0.2 % of its range.
+fn data_folder(fmu: &Path) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
     let fmu = fmucal_shared::fmu::Fmu::load(fmu).unwrap();
     let spec = fmucal_shared::sim::SimSpec {
         stop_time: Some(20.0),
@@ -37,7 +40,8 @@ fn write_data(dir: &Path, fmu: &Path) {
     for ((t, x), e) in r.time.iter().zip(x).zip(noise(x.len(), 0.002 * range)) {
         csv.push_str(&format!("{t},{}\n", x + e));
     }
-    std::fs::write(dir.join("data.csv"), csv).unwrap();
+    std::fs::write(dir.path().join("data.csv"), csv).unwrap();
+    dir
 }
 
 /// Calibrates k and d with `simulation` as the `[simulation]` table; the estimates, their
@@ -71,9 +75,8 @@ fn calibrate(dir: &Path, fmu: &Path, name: &str, simulation: &str) -> (Vec<f64>,
 
 #[test]
 fn the_guard_removes_the_bias_of_a_loose_default_tolerance() {
-    let dir = tempfile::tempdir().unwrap();
     let fmu = Fixture::SpringMassExportedLooseTolerance.path();
-    write_data(dir.path(), &fmu);
+    let dir = data_folder(&fmu);
     let (reference, se, _) = calibrate(dir.path(), &fmu, "reference", "tolerance = 1e-10\ntolerance_guard = false");
     let (loose, _, unguarded) = calibrate(dir.path(), &fmu, "unguarded", "tolerance_guard = false");
     let (guarded, _, r) = calibrate(dir.path(), &fmu, "guarded", "");
@@ -96,9 +99,8 @@ fn the_guard_removes_the_bias_of_a_loose_default_tolerance() {
 
 #[test]
 fn a_fit_whose_integration_error_is_small_is_left_alone() {
-    let dir = tempfile::tempdir().unwrap();
     let fmu = Fixture::SpringMassExportedLooseTolerance.path();
-    write_data(dir.path(), &fmu);
+    let dir = data_folder(&fmu);
     let (_, _, r) = calibrate(dir.path(), &fmu, "tight", "tolerance = 1e-9");
     let guard = &r["tolerance_guard"];
     assert_eq!(guard["tolerance"].as_f64(), Some(1e-9), "{guard}");

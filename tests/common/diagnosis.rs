@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use fmucal_shared::sim::{OutputTimes, SimResult, SimSpec};
+use fmucal_shared::sim::{OutputTimes, SimResult, SimSpec, simulate};
 
 /// SplitMix64 and Box–Muller: seeded uniform and Gaussian numbers without a dependency.
 pub struct Rng(pub u64);
@@ -147,6 +147,13 @@ pub fn noise_free_spec(time: &[f64], inputs: &Inputs, outputs: &[(&str, &str)]) 
     }
 }
 
+/// The outputs of `fmu` at its default parameters (its files unpacked under `dir/cache`) on
+/// `inputs` over `time`, without noise.
+pub fn noise_free(fmu: &Path, time: &[f64], inputs: &Inputs, outputs: &[(&str, &str)], dir: &Path) -> SimResult {
+    let fmu = super::load(fmu, &dir.join("cache"));
+    simulate(&fmu, &noise_free_spec(time, inputs, outputs)).unwrap()
+}
+
 /// Noise standard deviation of each output: the fraction `noise` of its range.
 pub fn noise_sigmas(clean: &SimResult, noise: f64) -> Vec<f64> {
     clean
@@ -205,6 +212,28 @@ pub fn write_noisy_case(
     let path = dir.join("job.toml");
     std::fs::write(&path, job).unwrap();
     path
+}
+
+/// Writes a case of `model` into `dir`: data simulated from `truth` ([`noise_free`]) on the
+/// input columns over the times of `time_inputs`, with noise of the fraction `noise` of each
+/// output's range ([`noise_sigmas`]) seeded with `seed`, and the job on `base` with `body`
+/// ([`write_noisy_case`]). Returns the job file, the noise floor ([`noise_floor`]) and the
+/// noise-free outputs.
+#[allow(clippy::too_many_arguments)]
+pub fn write_case(
+    dir: &Path,
+    truth: &Path,
+    base: &Path,
+    model: Model,
+    (time, inputs): (Vec<f64>, Inputs),
+    noise: f64,
+    seed: u64,
+    body: &str,
+) -> (PathBuf, f64, SimResult) {
+    let clean = noise_free(truth, &time, &inputs, model.outputs(), dir);
+    let sigma = noise_sigmas(&clean, noise);
+    let job = write_noisy_case(dir, base, &time, &inputs, model.outputs(), &clean, &sigma, seed, body);
+    (job, noise_floor(&sigma), clean)
 }
 
 /// A scratch folder for a case: under `DIAGNOSIS_GRID_DIR` (kept, to look at) if set.

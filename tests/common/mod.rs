@@ -7,9 +7,10 @@ use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
 use fmucal_shared::fmu::{ArchiveLimits, Fmu, LoadOptions};
-use fmucal_shared::sim::InputTable;
+use fmucal_shared::sim::{InputTable, PortTerm, StateTerm};
 
 pub mod diagnosis;
+pub mod proto;
 
 pub fn example(name: &str) -> PathBuf {
     fmucal_models::example(name).unwrap_or_else(|| panic!("no example {name}"))
@@ -93,6 +94,16 @@ pub fn rel_max_diff(a: &[f64], b: &[f64]) -> f64 {
 /// An input table from (column name, samples) pairs.
 pub fn table(time: Vec<f64>, columns: Vec<(&str, Vec<f64>)>) -> InputTable {
     InputTable { time, columns: columns.into_iter().map(|(n, v)| (n.to_owned(), v)).collect() }
+}
+
+/// The term `kind` reading `signal`, with `parameters`, injected on the input `port`.
+pub fn port_term(kind: &str, port: &str, signal: &str, parameters: Vec<f64>) -> PortTerm {
+    PortTerm { kind: kind.into(), port: port.into(), signal: signal.into(), parameters }
+}
+
+/// The term `kind` reading `signal`, with `parameters`, added to the derivative of `state`.
+pub fn state_term(kind: &str, state: &str, signal: &str, parameters: Vec<f64>) -> StateTerm {
+    StateTerm { kind: kind.into(), state: state.into(), signal: signal.into(), parameters }
 }
 
 /// F = 2.2 sin(0.8 t), sampled every 0.05 s: several stick and slip phases in both directions.
