@@ -16,25 +16,14 @@ from fmucal_client import JobFileError, build_request, load_job
 from fmucal_client import binary
 from fmucal_client.tables import read_table
 
-JOB = """
-[model]
-path = "m.fmu"
-[data]
-path = "d.csv"
-[[outputs]]
-variable = "y"
-column = "y"
-[[parameters]]
-name = "k"
-start = 1.0
-lower = 0.0
-upper = 2.0
-[[parameters]]
+JOB = (REPO / "shared" / "tests" / "data" / "minimal_job.toml").read_text() + """[[parameters]]
 name = "c"
 start = 1
 lower = 0
 upper = 3
 """
+"""The Rust tests' minimal job (one output `y`, parameter `k`) with a second parameter `c`
+written with integers."""
 
 
 def write_job(folder: Path, text: str = JOB, data: str = "time,y\n0,1\n1,2\n") -> Path:

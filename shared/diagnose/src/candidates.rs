@@ -565,8 +565,7 @@ mod tests {
     /// output, screened against a linear "model": the residual moves by `J·δ` exactly.
     #[test]
     fn screening_a_linear_residual_predicts_the_drop_and_a_failed_point_ranks_last() {
-        let text = "[model]\npath = \"m.fmu\"\n[data]\npath = \"d.csv\"\n[[outputs]]\nvariable = \"y\"\ncolumn = \"y\"\n\
-                    [[parameters]]\nname = \"k\"\nstart = 1.0\nlower = 0.0\nupper = 2.0\n";
+        let text = include_str!("../../tests/data/minimal_job.toml");
         let base = JobSpec::from_toml(text, std::path::Path::new("/")).unwrap();
         let stats = SignalStats::of(&[0.0, 1.0]);
         let sizes =

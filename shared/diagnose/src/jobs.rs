@@ -147,26 +147,16 @@ mod tests {
     use fmucal_shared::effects::guess::Guess;
 
     fn base() -> JobSpec {
-        let text = r#"
-[model]
-path = "m.fmu"
-[data]
-path = "d.csv"
-[[outputs]]
-variable = "y"
-column = "y"
-[[parameters]]
-name = "k"
-start = 1.0
-lower = 0.0
-upper = 2.0
-[[effects]]
+        let text = concat!(
+            include_str!("../../tests/data/minimal_job.toml"),
+            r#"[[effects]]
 kind = "sensor_offset"
 output = "y"
 parameters = { offset = { start = 0.0, lower = -1.0, upper = 1.0 } }
 [diagnose]
 top = 3
-"#;
+"#
+        );
         JobSpec::from_toml(text, Path::new("/")).unwrap()
     }
 

@@ -104,6 +104,7 @@ pub enum PortDomain {
     Thermal,
 }
 
+#[serde_with::skip_serializing_none]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PortSpec {
@@ -116,10 +117,8 @@ pub struct PortSpec {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub temperatures: Vec<String>,
     /// Typical size of the load the port adds; probed from the model when absent.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scale: Option<f64>,
     /// Ambient temperature guess of thermal effects. Default 293.15.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ambient: Option<f64>,
 }
 

@@ -139,132 +139,71 @@ pub fn reaction(kind: &dyn Guesses, s: &Scales) -> Guess {
     Guess { neutral: 0.0, step: g.step, lower: -reach, upper: reach }
 }
 
-impl Guesses for ViscousDamping {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Velocity
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        vec![Guess::coefficient(s.load, s.signal.rms)]
-    }
+/// Implements [`Guesses`] for each kind from its signal role and its guesses of the scales `s`.
+macro_rules! guesses {
+    ($($kind:ty: $role:ident, |$s:ident| $guesses:expr;)+) => {$(
+        impl Guesses for $kind {
+            fn signal_role(&self) -> SignalRole {
+                SignalRole::$role
+            }
+            fn guesses(&self, $s: &Scales) -> Vec<Guess> {
+                $guesses
+            }
+        }
+    )+};
 }
 
-impl Guesses for CoulombFriction {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Velocity
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        vec![Guess::coefficient(s.load, 1.0)]
-    }
-}
-
-impl Guesses for StribeckFriction {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Velocity
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
+guesses! {
+    ViscousDamping: Velocity, |s| vec![Guess::coefficient(s.load, s.signal.rms)];
+    CoulombFriction: Velocity, |s| vec![Guess::coefficient(s.load, 1.0)];
+    StribeckFriction: Velocity, |s| {
         let v = positive(s.signal.max_abs());
         vec![Guess::coefficient(s.load, 1.0), Guess::coefficient(s.load, 1.0), Guess::shape(0.1 * v, 0.01 * v, v)]
-    }
-}
-
-impl Guesses for QuadraticDrag {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Velocity
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        vec![Guess::coefficient(s.load, s.signal.rms * s.signal.rms)]
-    }
-}
-
-impl Guesses for LinearSpring {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Position
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        let (lo, hi) = (s.signal.min, s.signal.max);
-        vec![Guess::coefficient(s.load, s.signal.std), Guess::shape(s.signal.mean, lo.min(hi), hi.max(lo))]
-    }
-}
-
-impl Guesses for CubicSpring {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Position
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        vec![Guess::coefficient(s.load, s.signal.rms.powi(3))]
-    }
-}
-
-impl Guesses for ConstantLoad {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Any
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        vec![Guess::strength(0.0, 0.1 * s.load, -20.0 * s.load, 20.0 * s.load)]
-    }
-}
-
-impl Guesses for LinearRelaxation {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::State
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        let (lo, hi) = (s.signal.min, s.signal.max);
-        vec![Guess::coefficient(s.load, s.signal.std), Guess::shape(s.signal.mean, lo.min(hi), hi.max(lo))]
-    }
-}
-
-impl Guesses for ConstantRate {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Any
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        vec![Guess::strength(0.0, 0.1 * s.load, -20.0 * s.load, 20.0 * s.load)]
-    }
-}
-
-impl Guesses for DeadZoneSpring {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Position
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
+    };
+    QuadraticDrag: Velocity, |s| vec![Guess::coefficient(s.load, s.signal.rms * s.signal.rms)];
+    LinearSpring: Position, |s| about_rest(s);
+    CubicSpring: Position, |s| vec![Guess::coefficient(s.load, s.signal.rms.powi(3))];
+    ConstantLoad: Any, |s| constant(s);
+    LinearRelaxation: State, |s| about_rest(s);
+    ConstantRate: Any, |s| constant(s);
+    DeadZoneSpring: Position, |s| {
         let x = positive(s.signal.max_abs());
         vec![Guess::coefficient(s.load, s.signal.rms), Guess::shape(0.1 * x, 0.0, x)]
-    }
+    };
+    Convection: Temperature, |s| {
+        let dt = (s.signal.mean - s.ambient).abs().max(s.signal.std);
+        vec![Guess::coefficient(s.load, dt), ambient(s)]
+    };
+    Radiation: Temperature, |s| {
+        let flux = SIGMA * (s.signal.rms.powi(4) - s.ambient.powi(4)).abs();
+        vec![Guess::coefficient(s.load, flux), ambient(s)]
+    };
+    HeatLoss: Any, |s| vec![Guess::coefficient(s.load, 1.0)];
+    SensorLag: Series, |s| vec![time_shift(s)];
+    // Neutral: the limits at the input's own extremes; the steps move each in by 5 % of the
+    // range, and each may move in up to the middle.
+    ActuatorSaturation: Series, |s| {
+        let (lo, hi) = (s.signal.min, s.signal.max);
+        let (mid, r) = (0.5 * (lo + hi), positive(hi - lo));
+        vec![Guess::strength(lo, 0.05 * r, lo, mid), Guess::strength(hi, -0.05 * r, mid, hi)]
+    };
+}
+
+/// A linear term about a rest value (a spring's rest position, a relaxation's target): its
+/// coefficient on the signal's spread, and the rest value at the signal's mean, within its range.
+fn about_rest(s: &Scales) -> Vec<Guess> {
+    let (lo, hi) = (s.signal.min, s.signal.max);
+    vec![Guess::coefficient(s.load, s.signal.std), Guess::shape(s.signal.mean, lo.min(hi), hi.max(lo))]
+}
+
+/// A constant term of either sign: step L/10, bounds ±20·L.
+fn constant(s: &Scales) -> Vec<Guess> {
+    vec![Guess::strength(0.0, 0.1 * s.load, -20.0 * s.load, 20.0 * s.load)]
 }
 
 /// The ambient temperature's bounds: 50 K either side of the guess.
 fn ambient(s: &Scales) -> Guess {
     Guess::shape(s.ambient, s.ambient - 50.0, s.ambient + 50.0)
-}
-
-impl Guesses for Convection {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Temperature
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        let dt = (s.signal.mean - s.ambient).abs().max(s.signal.std);
-        vec![Guess::coefficient(s.load, dt), ambient(s)]
-    }
-}
-
-impl Guesses for Radiation {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Temperature
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        let flux = SIGMA * (s.signal.rms.powi(4) - s.ambient.powi(4)).abs();
-        vec![Guess::coefficient(s.load, flux), ambient(s)]
-    }
-}
-
-impl Guesses for HeatLoss {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Any
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        vec![Guess::coefficient(s.load, 1.0)]
-    }
 }
 
 /// A time constant or delay: step one sample (at least 1e-3 of the window), at most a tenth of
@@ -285,28 +224,6 @@ impl Guesses for Shared {
             "gain" => Guess::strength(1.0, 0.01, 0.5, 2.0),
             _ => time_shift(s),
         }]
-    }
-}
-
-impl Guesses for SensorLag {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Series
-    }
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        vec![time_shift(s)]
-    }
-}
-
-impl Guesses for ActuatorSaturation {
-    fn signal_role(&self) -> SignalRole {
-        SignalRole::Series
-    }
-    /// Neutral: the limits at the input's own extremes; the steps move each in by 5 % of the
-    /// range, and each may move in up to the middle.
-    fn guesses(&self, s: &Scales) -> Vec<Guess> {
-        let (lo, hi) = (s.signal.min, s.signal.max);
-        let (mid, r) = (0.5 * (lo + hi), positive(hi - lo));
-        vec![Guess::strength(lo, 0.05 * r, lo, mid), Guess::strength(hi, -0.05 * r, mid, hi)]
     }
 }
 

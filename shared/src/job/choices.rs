@@ -30,6 +30,43 @@ impl JobKind {
     }
 }
 
+/// A closed set of choices written as text: each value with its name, in the order an error
+/// lists them.
+trait Choice: Copy + PartialEq + 'static {
+    const NAMES: &'static [(Self, &'static str)];
+
+    fn name(self) -> &'static str {
+        Self::NAMES.iter().find(|(v, _)| *v == self).map(|(_, n)| *n).unwrap_or_default()
+    }
+
+    /// The value named `s`; else an error that lists the names: `"ln" is not linear or log`.
+    fn from_name(s: &str) -> Result<Self, String> {
+        Self::NAMES.iter().find(|(_, n)| *n == s).map(|(v, _)| *v).ok_or_else(|| {
+            let names: Vec<&str> = Self::NAMES.iter().map(|(_, n)| *n).collect();
+            let (last, others) = names.split_last().expect("a choice has names");
+            format!("{} is not {} or {last}", quote_user_text(s), others.join(", "))
+        })
+    }
+}
+
+/// `Display` and `FromStr` of [`Choice`] enums: the text is the name.
+macro_rules! text_is_the_name {
+    ($($choice:ty),+) => {$(
+        impl fmt::Display for $choice {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str(self.name())
+            }
+        }
+
+        impl FromStr for $choice {
+            type Err = String;
+            fn from_str(s: &str) -> Result<Self, String> {
+                Self::from_name(s)
+            }
+        }
+    )+};
+}
+
 /// The optimizer of a calibration.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Algorithm {
@@ -41,33 +78,14 @@ pub enum Algorithm {
     LeastSquares,
 }
 
-impl Algorithm {
-    const NAMES: [(Algorithm, &'static str); 5] = [
+impl Choice for Algorithm {
+    const NAMES: &'static [(Self, &'static str)] = &[
         (Algorithm::NelderMead, "nelder-mead"),
         (Algorithm::DifferentialEvolution, "differential-evolution"),
         (Algorithm::Genetic, "genetic"),
         (Algorithm::CmaEs, "cma-es"),
         (Algorithm::LeastSquares, "least-squares"),
     ];
-}
-
-impl fmt::Display for Algorithm {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let name = Self::NAMES.iter().find(|(a, _)| a == self).map(|(_, n)| *n).unwrap_or_default();
-        f.write_str(name)
-    }
-}
-
-impl FromStr for Algorithm {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Self::NAMES.iter().find(|(_, n)| *n == s).map(|(a, _)| *a).ok_or_else(|| {
-            format!(
-                "{} is not nelder-mead, differential-evolution, genetic, cma-es or least-squares",
-                quote_user_text(s)
-            )
-        })
-    }
 }
 
 /// How the optimizer sees a parameter: as it is, or as its logarithm (for values that span
@@ -79,24 +97,8 @@ pub enum Scale {
     Log,
 }
 
-impl fmt::Display for Scale {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Scale::Linear => "linear",
-            Scale::Log => "log",
-        })
-    }
-}
-
-impl FromStr for Scale {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "linear" => Ok(Scale::Linear),
-            "log" => Ok(Scale::Log),
-            other => Err(format!("{} is not linear or log", quote_user_text(other))),
-        }
-    }
+impl Choice for Scale {
+    const NAMES: &'static [(Self, &'static str)] = &[(Scale::Linear, "linear"), (Scale::Log, "log")];
 }
 
 /// What an experiment of a job is for: fitted, or only simulated with the optimum and reported.
@@ -107,32 +109,20 @@ pub enum ExperimentRole {
     Validation,
 }
 
-impl fmt::Display for ExperimentRole {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            ExperimentRole::Fit => "fit",
-            ExperimentRole::Validation => "validation",
-        })
-    }
+impl Choice for ExperimentRole {
+    const NAMES: &'static [(Self, &'static str)] =
+        &[(ExperimentRole::Fit, "fit"), (ExperimentRole::Validation, "validation")];
 }
 
-impl FromStr for ExperimentRole {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "fit" => Ok(ExperimentRole::Fit),
-            "validation" => Ok(ExperimentRole::Validation),
-            other => Err(format!("{} is not fit or validation", quote_user_text(other))),
-        }
-    }
+text_is_the_name!(Algorithm, Scale, ExperimentRole);
+
+impl Choice for Interface {
+    const NAMES: &'static [(Self, &'static str)] = &[(Interface::ModelExchange, "me"), (Interface::CoSimulation, "cs")];
 }
 
 /// The FMI interface's name in a job: `me` or `cs`.
 pub fn interface_name(i: Interface) -> &'static str {
-    match i {
-        Interface::ModelExchange => "me",
-        Interface::CoSimulation => "cs",
-    }
+    i.name()
 }
 
 /// Reads `me` or `cs`.
@@ -140,11 +130,7 @@ pub fn interface_name(i: Interface) -> &'static str {
 /// # Errors
 /// The text, when it is neither.
 pub fn parse_interface(s: &str) -> Result<Interface, String> {
-    match s {
-        "me" => Ok(Interface::ModelExchange),
-        "cs" => Ok(Interface::CoSimulation),
-        other => Err(format!("{} is not me or cs", quote_user_text(other))),
-    }
+    Interface::from_name(s)
 }
 
 /// Where a job stands.
@@ -215,7 +201,7 @@ mod tests {
 
     #[test]
     fn every_algorithm_reads_back_from_its_name() {
-        for (a, name) in Algorithm::NAMES {
+        for &(a, name) in Algorithm::NAMES {
             assert_eq!(a.to_string(), name);
             assert_eq!(name.parse::<Algorithm>(), Ok(a));
         }

@@ -170,12 +170,12 @@ fn read_error(e: SeriesError) -> JobError {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::series::file;
 
     #[test]
     fn csv_empty_cells_are_missing_and_time_may_be_anywhere() {
         let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("d.csv");
-        std::fs::write(&p, "y,time\n1.5,0\n,1\nNaN,2\n").unwrap();
+        let p = file(&dir, "d.csv", "y,time\n1.5,0\n,1\nNaN,2\n");
         let t = MeasurementTable::read(&p, "time").unwrap();
         assert_eq!(t.time, vec![0.0, 1.0, 2.0]);
         let y = t.column("y").unwrap();
@@ -187,8 +187,7 @@ mod tests {
     #[test]
     fn read_errors_name_the_file_and_line() {
         let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("d.csv");
-        std::fs::write(&p, "time,y\n0,1\n1,x\n").unwrap();
+        let p = file(&dir, "d.csv", "time,y\n0,1\n1,x\n");
         let e = MeasurementTable::read(&p, "time").unwrap_err().to_string();
         assert_eq!(e, format!("cannot read {}: line 3: column \"y\": \"x\" is not a number", p.display()));
         let e = MeasurementTable::read(&p, "t").unwrap_err().to_string();

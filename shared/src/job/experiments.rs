@@ -42,6 +42,7 @@ use super::spec::{Bounds, DataRef, InputMap, JobSpec, OutputMap, SetValue};
 use crate::quote::quote_user_text;
 
 /// One `[[experiments]]` entry; unset fields take the job's.
+#[serde_with::skip_serializing_none]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ExperimentSpec {
@@ -49,20 +50,14 @@ pub struct ExperimentSpec {
     /// `fit` (default) or `validation`.
     #[serde(default, with = "text", skip_serializing_if = "is_fit")]
     pub role: ExperimentRole,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub data: Option<DataRef>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub outputs: Option<Vec<OutputMap>>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub inputs: Option<Vec<InputMap>>,
     /// Fixed values, over the job's `[simulation] set`.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub set: BTreeMap<String, SetValue>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub start_time: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stop_time: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub validation_stop_time: Option<f64>,
     /// Starts of per-experiment parameters in this experiment, by name.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]

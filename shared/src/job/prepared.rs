@@ -15,7 +15,7 @@ use super::{JobError, JobKind, limits};
 use crate::effects;
 use crate::effects::Domain;
 use crate::effects::guess::SignalRole;
-use crate::fmu::schema::{Causality, VarType};
+use crate::fmu::schema::{Causality, ScalarVariable, VarType};
 use crate::fmu::{Interface, ModelDescription};
 use crate::quote::quote_user_text;
 use crate::sim::plan::Plan;
@@ -272,6 +272,11 @@ pub fn describe_state(s: &crate::structure::State) -> String {
     }
 }
 
+/// The model's variable `name`, which the job names at `field`; else the error at `field`.
+fn variable<'m>(md: &'m ModelDescription, field: &str, name: &str) -> Result<&'m ScalarVariable, JobError> {
+    md.variable(name).ok_or_else(|| JobError::invalid(field, md.unknown_variable(name)))
+}
+
 /// What every experiment of a job shares while it is prepared.
 struct Context<'a> {
     md: &'a ModelDescription,
@@ -293,7 +298,7 @@ impl PreparedExperiment {
 
         for (k, p) in spec.parameters.iter().enumerate() {
             let field = format!("parameters[{k}].name");
-            let v = md.variable(&p.name).ok_or_else(|| JobError::invalid(&field, md.unknown_variable(&p.name)))?;
+            let v = variable(md, &field, &p.name)?;
             if v.var_type != VarType::Real {
                 return Err(JobError::invalid(
                     &field,
@@ -324,25 +329,17 @@ impl PreparedExperiment {
             }
         }
         for (k, o) in spec.outputs.iter().enumerate() {
-            let v = md
-                .variable(&o.variable)
-                .ok_or_else(|| JobError::invalid(format!("outputs[{k}].variable"), md.unknown_variable(&o.variable)))?;
+            let field = format!("outputs[{k}].variable");
+            let v = variable(md, &field, &o.variable)?;
             if matches!(v.var_type, VarType::String | VarType::Binary | VarType::Clock) {
-                return Err(JobError::invalid(
-                    format!("outputs[{k}].variable"),
-                    format!("{} is a {:?}", o.variable, v.var_type),
-                ));
+                return Err(JobError::invalid(field, format!("{} is a {:?}", o.variable, v.var_type)));
             }
         }
         for (k, i) in spec.inputs.iter().enumerate() {
-            let v = md
-                .variable(&i.variable)
-                .ok_or_else(|| JobError::invalid(format!("inputs[{k}].variable"), md.unknown_variable(&i.variable)))?;
+            let field = format!("inputs[{k}].variable");
+            let v = variable(md, &field, &i.variable)?;
             if v.causality != Causality::Input && md.base_of(v).causality != Causality::Input {
-                return Err(JobError::invalid(
-                    format!("inputs[{k}].variable"),
-                    format!("{} is not an input of the model", i.variable),
-                ));
+                return Err(JobError::invalid(field, format!("{} is not an input of the model", i.variable)));
             }
         }
         let (objective, inputs) = objective_of(spec, data)?;

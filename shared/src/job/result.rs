@@ -68,6 +68,7 @@ impl EvaluatedPoint {
 }
 
 /// `result.json`. Its `Default` is an empty result, for filling in the fields a caller has.
+#[serde_with::skip_serializing_none]
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct CalibrationResult {
     /// Parameter name → optimal value.
@@ -89,16 +90,13 @@ pub struct CalibrationResult {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub evaluated: Vec<EvaluatedPoint>,
     /// Root-mean-square errors, when the CLI computed them.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub errors: Option<ErrorReport>,
     /// Standard errors and correlations at the optimum, when computed.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub identifiability: Option<super::identifiability::Identifiability>,
     /// For a job with `[[experiments]]`: each experiment's RMS errors, when the CLI computed them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub experiments: Vec<ExperimentErrors>,
     /// The FMI version of the model (`fmiVersion` of its description), when the CLI wrote it.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fmi_version: Option<String>,
     /// The checks after the fit that failed ([`super::warnings`]), one sentence each; the CLI
     /// prints each as `warning: ...`, and `--strict` makes any of them exit code 3.
@@ -106,7 +104,6 @@ pub struct CalibrationResult {
     pub warnings: Vec<String>,
     /// The integration-tolerance guard's checks, and its refit if it made one, when the CLI
     /// ran it ([`super::tolerance`]).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance_guard: Option<super::tolerance::Guard>,
     /// The calibrated parameters in the order of each history point's `best_x`, with their
     /// bounds, when the CLI wrote them (the convergence plot's parameter paths).

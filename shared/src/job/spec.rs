@@ -842,21 +842,9 @@ pub(crate) mod tests {
     use super::*;
     use crate::job::choices::Algorithm;
 
-    /// A minimal valid job: one output, one parameter `k` in [0, 2] from 1.
-    pub(crate) const JOB: &str = r#"
-[model]
-path = "m.fmu"
-[data]
-path = "d.csv"
-[[outputs]]
-variable = "y"
-column = "y"
-[[parameters]]
-name = "k"
-start = 1.0
-lower = 0.0
-upper = 2.0
-"#;
+    /// A minimal valid job: one output, one parameter `k` in [0, 2] from 1 (the Python
+    /// client's tests and fmucal-diagnose's read the same file).
+    pub(crate) const JOB: &str = include_str!("../../tests/data/minimal_job.toml");
 
     #[test]
     fn minimal_toml_gets_defaults_and_resolved_paths() {

@@ -9,6 +9,9 @@ mod mat4;
 mod read;
 mod write;
 
+/// Tests write their files with it.
+#[cfg(test)]
+pub(crate) use read::tests::file;
 pub use read::{
     Layout, MAX_FILE_BYTES, Missing, Selected, SeriesError, TimeColumn, read, read_capped, read_csv, read_csv_capped,
     read_mat, read_selected,

@@ -410,13 +410,14 @@ fn real_values(array: &matfile::Array) -> Option<Vec<f64>> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     const INPUTS: Layout = Layout { time: TimeColumn::First("time"), missing: Missing::Refused };
     const MEASUREMENTS: Layout = Layout { time: TimeColumn::Named("time"), missing: Missing::Allowed };
 
-    fn file(dir: &tempfile::TempDir, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
+    /// Writes file `name` in `dir` and gives its path.
+    pub(crate) fn file(dir: &tempfile::TempDir, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
         let p = dir.path().join(name);
         std::fs::write(&p, bytes).unwrap();
         p
