@@ -21,6 +21,7 @@ use std::sync::Once;
 
 use fmucal_shared::job::{ErrorReport, FitTable, HistoryPoint, ParameterRange};
 use plotters::coord::Shift;
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
@@ -291,7 +292,13 @@ where
     Ok(vec![("validation window".to_owned(), Key::Shade(VALIDATION.mix(0.25).filled()))])
 }
 
-fn draw_fit<B: DrawingBackend>(root: DrawingArea<B, Shift>, series: &[Series], split: Option<f64>) -> DrawResult
+/// Draws one panel per output, stacked, each by `draw` given the output, the panel's data
+/// area and its legend column.
+fn draw_panels<B: DrawingBackend>(
+    root: DrawingArea<B, Shift>,
+    series: &[Series],
+    mut draw: impl FnMut(&Series, &DrawingArea<B, Shift>, &DrawingArea<B, Shift>) -> DrawResult,
+) -> DrawResult
 where
     B::ErrorType: 'static,
 {
@@ -299,22 +306,71 @@ where
     let panels = root.split_evenly((series.len().max(1), 1));
     for (s, panel) in series.iter().zip(panels) {
         let [area, legend] = with_legend_column(&panel);
-        let (t0, t1) = range(s.measured.iter().chain(&s.optimized).map(|p| p.0));
+        draw(s, &area, &legend)?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// A chart on `area` with `caption` above it and room for the axis labels, `x` across and `y`
+/// up.
+fn panel_chart<'a, DB, X, Y>(
+    area: &'a DrawingArea<DB, Shift>,
+    caption: &str,
+    x: X,
+    y: Y,
+) -> Result<ChartContext<'a, DB, Cartesian2d<X::CoordDescType, Y::CoordDescType>>, Box<dyn std::error::Error>>
+where
+    DB: DrawingBackend,
+    DB::ErrorType: 'static,
+    X: AsRangedCoord,
+    Y: AsRangedCoord,
+{
+    Ok(ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 18))
+        .margin(8)
+        .x_label_area_size(40)
+        .y_label_area_size(75)
+        .build_cartesian_2d(x, y)?)
+}
+
+/// A [`panel_chart`] over the time span `t`, its y axis `y` labelled `y_desc` with ticks
+/// written by `y_tick`, with its mesh drawn.
+fn time_chart<'a, DB, Y>(
+    area: &'a DrawingArea<DB, Shift>,
+    caption: &str,
+    (t0, t1): (f64, f64),
+    y: Y,
+    y_desc: String,
+    y_tick: &dyn Fn(&f64) -> String,
+) -> Result<ChartContext<'a, DB, Cartesian2d<RangedCoordf64, Y::CoordDescType>>, Box<dyn std::error::Error>>
+where
+    DB: DrawingBackend,
+    DB::ErrorType: 'static,
+    Y: AsRangedCoord<Value = f64>,
+    Y::CoordDescType: ValueFormatter<f64>,
+{
+    let mut chart = panel_chart(area, caption, t0..t1, y)?;
+    chart
+        .configure_mesh()
+        .x_desc(TIME_LABEL)
+        .y_desc(y_desc)
+        .y_label_formatter(y_tick)
+        .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 14))
+        .draw()?;
+    Ok(chart)
+}
+
+fn draw_fit<B: DrawingBackend>(root: DrawingArea<B, Shift>, series: &[Series], split: Option<f64>) -> DrawResult
+where
+    B::ErrorType: 'static,
+{
+    draw_panels(root, series, |s, area, legend| {
+        let t = range(s.measured.iter().chain(&s.optimized).map(|p| p.0));
         let (y0, y1) = range(s.measured.iter().chain(&s.nominal).chain(&s.optimized).map(|p| p.1));
-        let mut chart = ChartBuilder::on(&area)
-            .caption(&s.name, ("sans-serif", 18))
-            .margin(8)
-            .x_label_area_size(40)
-            .y_label_area_size(75)
-            .build_cartesian_2d(t0..t1, y0..y1)?;
-        chart
-            .configure_mesh()
-            .x_desc(TIME_LABEL)
-            .y_desc(axis_label(&s.name, s.unit.as_deref()))
-            .y_label_formatter(&|v| tick(*v, y1 - y0))
-            .label_style(("sans-serif", 12))
-            .axis_desc_style(("sans-serif", 14))
-            .draw()?;
+        let y_desc = axis_label(&s.name, s.unit.as_deref());
+        let mut chart = time_chart(area, &s.name, t, y0..y1, y_desc, &|v| tick(*v, y1 - y0))?;
         let mut keys = draw_split(&mut chart, split)?;
         // Measurements first, thinned and light, so the fitted line on top stays visible.
         let every = s.measured.len().div_ceil(MAX_MARKERS).max(1);
@@ -333,10 +389,8 @@ where
             ("start".to_owned(), Key::Line(nominal)),
             ("optimized".to_owned(), Key::Line(optimized)),
         ]);
-        draw_key(&legend, &chart, &keys)?;
-    }
-    root.present()?;
-    Ok(())
+        draw_key(legend, &chart, &keys)
+    })
 }
 
 fn abs_errors(measured: &[(f64, f64)], sim: &[(f64, f64)]) -> Vec<(f64, f64)> {
@@ -348,39 +402,23 @@ fn draw_error<B: DrawingBackend>(root: DrawingArea<B, Shift>, series: &[Series],
 where
     B::ErrorType: 'static,
 {
-    root.fill(&WHITE)?;
-    let panels = root.split_evenly((series.len().max(1), 1));
-    for (s, panel) in series.iter().zip(panels) {
-        let [area, legend] = with_legend_column(&panel);
+    draw_panels(root, series, |s, area, legend| {
         let nominal = abs_errors(&s.measured, &s.nominal);
         let optimized = abs_errors(&s.measured, &s.optimized);
-        let (t0, t1) = range(s.measured.iter().map(|p| p.0));
+        let t = range(s.measured.iter().map(|p| p.0));
         let all = nominal.iter().chain(&optimized).map(|p| p.1);
         let (lo, hi) = all.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
         let (lo, hi) = if lo.is_finite() && hi > 0.0 { (lo.max(1e-12) * 0.5, hi * 2.0) } else { (1e-6, 1.0) };
-        let mut chart = ChartBuilder::on(&area)
-            .caption(format!("{}: absolute error", s.name), ("sans-serif", 18))
-            .margin(8)
-            .x_label_area_size(40)
-            .y_label_area_size(75)
-            .build_cartesian_2d(t0..t1, (lo..hi).log_scale())?;
-        chart
-            .configure_mesh()
-            .x_desc(TIME_LABEL)
-            .y_desc(axis_label("|measured − simulated|", s.unit.as_deref()))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .label_style(("sans-serif", 12))
-            .axis_desc_style(("sans-serif", 14))
-            .draw()?;
+        let caption = format!("{}: absolute error", s.name);
+        let y_desc = axis_label("|measured − simulated|", s.unit.as_deref());
+        let mut chart = time_chart(area, &caption, t, (lo..hi).log_scale(), y_desc, &|v| format!("{v:.0e}"))?;
         let mut keys = draw_split(&mut chart, split)?;
         let (n_style, o_style) = (NOMINAL.stroke_width(1), OPTIMIZED.stroke_width(1));
         chart.draw_series(LineSeries::new(nominal, n_style))?;
         chart.draw_series(LineSeries::new(optimized, o_style))?;
         keys.extend([("start".to_owned(), Key::Line(n_style)), ("optimized".to_owned(), Key::Line(o_style))]);
-        draw_key(&legend, &chart, &keys)?;
-    }
-    root.present()?;
-    Ok(())
+        draw_key(legend, &chart, &keys)
+    })
 }
 
 /// `v` in at most about 8 characters: as Rust prints it if that is short, else in E notation.
@@ -421,17 +459,9 @@ where
     let (lo, hi) = positive.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
     // A log axis shows f falling over decades; over less than one it would show no tick, so
     // f gets a linear axis then.
-    let builder = || {
-        let mut b = ChartBuilder::on(&area);
-        b.caption("convergence: best f after each batch", ("sans-serif", 18))
-            .margin(8)
-            .x_label_area_size(40)
-            .y_label_area_size(75);
-        b
-    };
     macro_rules! best_f_panel {
         ($y:expr, $format:expr) => {{
-            let mut chart = builder().build_cartesian_2d(e0..e1, $y)?;
+            let mut chart = panel_chart(&area, "convergence: best f after each batch", e0..e1, $y)?;
             chart
                 .configure_mesh()
                 .x_desc("evaluations")
@@ -456,12 +486,7 @@ where
     }
     if let Some(panel) = panels.get(1) {
         let [area, legend] = with_legend_column(panel);
-        let mut chart = ChartBuilder::on(&area)
-            .caption("parameters: best point after each batch", ("sans-serif", 18))
-            .margin(8)
-            .x_label_area_size(40)
-            .y_label_area_size(75)
-            .build_cartesian_2d(e0..e1, -0.05..1.05)?;
+        let mut chart = panel_chart(&area, "parameters: best point after each batch", e0..e1, -0.05..1.05)?;
         chart
             .configure_mesh()
             .x_desc("evaluations")
@@ -683,6 +708,16 @@ mod tests {
         dir
     }
 
+    /// The history of `rounds` batches of `size` points each, batch k ending with `best(k)`:
+    /// the best f and point.
+    fn batches(rounds: u64, size: u64, best: impl Fn(u64) -> (f64, Vec<f64>)) -> Vec<HistoryPoint> {
+        let point = |k| {
+            let (best_f, best_x) = best(k);
+            HistoryPoint { round: k, evaluations: size * k, best_f, batch_wall_s: 0.1, best_x }
+        };
+        (1..=rounds).map(point).collect()
+    }
+
     fn read(dir: &tempfile::TempDir, file: &str) -> String {
         std::fs::read_to_string(dir.path().join(file)).unwrap()
     }
@@ -707,15 +742,7 @@ mod tests {
 
     #[test]
     fn every_legend_stands_right_of_the_data_area() {
-        let history: Vec<HistoryPoint> = (1..=3)
-            .map(|k| HistoryPoint {
-                round: k,
-                evaluations: 4 * k,
-                best_f: 1.0 / k as f64,
-                batch_wall_s: 0.1,
-                best_x: vec![k as f64],
-            })
-            .collect();
+        let history = batches(3, 4, |k| (1.0 / k as f64, vec![k as f64]));
         let dir = draw_sine(&history, &[ParameterRange { name: "a".into(), lower: 0.0, upper: 4.0 }]);
         for (file, labels) in [
             ("fit.svg", &["optimized", "start", "measured (1 in 10)", "validation window"][..]),
@@ -779,15 +806,7 @@ mod tests {
             ParameterRange { name: "k".into(), lower: 0.0, upper: 10.0 },
             ParameterRange { name: "d".into(), lower: -1.0, upper: 1.0 },
         ];
-        let history: Vec<HistoryPoint> = (1..=4)
-            .map(|k| HistoryPoint {
-                round: k,
-                evaluations: 3 * k,
-                best_f: 10.0 / k as f64,
-                batch_wall_s: 0.1,
-                best_x: vec![2.5 * k as f64, 0.0],
-            })
-            .collect();
+        let history = batches(4, 3, |k| (10.0 / k as f64, vec![2.5 * k as f64, 0.0]));
         let paths = parameter_paths(&history, &parameters);
         assert_eq!(paths.iter().map(|p| p.name.as_str()).collect::<Vec<_>>(), ["k", "d"]);
         assert_eq!(paths[0].points, [(3.0, 0.25), (6.0, 0.5), (9.0, 0.75), (12.0, 1.0)]);

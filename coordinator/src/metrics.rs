@@ -76,31 +76,33 @@ impl CoordinatorMetrics {
             latency: Histogram::new(exponential_buckets(0.001, 2.0, 20)),
         };
         registry.register("fmucal_jobs", "Jobs by state", m.jobs.clone());
-        registry.register(
-            "fmucal_points_queued",
-            "Points of running jobs waiting for a worker",
-            m.points_queued.clone(),
-        );
-        registry.register("fmucal_points_leased", "Points out on workers", m.points_leased.clone());
-        registry.register("fmucal_workers", "Live workers", m.workers.clone());
-        registry.register("fmucal_worker_slots", "Evaluation slots of the live workers", m.slots.clone());
-        registry.register("fmucal_evaluations", "Results received from workers", m.evaluations.clone());
-        registry.register("fmucal_failed_evaluations", "Results whose simulation failed", m.failed_evaluations.clone());
-        registry.register(
-            "fmucal_ignored_results",
-            "Results for points never leased to their worker, not told",
-            m.ignored_results.clone(),
-        );
-        registry.register(
-            "fmucal_late_results",
-            "Results for points taken back from their worker (job ended, timed out, worker expired), not told",
-            m.late_results.clone(),
-        );
-        registry.register(
-            "fmucal_refused_results",
-            "Results that cannot be true (negative or NaN sum of squares, wrong residual count), tried again",
-            m.refused_results.clone(),
-        );
+        let gauges = [
+            ("fmucal_points_queued", "Points of running jobs waiting for a worker", &m.points_queued),
+            ("fmucal_points_leased", "Points out on workers", &m.points_leased),
+            ("fmucal_workers", "Live workers", &m.workers),
+            ("fmucal_worker_slots", "Evaluation slots of the live workers", &m.slots),
+        ];
+        for (name, help, gauge) in gauges {
+            registry.register(name, help, gauge.clone());
+        }
+        let counters = [
+            ("fmucal_evaluations", "Results received from workers", &m.evaluations),
+            ("fmucal_failed_evaluations", "Results whose simulation failed", &m.failed_evaluations),
+            ("fmucal_ignored_results", "Results for points never leased to their worker, not told", &m.ignored_results),
+            (
+                "fmucal_late_results",
+                "Results for points taken back from their worker (job ended, timed out, worker expired), not told",
+                &m.late_results,
+            ),
+            (
+                "fmucal_refused_results",
+                "Results that cannot be true (negative or NaN sum of squares, wrong residual count), tried again",
+                &m.refused_results,
+            ),
+        ];
+        for (name, help, counter) in counters {
+            registry.register(name, help, counter.clone());
+        }
         registry.register(
             "fmucal_evaluation_latency_seconds",
             "Time from a point's lease to its result",

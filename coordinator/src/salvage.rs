@@ -16,7 +16,7 @@
 
 use std::path::{Path, PathBuf};
 
-use redb::{Database, ReadableDatabase, ReadableTable};
+use redb::{AccessGuard, Database, ReadTransaction, ReadableDatabase, ReadableTable, TableDefinition, Value};
 
 use crate::error::CoordinatorError;
 use crate::store::{EVALS, JOURNAL, META, SPECS, STATES, Store};
@@ -193,25 +193,29 @@ fn read_job(db: &Database, id: &str) -> Result<Option<Readable>, ()> {
     if serde_json::from_str::<serde_json::Value>(&state).is_err() {
         return Err(());
     }
-    let mut evaluations = vec![];
-    if let Ok(evals) = tx.open_table(EVALS)
-        && let Ok(range) = evals.range((id, 0)..=(id, u64::MAX))
-    {
-        for entry in range {
-            let Ok((k, v)) = entry else { break };
-            evaluations.push((k.value().1, v.value().to_owned()));
-        }
-    }
-    let mut journal = vec![];
-    if let Ok(blocks) = tx.open_table(JOURNAL)
-        && let Ok(range) = blocks.range((id, 0)..=(id, u64::MAX))
-    {
-        for entry in range {
-            let Ok((k, v)) = entry else { break };
-            journal.push((k.value().1, v.value().to_vec()));
-        }
-    }
+    let evaluations = point_rows(&tx, EVALS, id, |v| v.value().to_owned());
+    let journal = point_rows(&tx, JOURNAL, id, |v| v.value().to_vec());
     Ok(Some(Readable { id: id.to_owned(), spec, state, evaluations, journal }))
+}
+
+/// Job `id`'s rows of a `table` keyed by (job id, point), as far as they read (none if the
+/// table does not open), each value made owned by `owned`.
+fn point_rows<V: Value + 'static, T>(
+    tx: &ReadTransaction,
+    table: TableDefinition<'_, (&'static str, u64), V>,
+    id: &str,
+    owned: impl Fn(&AccessGuard<'static, V>) -> T,
+) -> Vec<(u64, T)> {
+    let mut rows = vec![];
+    if let Ok(table) = tx.open_table(table)
+        && let Ok(range) = table.range((id, 0)..=(id, u64::MAX))
+    {
+        for entry in range {
+            let Ok((k, v)) = entry else { break };
+            rows.push((k.value().1, owned(&v)));
+        }
+    }
+    rows
 }
 
 #[cfg(test)]

@@ -36,6 +36,12 @@ fn check_id(field: &str, id: &str) -> Result<(), Status> {
     Ok(())
 }
 
+/// `id`, once [`check_id`] accepts it.
+fn checked_id(field: &str, id: String) -> Result<String, Status> {
+    check_id(field, &id)?;
+    Ok(id)
+}
+
 /// Runs `f` on the model store (call from a blocking thread).
 fn with_models<T>(
     models: &Mutex<ModelStore>,
@@ -114,30 +120,26 @@ impl pb::calibration_server::Calibration for Handlers {
     type WatchJobStream = ReceiverStream<Result<pb::WatchJobResponse, Status>>;
 
     async fn watch_job(&self, req: Request<pb::WatchJobRequest>) -> Result<Response<Self::WatchJobStream>, Status> {
-        let job_id = req.into_inner().job_id;
-        check_id("job_id", &job_id)?;
+        let job_id = checked_id("job_id", req.into_inner().job_id)?;
         let (tx, rx): (edge::WatchSender, _) = mpsc::channel(1024);
         self.ask(|reply| Command::Watch { job_id, watcher: Box::new(tx), reply }).await?;
         Ok(Response::new(ReceiverStream::new(rx)))
     }
 
     async fn get_job(&self, req: Request<pb::GetJobRequest>) -> Result<Response<pb::GetJobResponse>, Status> {
-        let job_id = req.into_inner().job_id;
-        check_id("job_id", &job_id)?;
+        let job_id = checked_id("job_id", req.into_inner().job_id)?;
         let job = self.ask(|reply| Command::Get { job_id, reply }).await?;
         Ok(Response::new(edge::get_job_response(job)))
     }
 
     async fn cancel_job(&self, req: Request<pb::CancelJobRequest>) -> Result<Response<pb::CancelJobResponse>, Status> {
-        let job_id = req.into_inner().job_id;
-        check_id("job_id", &job_id)?;
+        let job_id = checked_id("job_id", req.into_inner().job_id)?;
         let status = self.ask(|reply| Command::Cancel { job_id, reply }).await?;
         Ok(Response::new(pb::CancelJobResponse { status: edge::status(status) }))
     }
 
     async fn delete_job(&self, req: Request<pb::DeleteJobRequest>) -> Result<Response<pb::DeleteJobResponse>, Status> {
-        let job_id = req.into_inner().job_id;
-        check_id("job_id", &job_id)?;
+        let job_id = checked_id("job_id", req.into_inner().job_id)?;
         self.ask(|reply| Command::Delete { job_id, reply }).await?;
         Ok(Response::new(pb::DeleteJobResponse {}))
     }
@@ -184,8 +186,7 @@ impl pb::worker_pool_server::WorkerPool for Handlers {
     }
 
     async fn heartbeat(&self, req: Request<pb::HeartbeatRequest>) -> Result<Response<pb::HeartbeatResponse>, Status> {
-        let worker_id = req.into_inner().worker_id;
-        check_id("worker_id", &worker_id)?;
+        let worker_id = checked_id("worker_id", req.into_inner().worker_id)?;
         let known = self.ask(|reply| Command::Heartbeat { worker_id, reply }).await?;
         Ok(Response::new(pb::HeartbeatResponse { known }))
     }
@@ -196,8 +197,7 @@ impl pb::worker_pool_server::WorkerPool for Handlers {
         &self,
         req: Request<pb::FetchModelRequest>,
     ) -> Result<Response<Self::FetchModelStream>, Status> {
-        let id = req.into_inner().model_id;
-        check_id("model_id", &id)?;
+        let id = checked_id("model_id", req.into_inner().model_id)?;
         let models = self.models.clone();
         let bytes = tokio::task::spawn_blocking(move || with_models(&models, |m| m.bytes(&id)))
             .await
@@ -214,8 +214,7 @@ impl pb::worker_pool_server::WorkerPool for Handlers {
     }
 
     async fn fetch_job(&self, req: Request<pb::FetchJobRequest>) -> Result<Response<pb::FetchJobResponse>, Status> {
-        let job_id = req.into_inner().job_id;
-        check_id("job_id", &job_id)?;
+        let job_id = checked_id("job_id", req.into_inner().job_id)?;
         let sent = self.ask(|reply| Command::FetchJob { job_id: job_id.clone(), reply }).await?;
         Ok(Response::new(edge::fetch_job_response(&job_id, &sent)?))
     }

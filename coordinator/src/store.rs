@@ -474,6 +474,16 @@ mod tests {
         json.to_string()
     }
 
+    /// A store on a fresh disk holding the running jobs `(id, seq)`.
+    fn store_with_running<S: AsRef<str>>(jobs: impl IntoIterator<Item = (S, u64)>) -> (FillableDisk, Arc<Store>) {
+        let disk = FillableDisk::default();
+        let store = Arc::new(store_on(&disk));
+        for (id, seq) in jobs {
+            store.insert_job(id.as_ref(), b"spec", seq, &state(seq, JobStatus::Running, None)).unwrap();
+        }
+        (disk, store)
+    }
+
     fn told(job: &str, point: u64) -> Told {
         Told { job: job.into(), point, x: vec![1.0], evaluation: Evaluation::failed("x") }
     }
@@ -498,9 +508,7 @@ mod tests {
     /// without a restart.
     #[test]
     fn a_full_disk_is_reported_and_the_store_recovers_once_it_has_room() {
-        let disk = FillableDisk::default();
-        let store = Arc::new(store_on(&disk));
-        store.insert_job("job-0", b"spec", 0, &state(0, JobStatus::Running, None)).unwrap();
+        let (disk, store) = store_with_running([("job-0", 0)]);
         let writer = Writer::spawn(store.clone());
         disk.set_full(true);
         writer.send(Write::State { id: "job-0".into(), json: state(0, JobStatus::Succeeded, None) });
@@ -537,9 +545,7 @@ mod tests {
     /// back, and its sequence number stays taken.
     #[test]
     fn a_deleted_job_is_gone_with_its_log_and_its_number_stays_taken() {
-        let disk = FillableDisk::default();
-        let store = Arc::new(store_on(&disk));
-        store.insert_job("job-7", b"spec", 7, &state(7, JobStatus::Running, None)).unwrap();
+        let (_disk, store) = store_with_running([("job-7", 7)]);
         let writer = Writer::spawn(store.clone());
         writer.send(Write::Log(vec![told("job-7", 0)]));
         writer.send(Write::Delete { id: "job-7".into() });
@@ -556,11 +562,7 @@ mod tests {
     /// too, until the next state; an ended job keeps none.
     #[test]
     fn a_saved_state_removes_the_journal_before_it_and_only_its_jobs() {
-        let disk = FillableDisk::default();
-        let store = Arc::new(store_on(&disk));
-        for (id, seq) in [("job-1", 1), ("job-2", 2)] {
-            store.insert_job(id, b"spec", seq, &state(seq, JobStatus::Running, None)).unwrap();
-        }
+        let (_disk, store) = store_with_running([("job-1", 1), ("job-2", 2)]);
         let points = |id: &str| store.evaluations(id).unwrap().into_iter().map(|l| l.point).collect::<Vec<_>>();
         let writer = Writer::spawn(store.clone());
         let logged = |id: &str, from: u64| (from..from + 3).map(|p| told(id, p)).collect::<Vec<_>>();
@@ -586,11 +588,7 @@ mod tests {
     /// of `per_block` (as the scheduler flushes a job's points every tick and at batch ends).
     fn journal_bytes_per_point(jobs: u64, dims: usize, per_block: u64, blocks_per_job: u64) -> f64 {
         use redb::ReadableTableMetadata;
-        let disk = FillableDisk::default();
-        let store = Arc::new(store_on(&disk));
-        for seq in 0..jobs {
-            store.insert_job(&format!("job-{seq:06}"), b"spec", seq, &state(seq, JobStatus::Running, None)).unwrap();
-        }
+        let (_disk, store) = store_with_running((0..jobs).map(|seq| (format!("job-{seq:06}"), seq)));
         let writer = Writer::spawn(store.clone());
         let x: Vec<f64> = (0..dims).map(|i| 0.1 + i as f64 / 3.0).collect();
         for b in 0..blocks_per_job {

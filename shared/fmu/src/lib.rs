@@ -256,81 +256,59 @@ simple!(fmi2Reset, reset);
 simple!(fmi2EnterEventMode, enter_event_mode);
 simple!(fmi2EnterContinuousTimeMode, enter_continuous_time_mode);
 
-macro_rules! getter {
-    ($name:ident, $ty:ty, $method:ident) => {
+/// `$name(c, vr, n, value)`: `$body` on the component, the `n` value references `$vrs` and
+/// the `n` values `$values` at `value`, which `$slice` borrows (`slice_mut` for a getter,
+/// which writes them, `slice` for a setter); given a `$method` instead, the model's method.
+macro_rules! accessor {
+    ($name:ident, $value:ty, $slice:ident, $method:ident) => {
+        accessor!($name, $value, $slice, |comp, vrs, values| comp.model.$method(vrs, values).map(|_| OK));
+    };
+    ($(#[$doc:meta])* $name:ident, $value:ty, $slice:ident, |$comp:ident, $vrs:ident, $values:ident| $body:expr) => {
         /// # Safety
         /// FMI 2.0's contract: `vr` and `value` hold `n` elements.
+        $(#[$doc])*
         #[unsafe(no_mangle)]
-        pub unsafe extern "C" fn $name(c: *mut c_void, vr: *const c_uint, n: usize, value: *mut $ty) -> Status {
+        pub unsafe extern "C" fn $name(c: *mut c_void, vr: *const c_uint, n: usize, value: $value) -> Status {
             // SAFETY: as the function's contract says.
-            let (vrs, out) = unsafe { (slice(vr, n), slice_mut(value, n)) };
-            with(c, stringify!($name), |comp| comp.model.$method(vrs, out).map(|_| OK))
+            let ($vrs, $values) = unsafe { (slice(vr, n), $slice(value, n)) };
+            with(c, stringify!($name), |$comp| $body)
         }
     };
 }
 
-macro_rules! setter {
-    ($name:ident, $ty:ty, $method:ident) => {
-        /// # Safety
-        /// FMI 2.0's contract: `vr` and `value` hold `n` elements.
-        #[unsafe(no_mangle)]
-        pub unsafe extern "C" fn $name(c: *mut c_void, vr: *const c_uint, n: usize, value: *const $ty) -> Status {
-            // SAFETY: as the function's contract says.
-            let (vrs, values) = unsafe { (slice(vr, n), slice(value, n)) };
-            with(c, stringify!($name), |comp| comp.model.$method(vrs, values).map(|_| OK))
-        }
-    };
-}
+accessor!(fmi2GetReal, *mut f64, slice_mut, get_real);
+accessor!(fmi2GetInteger, *mut c_int, slice_mut, get_integer);
+accessor!(fmi2GetBoolean, *mut c_int, slice_mut, get_boolean);
+accessor!(fmi2SetReal, *const f64, slice, set_real);
+accessor!(fmi2SetInteger, *const c_int, slice, set_integer);
+accessor!(fmi2SetBoolean, *const c_int, slice, set_boolean);
 
-getter!(fmi2GetReal, f64, get_real);
-getter!(fmi2GetInteger, c_int, get_integer);
-getter!(fmi2GetBoolean, c_int, get_boolean);
-setter!(fmi2SetReal, f64, set_real);
-setter!(fmi2SetInteger, c_int, set_integer);
-setter!(fmi2SetBoolean, c_int, set_boolean);
+accessor!(fmi2GetString, *mut *const c_char, slice_mut, |comp, vrs, out| {
+    comp.strings =
+        vrs.iter().map(|&v| CString::new(comp.model.get_string(v).replace('\0', "")).unwrap_or_default()).collect();
+    for (slot, s) in out.iter_mut().zip(&comp.strings) {
+        *slot = s.as_ptr();
+    }
+    Ok(OK)
+});
 
-/// # Safety
-/// FMI 2.0's contract: `vr` and `value` hold `n` elements.
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fmi2GetString(
-    c: *mut c_void,
-    vr: *const c_uint,
-    n: usize,
-    value: *mut *const c_char,
-) -> Status {
-    // SAFETY: as the function's contract says.
-    let (vrs, out) = unsafe { (slice(vr, n), slice_mut(value, n)) };
-    with(c, "fmi2GetString", |comp| {
-        comp.strings =
-            vrs.iter().map(|&v| CString::new(comp.model.get_string(v).replace('\0', "")).unwrap_or_default()).collect();
-        for (slot, s) in out.iter_mut().zip(&comp.strings) {
-            *slot = s.as_ptr();
-        }
-        Ok(OK)
-    })
-}
-
-/// # Safety
-/// FMI 2.0's contract: `vr` and `value` hold `n` elements, each a NUL-terminated string.
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn fmi2SetString(
-    c: *mut c_void,
-    vr: *const c_uint,
-    n: usize,
-    value: *const *const c_char,
-) -> Status {
-    // SAFETY: as the function's contract says.
-    let (vrs, ptrs) = unsafe { (slice(vr, n), slice(value, n)) };
-    let texts: Vec<String> = ptrs
-        .iter()
-        // SAFETY: each element is a NUL-terminated string or null.
-        .map(|&p| if p.is_null() { String::new() } else { unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned() })
-        .collect();
-    with(c, "fmi2SetString", |comp| {
+accessor!(
+    /// Each value is a NUL-terminated string.
+    fmi2SetString,
+    *const *const c_char,
+    slice,
+    |comp, vrs, ptrs| {
+        let texts: Vec<String> = ptrs
+            .iter()
+            // SAFETY: each element is a NUL-terminated string or null.
+            .map(|&p| {
+                if p.is_null() { String::new() } else { unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned() }
+            })
+            .collect();
         let refs: Vec<&str> = texts.iter().map(String::as_str).collect();
         comp.model.set_string(vrs, &refs).map(|_| OK)
-    })
-}
+    }
+);
 
 macro_rules! unsupported {
     ($name:ident, $($arg:ident: $ty:ty),*) => {

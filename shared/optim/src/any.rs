@@ -18,27 +18,27 @@ pub enum AnyOptimizer {
     CmaEs(super::CmaEs),
 }
 
+/// `$body` with `$o` bound to the optimizer `$any` holds, whichever it is.
+macro_rules! each {
+    ($any:expr, $o:ident => $body:expr) => {
+        match $any {
+            AnyOptimizer::NelderMead($o) => $body,
+            AnyOptimizer::DifferentialEvolution($o) => $body,
+            AnyOptimizer::Genetic($o) => $body,
+            AnyOptimizer::LeastSquares($o) => $body,
+            AnyOptimizer::Points($o) => $body,
+            AnyOptimizer::CmaEs($o) => $body,
+        }
+    };
+}
+
 impl AnyOptimizer {
     fn inner(&self) -> &dyn Optimizer {
-        match self {
-            AnyOptimizer::NelderMead(o) => o,
-            AnyOptimizer::DifferentialEvolution(o) => o,
-            AnyOptimizer::Genetic(o) => o,
-            AnyOptimizer::LeastSquares(o) => o,
-            AnyOptimizer::Points(o) => o,
-            AnyOptimizer::CmaEs(o) => o,
-        }
+        each!(self, o => o)
     }
 
     fn inner_mut(&mut self) -> &mut dyn Optimizer {
-        match self {
-            AnyOptimizer::NelderMead(o) => o,
-            AnyOptimizer::DifferentialEvolution(o) => o,
-            AnyOptimizer::Genetic(o) => o,
-            AnyOptimizer::LeastSquares(o) => o,
-            AnyOptimizer::Points(o) => o,
-            AnyOptimizer::CmaEs(o) => o,
-        }
+        each!(self, o => o)
     }
 }
 

@@ -195,8 +195,7 @@ mod tests {
     #[test]
     fn bad_settings_name_the_field() {
         let check = |s: DeSettings, lower: f64, field: &str| {
-            let e = DifferentialEvolution::new(&[lower, 0.0], &[1.0, 1.0], None, s).unwrap_err();
-            assert!(matches!(&e, OptimError::Setting { field: f, .. } if *f == field), "{e}");
+            tp::assert_names_setting(DifferentialEvolution::new(&[lower, 0.0], &[1.0, 1.0], None, s), field)
         };
         check(DeSettings { weight: 2.5, ..DeSettings::new(2) }, 0.0, "weight");
         check(DeSettings { crossover: -0.1, ..DeSettings::new(2) }, 0.0, "crossover");

@@ -254,8 +254,7 @@ mod tests {
     #[test]
     fn bad_settings_name_the_field() {
         let check = |s: GaSettings, field: &str| {
-            let e = GeneticAlgorithm::new(&[0.0], &[1.0], None, s).unwrap_err();
-            assert!(matches!(&e, OptimError::Setting { field: f, .. } if *f == field), "{e}");
+            tp::assert_names_setting(GeneticAlgorithm::new(&[0.0], &[1.0], None, s), field)
         };
         check(GaSettings { bits: 0, ..GaSettings::new(1) }, "bits");
         check(GaSettings { crossover_rate: 1.5, ..GaSettings::new(1) }, "crossover_rate");

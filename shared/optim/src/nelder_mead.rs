@@ -25,7 +25,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::fitness::Fitness;
-use super::run::{BatchOptimizer, RunState, Step};
+use super::run::{BatchOptimizer, RunState, Step, local_space};
 use super::space::Space;
 use super::{OptimError, Stopping, Termination};
 
@@ -101,14 +101,8 @@ impl NelderMead {
     /// [`OptimError::Setting`] naming the bad field: bounds, `x0`, `nominal`, `initial_step` or a
     /// stopping rule.
     pub fn new(lower: &[f64], upper: &[f64], x0: &[f64], settings: NmSettings) -> Result<Self, OptimError> {
-        let space = Space::new(lower, upper, Some(x0), settings.nominal.as_deref())?;
-        settings.stopping.validate()?;
-        if !(settings.initial_step > 0.0 && settings.initial_step.is_finite()) {
-            return Err(OptimError::setting(
-                "initial_step",
-                format!("must be positive, got {}", settings.initial_step),
-            ));
-        }
+        let step = ("initial_step", settings.initial_step);
+        let space = local_space(lower, upper, x0, settings.nominal.as_deref(), &settings.stopping, step)?;
         if let Some(i) = (0..space.dim()).find(|&i| lower[i] == upper[i]) {
             return Err(OptimError::setting(
                 "upper",
@@ -458,14 +452,11 @@ mod tests {
     fn bad_settings_name_the_field() {
         let mut s = NmSettings::new(2);
         s.stopping.x_tol = Some(0.0);
-        let e = NelderMead::new(&[0.0, 0.0], &[1.0, 1.0], &[0.5, 0.5], s).unwrap_err();
-        assert!(matches!(e, OptimError::Setting { field: "x_tol", .. }), "{e}");
+        tp::assert_names_setting(NelderMead::new(&[0.0, 0.0], &[1.0, 1.0], &[0.5, 0.5], s), "x_tol");
         let mut s = NmSettings::new(2);
         s.initial_step = -1.0;
-        let e = NelderMead::new(&[0.0, 0.0], &[1.0, 1.0], &[0.5, 0.5], s).unwrap_err();
-        assert!(matches!(e, OptimError::Setting { field: "initial_step", .. }), "{e}");
-        let e = NelderMead::new(&[0.0, 0.0], &[1.0, 1.0], &[0.5, 1.5], NmSettings::new(2)).unwrap_err();
-        assert!(matches!(e, OptimError::Setting { field: "x0", .. }), "{e}");
+        tp::assert_names_setting(NelderMead::new(&[0.0, 0.0], &[1.0, 1.0], &[0.5, 0.5], s), "initial_step");
+        tp::assert_names_setting(NelderMead::new(&[0.0, 0.0], &[1.0, 1.0], &[0.5, 1.5], NmSettings::new(2)), "x0");
     }
 
     #[test]

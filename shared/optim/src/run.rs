@@ -19,7 +19,8 @@
 //!   field).
 //!
 //! The pieces only DE and GA share (the generational [`PopulationPhase`] and
-//! [`population_space`]) live here too.
+//! [`population_space`]) live here too, and [`local_space`], which Nelder–Mead and least
+//! squares share.
 
 use serde::{Deserialize, Serialize};
 
@@ -212,6 +213,28 @@ pub(crate) fn population_space(
     }
     if population < 4 {
         return Err(OptimError::setting("population", format!("must be at least 4, got {population}")));
+    }
+    Ok(space)
+}
+
+/// The space of a local search from `x0` (Nelder–Mead, least squares), after checking the
+/// stopping rules and that the first step (`step`: its field and value) is positive.
+///
+/// # Errors
+/// [`OptimError::Setting`] naming the bounds, `x0`, `nominal`, a stopping rule or the step's
+/// field.
+pub(crate) fn local_space(
+    lower: &[f64],
+    upper: &[f64],
+    x0: &[f64],
+    nominal: Option<&[f64]>,
+    stopping: &Stopping,
+    (field, step): (&'static str, f64),
+) -> Result<Space, OptimError> {
+    let space = Space::new(lower, upper, Some(x0), nominal)?;
+    stopping.validate()?;
+    if !(step > 0.0 && step.is_finite()) {
+        return Err(OptimError::setting(field, format!("must be positive, got {step}")));
     }
     Ok(space)
 }

@@ -140,6 +140,13 @@ pub const MGH: &[Problem] = &[
     },
 ];
 
+/// Asserts that `result` is an [`OptimError::Setting`](super::OptimError::Setting) naming `field`.
+#[cfg(test)]
+pub(crate) fn assert_names_setting<T: std::fmt::Debug>(result: Result<T, super::OptimError>, field: &str) {
+    let e = result.unwrap_err();
+    assert!(matches!(&e, super::OptimError::Setting { field: f, .. } if *f == field), "{e}");
+}
+
 /// Drives an optimizer on a plain function until it stops or `max_rounds` batches were asked.
 /// Returns the number of rounds. Used by tests and benchmarks.
 pub fn run(opt: &mut dyn super::Optimizer, f: &dyn Fn(&[f64]) -> super::Outcome, max_rounds: u64) -> u64 {

@@ -169,8 +169,7 @@ fn fixed_parameters_keep_their_value() {
 #[test]
 fn bad_settings_name_the_field() {
     let check = |s: CmaSettings, lower: f64, field: &str| {
-        let e = CmaEs::new(&[lower, 0.0], &[1.0, 1.0], None, s).unwrap_err();
-        assert!(matches!(&e, OptimError::Setting { field: f, .. } if *f == field), "{e}");
+        tp::assert_names_setting(CmaEs::new(&[lower, 0.0], &[1.0, 1.0], None, s), field)
     };
     check(CmaSettings { population: 3, ..CmaSettings::new(2) }, 0.0, "population");
     check(CmaSettings { sigma0: 0.0, ..CmaSettings::new(2) }, 0.0, "sigma0");

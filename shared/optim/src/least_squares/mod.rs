@@ -77,6 +77,7 @@ use self::batch::{LsBatch, Told};
 use self::model::InterpolationSet;
 #[cfg(test)]
 use super::AnyOptimizer;
+use super::run::local_space;
 use super::space::Space;
 use super::{Candidate, CandidateId, OptimError, Optimizer, Outcome, Status, Stopping, Termination};
 
@@ -188,14 +189,8 @@ impl LeastSquares {
     /// [`OptimError::Setting`] naming the bad field: bounds, `x0`, `nominal`, `initial_radius`,
     /// `max_slow_iterations` or a stopping rule.
     pub fn new(lower: &[f64], upper: &[f64], x0: &[f64], settings: LsSettings) -> Result<Self, OptimError> {
-        let space = Space::new(lower, upper, Some(x0), settings.nominal.as_deref())?;
-        settings.stopping.validate()?;
-        if !(settings.initial_radius > 0.0 && settings.initial_radius.is_finite()) {
-            return Err(OptimError::setting(
-                "initial_radius",
-                format!("must be positive, got {}", settings.initial_radius),
-            ));
-        }
+        let radius = ("initial_radius", settings.initial_radius);
+        let space = local_space(lower, upper, x0, settings.nominal.as_deref(), &settings.stopping, radius)?;
         if settings.min_predicted_gain.is_some_and(|g| !(g >= 0.0 && g.is_finite())) {
             return Err(OptimError::setting("f_tol", "must be finite and not negative"));
         }
