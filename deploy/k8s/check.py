@@ -481,7 +481,9 @@ def check_autoscaler(docs, by_role, worker_flags, adapter, metrics_source):
     workers = {(d.get("kind"), d["metadata"]["name"]) for _, d, _, _ in by_role.get("worker", [])}
     try:
         with open(metrics_source, encoding="utf-8") as f:
-            exported = set(re.findall(r'register\(\s*"(\w+)"', f.read()))
+            # A name the coordinator registers: the first argument of `register(` or the first
+            # element of a (name, help, metric) row of a table it registers from.
+            exported = set(re.findall(r'(?:register\(|\()\s*"(fmucal_\w+)"\s*,', f.read()))
     except OSError as e:
         error(metrics_source, f"cannot read: {e}")
         exported = set()

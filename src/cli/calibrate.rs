@@ -310,7 +310,7 @@ pub fn run(args: Args) -> Result<()> {
     let x_opt = result.x_opt_in(&prepared.parameter_names);
     let mut fits = vec![];
     for (k, table) in data.iter().enumerate() {
-        fits.push(report::compare(&fmu, &prepared, k, table, &x_opt)?);
+        fits.push(report::compare(&fmu, &prepared, k, table, &x_opt, report::Models::StartAndOptimized)?);
     }
     step(t0, "start and optimum compared with the data");
     // What `fmucal plot` needs to label a redrawn plot: the order and bounds of each history

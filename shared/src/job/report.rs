@@ -206,11 +206,22 @@ pub fn unit_of(md: &ModelDescription, name: &str) -> Option<String> {
     md.unit_of(v).or_else(|| md.unit_of(md.base_of(v))).map(str::to_owned)
 }
 
+/// Which models [`compare`] simulates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Models {
+    /// The optimized model and the start model.
+    StartAndOptimized,
+    /// The optimized model only (the start model's cells empty, its RMS NaN): one simulation,
+    /// for callers that judge only the optimized model.
+    Optimized,
+}
+
 /// The fit table and error report of experiment `experiment` of `job` calibrated to `x_opt`
-/// (in parameter order; `data` is the experiment's table): the optimized model at `x_opt` and
-/// the start model (at the job's start values), both simulated up to the experiment's validation stop
-/// time if it has one. The start model leaves the parameters an earlier stage fixed at the
-/// model's own values. A failed simulation leaves its cells empty.
+/// (in parameter order; `data` is the experiment's table): the optimized model at `x_opt` and,
+/// with [`Models::StartAndOptimized`], the start model (at the job's start values), both
+/// simulated up to the experiment's validation stop time if it has one. The start model leaves
+/// the parameters an earlier stage fixed at the model's own values. A failed simulation leaves
+/// its cells empty.
 ///
 /// # Errors
 /// [`JobError`] if the experiment does not extend to the validation window or the FMU cannot be
@@ -221,32 +232,7 @@ pub fn compare(
     experiment: usize,
     data: &MeasurementTable,
     x_opt: &[f64],
-) -> Result<(FitTable, ErrorReport), JobError> {
-    compare_with(fmu, job, experiment, data, x_opt, true)
-}
-
-/// As [`compare`] without the start model (its cells empty, its RMS NaN): one simulation,
-/// for callers that judge only the optimized model.
-///
-/// # Errors
-/// As [`compare`].
-pub fn optimized_fit(
-    fmu: &Fmu,
-    job: &Arc<PreparedJob>,
-    experiment: usize,
-    data: &MeasurementTable,
-    x_opt: &[f64],
-) -> Result<(FitTable, ErrorReport), JobError> {
-    compare_with(fmu, job, experiment, data, x_opt, false)
-}
-
-fn compare_with(
-    fmu: &Fmu,
-    job: &Arc<PreparedJob>,
-    experiment: usize,
-    data: &MeasurementTable,
-    x_opt: &[f64],
-    with_nominal: bool,
+    models: Models,
 ) -> Result<(FitTable, ErrorReport), JobError> {
     let e = job
         .experiments
@@ -266,7 +252,7 @@ fn compare_with(
     let mut ev = Evaluator::new(fmu, reported.clone())?;
     let optimized = ev.simulate(x_opt, experiment).ok();
     let fixed = &e.spec.simulation.fixed_from_earlier_stage;
-    let nominal = if !with_nominal {
+    let nominal = if models == Models::Optimized {
         None
     } else if fixed.is_empty() {
         ev.simulate(&x0, experiment).ok()

@@ -40,7 +40,7 @@ impl Look {
 
 /// The fit of `job` at `x` (its parameter order).
 pub fn look(ctx: &Context, job: &Arc<PreparedJob>, x: &[f64]) -> Result<Look, Error> {
-    let (fit, errors) = report::optimized_fit(&ctx.fmu, job, 0, &ctx.data, x)?;
+    let (fit, errors) = report::compare(&ctx.fmu, job, 0, &ctx.data, x, report::Models::Optimized)?;
     let stop = ctx.windows.calibration_stop;
     let rows = fit.time.partition_point(|t| *t <= stop);
     let time = fit.time[..rows].to_vec();
