@@ -102,9 +102,6 @@ pub(super) fn model_path(spec: &JobSpec) -> Result<PathBuf> {
     Ok(p.clone())
 }
 
-/// Logs (at debug level, with the log's timestamp) that a step of the run has ended, and the
-/// milliseconds since the command started: `FMUCAL_LOG=fmucal=debug` shows where a run's time
-/// goes.
 /// The first-order move of the estimates at `result`'s optimum when `job`'s tolerance tightens
 /// to `tight`'s ([`tolerance::LinearisedMove`]), with the standard errors at the tighter
 /// tolerance that come with it. Two batches on the workers: the difference points at the
@@ -137,6 +134,9 @@ async fn first_order_move(
     Ok((moved, identifiability::from_residuals(names, &plan, &fine)?))
 }
 
+/// Logs (at debug level, with the log's timestamp) that a step of the run has ended, and the
+/// milliseconds since the command started: `FMUCAL_LOG=fmucal=debug` shows where a run's time
+/// goes.
 fn step(since: std::time::Instant, step: &str) {
     tracing::debug!(step, ms = format_args!("{:.1}", since.elapsed().as_secs_f64() * 1e3), "calibrate");
 }

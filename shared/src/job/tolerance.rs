@@ -146,17 +146,17 @@ impl LinearisedMove {
         x_tol: Option<f64>,
     ) -> LinearisedMove {
         let shifts: Vec<f64> = step.iter().zip(standard_errors).map(|(d, se)| d.abs() / se).collect();
+        // The move as a fraction of the range the optimizer scales by; infinite (so x_tol
+        // cannot excuse it) where the range is not a finite positive width.
         let scaled = |i: usize| {
-            if log[i] {
+            let (moved, range) = if log[i] {
                 let moved = x[i] + step[i];
-                if x[i] > 0.0 && moved > 0.0 {
-                    (moved / x[i]).ln().abs() / (upper[i] / lower[i]).ln()
-                } else {
-                    f64::INFINITY
-                }
+                let ratio = if x[i] > 0.0 && moved > 0.0 { moved / x[i] } else { f64::INFINITY };
+                (ratio.ln().abs(), (upper[i] / lower[i]).ln())
             } else {
-                step[i].abs() / (upper[i] - lower[i])
-            }
+                (step[i].abs(), upper[i] - lower[i])
+            };
+            if range.is_finite() && range > 0.0 { moved / range } else { f64::INFINITY }
         };
         // NaN (a zero standard error or range) counts as needing a refit.
         let refit_needed =
@@ -441,6 +441,10 @@ mod tests {
         assert!(!moved([1e-6, -3e-2], [1e-5, 1.0], Some(1e-6)).refit_needed);
         // A zero standard error cannot say the move is small.
         assert!(moved([1e-6, -3e-2], [1e-5, 0.0], None).refit_needed);
+        // Unbounded, the range cannot scale the move: x_tol does not excuse it.
+        let open = (&[0.0, f64::NEG_INFINITY][..], &[1.0, f64::INFINITY][..], &[false, false][..]);
+        let m = LinearisedMove::new(1e-8, &names, &[0.5, 5.0], &[1e-6, -3e-4], &[1e-5, 1e-4], open, Some(1e-3));
+        assert!(m.refit_needed, "{m:?}");
         // With scale = "log", x_tol is a fraction of the logarithm's range: ln(1.01) of
         // ln(1000) is 1.4e-3.
         let log = (&[0.01, 0.01][..], &[10.0, 10.0][..], &[true, true][..]);
