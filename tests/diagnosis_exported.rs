@@ -472,11 +472,15 @@ fn full_grid() {
             Kind::Outside => d.conclusion == Conclusion::MissesSomething && got.is_none(),
         };
         let family = right && kind == Kind::Effect && got.is_some() && got.as_deref() != Some(expected[0]);
-        // The true effect among those the data support as well as the one named.
+        // The true effect among those the data support as well as the one named, or among the
+        // candidates at different places that tie, so that none is named.
         let tied = !right
             && kind == Kind::Effect
             && d.rounds.first().is_some_and(|r| {
-                r.equally_supported.iter().any(|i| expected.contains(&r.candidates[*i].description.as_str()))
+                r.equally_supported
+                    .iter()
+                    .chain(&r.elsewhere())
+                    .any(|i| expected.contains(&r.candidates[*i].description.as_str()))
             });
         if loud {
             loud_total += 1;

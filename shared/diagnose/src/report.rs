@@ -128,6 +128,16 @@ pub struct Round {
     pub equally_supported: Vec<usize>,
 }
 
+impl Round {
+    /// The accepted candidates equally supported at different places ([`elsewhere`]): the best
+    /// first, then the others within ΔIC 2 of it; empty when the data say where.
+    pub fn elsewhere(&self) -> Vec<usize> {
+        let verdicts: Vec<Option<Verdict>> =
+            self.candidates.iter().map(|c| c.fit.as_ref().and_then(|f| f.verdict.clone())).collect();
+        elsewhere(&verdicts)
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RankedCandidate {
     pub description: String,
@@ -236,10 +246,7 @@ impl Diagnosis {
         if self.named.is_empty() {
             let first = self.rounds.first();
             let fitted = first.is_some_and(|r| r.candidates.iter().any(|c| c.fit.is_some()));
-            let verdicts: Vec<Option<Verdict>> = first
-                .map(|r| r.candidates.iter().map(|c| c.fit.as_ref().and_then(|f| f.verdict.clone())).collect())
-                .unwrap_or_default();
-            let apart = elsewhere(&verdicts);
+            let apart = first.map(Round::elsewhere).unwrap_or_default();
             let why = if !apart.is_empty() {
                 let round = first.expect("verdicts come from the first round");
                 let names: Vec<&str> = apart.iter().map(|k| round.candidates[*k].description.as_str()).collect();
