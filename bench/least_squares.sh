@@ -11,10 +11,9 @@ out="$(mktemp -d)"
 cargo bench --locked --bench least_squares -- --json "$out/fmucal.json" 2>/dev/null
 "$py" bench/least_squares_dfols.py "$out/fmucal.json" > "$out/dfols.json"
 "$py" - "$out" <<'PY'
-import json, os, sys
-d = sys.argv[1]
-ours = json.load(open(os.path.join(d, "fmucal.json")))
-theirs = {r["problem"]: r for r in json.load(open(os.path.join(d, "dfols.json")))}
+import sys
+from bench.rows import ours_and_theirs
+ours, theirs = ours_and_theirs(sys.argv[1], "dfols.json")
 fmt = lambda v: "-" if v is None else str(v)
 pct = lambda a, b: "-" if a is None or b is None else f"{100 * a / b:.0f} %"
 print(f"Threshold: f <= f* + tau (f(x0) - f*), tau = {ours[0]['tau']:g}; '-' = not reached "

@@ -9,10 +9,9 @@ out="$(mktemp -d)"
 cargo bench --bench optim -- --json "$out/fmucal.json" 2>/dev/null
 "$py" bench/optim_scipy.py "$out/fmucal.json" > "$out/scipy.json"
 "$py" - "$out" <<'PY'
-import json, os, sys
-d = sys.argv[1]
-ours = json.load(open(os.path.join(d, "fmucal.json")))
-theirs = {r["problem"]: r for r in json.load(open(os.path.join(d, "scipy.json")))}
+import sys
+from bench.rows import ours_and_theirs
+ours, theirs = ours_and_theirs(sys.argv[1], "scipy.json")
 fmt = lambda v: "not reached" if v is None else str(v)
 print("| problem | n | SciPy NM evals | fmucal sequential NM evals | fmucal parallel NM rounds | rounds / sequential evals | SciPy DE best | fmucal DE best | DE evals each |")
 print("|---|---|---|---|---|---|---|---|---|")

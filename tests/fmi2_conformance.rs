@@ -22,8 +22,16 @@ use std::path::Path;
 use std::process::Command;
 use std::sync::{Arc, Mutex};
 
-use fmucal_shared::fmu::Interface;
+use fmucal_shared::fmu::{Fmu, Interface};
 use fmucal_shared::sim::{InputTable, OutputTimes, SimSpec, Simulator, Solver, simulate};
+
+/// The FMU at `path`, unpacked into a temporary folder that lasts as long as the returned
+/// handle.
+fn unpacked(path: &Path) -> (tempfile::TempDir, Fmu) {
+    let tmp = tempfile::tempdir().unwrap();
+    let fmu = common::load(path, tmp.path());
+    (tmp, fmu)
+}
 
 fn spec(interface: Interface, stop: f64, dt: f64) -> SimSpec {
     SimSpec {
@@ -37,8 +45,7 @@ fn spec(interface: Interface, stop: f64, dt: f64) -> SimSpec {
 
 #[test]
 fn derivative_attributes_outside_model_structure_load_and_simulate_as_the_plain_model() {
-    let tmp = tempfile::tempdir().unwrap();
-    let tooly = common::load(&fmucal_models::Fixture::DerivativeAttributes.path(), tmp.path());
+    let (tmp, tooly) = unpacked(&fmucal_models::Fixture::DerivativeAttributes.path());
     let states: Vec<&str> = tooly.description.states().iter().map(|(s, _)| s.name.as_str()).collect();
     assert_eq!(states, ["h", "v"]);
     let plain = common::load_example("bouncing-ball", tmp.path());
@@ -57,8 +64,7 @@ fn pulse() -> InputTable {
 
 #[test]
 fn stick_slip_breaks_away_when_the_input_force_exceeds_stiction() {
-    let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::Fixture::StickSlip.path(), tmp.path());
+    let (_tmp, fmu) = unpacked(&fmucal_models::Fixture::StickSlip.path());
     let run = simulate(&fmu, &SimSpec { inputs: Some(pulse()), ..spec(Interface::ModelExchange, 20.0, 0.01) }).unwrap();
     // The body at x = 0 sticks until F = 6.5 (t − 8) reaches Fs = 1.
     let breakaway = 8.0 + 1.0 / 6.5;
@@ -71,8 +77,7 @@ fn stick_slip_breaks_away_when_the_input_force_exceeds_stiction() {
 
 #[test]
 fn a_model_without_states_finds_the_events_its_input_causes() {
-    let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::Fixture::Threshold.path(), tmp.path());
+    let (_tmp, fmu) = unpacked(&fmucal_models::Fixture::Threshold.path());
     // u rises from 0 to 2 over [1, 1.205] and falls back by 1.41: it crosses 1 at 1.1025 and
     // 1.3075, between output points.
     let u = common::table(vec![0.0, 1.0, 1.205, 1.41, 3.0], vec![("u", vec![0.0, 0.0, 2.0, 0.0, 0.0])]);
@@ -91,8 +96,7 @@ fn a_model_without_states_finds_the_events_its_input_causes() {
 
 #[test]
 fn every_completed_step_is_reported_to_the_fmu() {
-    let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::Fixture::InputKinds.path(), tmp.path());
+    let (_tmp, fmu) = unpacked(&fmucal_models::Fixture::InputKinds.path());
     let s = SimSpec {
         inputs: Some(common::every_kind_of_input()),
         outputs: vec!["completedSteps".into()],
@@ -107,8 +111,7 @@ fn every_completed_step_is_reported_to_the_fmu() {
 
 #[test]
 fn stick_slip_trajectory_matches_a_run_at_a_thousandth_of_the_step() {
-    let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::Fixture::StickSlip.path(), tmp.path());
+    let (_tmp, fmu) = unpacked(&fmucal_models::Fixture::StickSlip.path());
     let base = SimSpec {
         inputs: Some(common::sine_force()),
         outputs: vec!["x".into(), "v".into(), "stuck".into()],
@@ -127,8 +130,7 @@ fn stick_slip_trajectory_matches_a_run_at_a_thousandth_of_the_step() {
 
 #[test]
 fn model_exchange_steps_are_at_most_a_fiftieth_of_the_span_by_default() {
-    let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load_example("decay", tmp.path());
+    let (_tmp, fmu) = unpacked(&common::example("decay"));
     // x' = 0 with an explicit solver: nothing limits the step but the maximum step, so the
     // default needs at least one step per 1/50 of the span, and a maximum step as long as the
     // span needs a handful.
@@ -165,8 +167,7 @@ fn integral_of_inputs(table: &InputTable, t: f64) -> f64 {
 
 #[test]
 fn held_inputs_are_set_in_event_mode_and_integrate_exactly() {
-    let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::Fixture::InputKinds.path(), tmp.path());
+    let (_tmp, fmu) = unpacked(&fmucal_models::Fixture::InputKinds.path());
     let inputs = common::every_kind_of_input();
     let run = simulate(&fmu, &SimSpec { inputs: Some(inputs.clone()), ..spec(Interface::ModelExchange, 4.0, 0.01) })
         .unwrap_or_else(|e| panic!("{e}"));
@@ -185,8 +186,7 @@ fn held_inputs_are_set_in_event_mode_and_integrate_exactly() {
 
 #[test]
 fn max_step_runs_reach_the_stop_time_despite_round_off() {
-    let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load_example("decay", tmp.path());
+    let (tmp, fmu) = unpacked(&common::example("decay"));
     let mut sim = Simulator::new(&fmu, Some(Interface::ModelExchange)).unwrap();
     let mut cs = Simulator::new(&fmu, Some(Interface::CoSimulation)).unwrap();
     for (stop, h) in [(1.0, 0.1), (3.0, 0.3), (10.0, 0.1), (10.0, 0.01)] {
@@ -215,8 +215,7 @@ fn max_step_runs_reach_the_stop_time_despite_round_off() {
 
 #[test]
 fn co_simulation_termination_keeps_the_values_at_the_last_successful_time() {
-    let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load_example("decay", tmp.path());
+    let (_tmp, fmu) = unpacked(&common::example("decay"));
     let s = SimSpec {
         parameters: vec![("terminateTime".into(), "0.555".into())],
         ..spec(Interface::CoSimulation, 1.0, 0.1)
@@ -260,8 +259,7 @@ fn logged(f: impl FnOnce()) -> Vec<String> {
 
 #[test]
 fn model_exchange_gets_no_tolerance_and_co_simulation_does() {
-    let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::Fixture::InputKinds.path(), tmp.path());
+    let (_tmp, fmu) = unpacked(&fmucal_models::Fixture::InputKinds.path());
     let mut seen = vec![];
     let lines = logged(|| {
         for interface in [Interface::ModelExchange, Interface::CoSimulation] {
@@ -275,8 +273,7 @@ fn model_exchange_gets_no_tolerance_and_co_simulation_does() {
 
 #[test]
 fn a_repeated_fmu_message_is_logged_once_per_instance_with_a_count() {
-    let tmp = tempfile::tempdir().unwrap();
-    let fmu = common::load(&fmucal_models::Fixture::InputKinds.path(), tmp.path());
+    let (_tmp, fmu) = unpacked(&fmucal_models::Fixture::InputKinds.path());
     let s = SimSpec {
         parameters: vec![("ucMax".into(), "0.5".into())],
         inputs: Some(common::table(vec![0.0, 1.0], vec![("uc", vec![1.0, 1.0])])),

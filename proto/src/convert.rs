@@ -233,15 +233,7 @@ pub fn optimizer_from(o: pb::OptimizerSpec) -> Result<OptimizerSpec, ConvertErro
 
 /// `options` with the settings every algorithm shares, as `o` carries them in either form.
 fn with_shared_settings(o: &pb::OptimizerSpec, options: AlgorithmOptions) -> OptimizerSpec {
-    OptimizerSpec {
-        x_tol: o.x_tol,
-        f_tol: o.f_tol,
-        max_iters: o.max_iters,
-        max_fevals: o.max_fevals,
-        max_time: o.max_time,
-        seed: o.seed,
-        options,
-    }
+    fmucal_shared::with_shared_optimizer_settings!(OptimizerSpec { options } from o)
 }
 
 fn nelder_mead_from(m: pb::NelderMeadOptions) -> NelderMeadOptions {
@@ -296,16 +288,10 @@ pub fn optimizer_to_proto(o: &OptimizerSpec) -> pb::OptimizerSpec {
         }),
         AlgorithmOptions::LeastSquares(m) => A::LeastSquares(pb::LeastSquaresOptions { initial_step: m.initial_step }),
     };
-    pb::OptimizerSpec {
-        x_tol: o.x_tol,
-        f_tol: o.f_tol,
-        max_iters: o.max_iters,
-        max_fevals: o.max_fevals,
-        seed: o.seed,
-        max_time: o.max_time,
+    fmucal_shared::with_shared_optimizer_settings!(pb::OptimizerSpec {
         algorithm: Some(algorithm),
         ..Default::default()
-    }
+    } from o)
 }
 
 impl From<pb::EffectSpec> for EffectSpec {

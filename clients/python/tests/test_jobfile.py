@@ -35,6 +35,11 @@ def write_job(folder: Path, text: str = JOB, data: str = "time,y\n0,1\n1,2\n") -
     return job
 
 
+def table_added(table: str) -> tuple[str, str]:
+    """The edit of JOB that adds ``table`` (before its ``[data]`` table)."""
+    return "[data]", f"{table}\n[data]"
+
+
 def error_of(folder: Path, text: str, data: str = "time,y\n0,1\n1,2\n") -> JobFileError:
     with pytest.raises(JobFileError) as caught:
         build_request(write_job(folder, text, data))
@@ -47,18 +52,18 @@ def error_of(folder: Path, text: str, data: str = "time,y\n0,1\n1,2\n") -> JobFi
         (("upper = 3", 'upper = "abc"'), "parameters[1].upper", "expected a number, got 'abc' (a string)"),
         (("upper = 3\n", ""), "parameters[1].upper", "missing"),
         (("[data]", "[data]\nbogus = 1"), "data.bogus", "unknown field"),
-        (("[data]", "[optimizer]\nalgorithm = \"simplex\"\n[data]"), "optimizer.algorithm",
+        (table_added("[optimizer]\nalgorithm = \"simplex\""), "optimizer.algorithm",
          '"simplex" is not nelder-mead, differential-evolution, genetic, cma-es or least-squares'),
-        (("[data]", "[optimizer]\nmax_iters = -5\n[data]"), "optimizer.max_iters", "-5 is not a non-negative"),
-        (("[data]", "[optimizer]\nseed = 1.5\n[data]"), "optimizer.seed", "expected a non-negative integer"),
-        (("[data]", "[optimizer]\nmutation_rate = 0.02\n[data]"), "optimizer.mutation_rate",
+        (table_added("[optimizer]\nmax_iters = -5"), "optimizer.max_iters", "-5 is not a non-negative"),
+        (table_added("[optimizer]\nseed = 1.5"), "optimizer.seed", "expected a non-negative integer"),
+        (table_added("[optimizer]\nmutation_rate = 0.02"), "optimizer.mutation_rate",
          "applies to genetic, not nelder-mead (the default algorithm)"),
-        (("[data]", "[optimizer]\nalgorithm = \"least-squares\"\npopulation = 4\n[data]"), "optimizer.population",
+        (table_added("[optimizer]\nalgorithm = \"least-squares\"\npopulation = 4"), "optimizer.population",
          "applies to differential-evolution, genetic or cma-es, not least-squares"),
-        (("[data]", "[optimizer]\nalgorithm = \"genetic\"\nparallel = false\n[data]"), "optimizer.parallel",
+        (table_added("[optimizer]\nalgorithm = \"genetic\"\nparallel = false"), "optimizer.parallel",
          "applies to nelder-mead, not genetic"),
-        (("[data]", "[simulation]\nsolver = \"rk4\"\n[data]"), "simulation.solver", 'unknown solver "rk4"'),
-        (("[data]", "[simulation]\nset = { g = [1, 2] }\n[data]"), "simulation.set.g",
+        (table_added("[simulation]\nsolver = \"rk4\""), "simulation.solver", 'unknown solver "rk4"'),
+        (table_added("[simulation]\nset = { g = [1, 2] }"), "simulation.set.g",
          "expected a number, true/false or a string"),
         (('path = "m.fmu"', 'path = "m.fmu"\ninterface = "ME"'), "model.interface", '"ME" is not me or cs'),
         (("name = \"k\"", "name = \"k\"\nscale = \"ln\""), "parameters[0].scale", '"ln" is not linear or log'),

@@ -43,6 +43,27 @@ pub struct OptimizerSpec {
     pub options: AlgorithmOptions,
 }
 
+/// `$form { x_tol: from.x_tol, ..., seed: from.seed, $($rest)* }`: a form of the optimizer
+/// settings ([`OptimizerSpec`](crate::job::options::OptimizerSpec), the TOML table, the
+/// protocol's message) with the settings every algorithm shares copied from `$from`, another
+/// form, and its other fields as `$rest` gives them. Every conversion between the forms lists
+/// the shared settings here, once.
+#[macro_export]
+macro_rules! with_shared_optimizer_settings {
+    ($form:path { $($rest:tt)* } from $from:expr) => {{
+        let from = &$from;
+        $form {
+            x_tol: from.x_tol,
+            f_tol: from.f_tol,
+            max_iters: from.max_iters,
+            max_fevals: from.max_fevals,
+            max_time: from.max_time,
+            seed: from.seed,
+            $($rest)*
+        }
+    }};
+}
+
 /// The algorithm of a job with its own options; unset options take the optimizer's defaults
 /// ([`super::optimizer::build`]).
 #[derive(Debug, Clone, PartialEq)]
@@ -412,30 +433,17 @@ impl TryFrom<OptimizerTable> for OptimizerSpec {
             mutation_rate: t.mutation_rate,
             elitism: t.elitism,
         };
-        Ok(OptimizerSpec {
-            x_tol: t.x_tol,
-            f_tol: t.f_tol,
-            max_iters: t.max_iters,
-            max_fevals: t.max_fevals,
-            max_time: t.max_time,
-            seed: t.seed,
-            options: AlgorithmOptions::from_flat(t.algorithm, flat)?,
-        })
+        let options = AlgorithmOptions::from_flat(t.algorithm, flat)?;
+        Ok(with_shared_optimizer_settings!(OptimizerSpec { options } from t))
     }
 }
 
 impl From<OptimizerSpec> for OptimizerTable {
     fn from(o: OptimizerSpec) -> Self {
         let f = o.options.to_flat();
-        OptimizerTable {
+        with_shared_optimizer_settings!(OptimizerTable {
             algorithm: o.options.named_algorithm(),
             parallel: f.parallel,
-            x_tol: o.x_tol,
-            f_tol: o.f_tol,
-            max_iters: o.max_iters,
-            max_fevals: o.max_fevals,
-            max_time: o.max_time,
-            seed: o.seed,
             initial_step: f.initial_step,
             population: f.population,
             restarts: f.restarts,
@@ -445,7 +453,7 @@ impl From<OptimizerSpec> for OptimizerTable {
             crossover_rate: f.crossover_rate,
             mutation_rate: f.mutation_rate,
             elitism: f.elitism,
-        }
+        } from o)
     }
 }
 

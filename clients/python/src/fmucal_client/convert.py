@@ -20,7 +20,7 @@ import math
 from dataclasses import fields
 from decimal import Decimal
 
-from .job import Experiment, InputMap, JobSpec, Optimizer, OutputMap, SetValue
+from .job import SHARED_SETTINGS, Experiment, InputMap, JobSpec, Optimizer, OutputMap, SetValue
 from .proto import pb
 from .tables import Table
 
@@ -105,15 +105,7 @@ def optimizer_message(o: Optimizer) -> pb.OptimizerSpec:
     if o.algorithm is None:
         member = "default_algorithm"
     options = options_type(**{f.name: getattr(o.options, f.name) for f in fields(o.options)})
-    return pb.OptimizerSpec(
-        x_tol=o.x_tol,
-        f_tol=o.f_tol,
-        max_iters=o.max_iters,
-        max_fevals=o.max_fevals,
-        max_time=o.max_time,
-        seed=o.seed,
-        **{member: options},
-    )
+    return pb.OptimizerSpec(**{name: getattr(o, name) for name in SHARED_SETTINGS}, **{member: options})
 
 
 def job_message(spec: JobSpec, tables: list[Table], model_id: str) -> pb.JobSpec:

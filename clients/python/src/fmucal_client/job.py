@@ -204,6 +204,11 @@ class Optimizer:
                              f"not {type(self.options).__name__}")
 
 
+#: The settings of :class:`Optimizer` that every algorithm shares, as the job file, the
+#: protocol and :class:`Optimizer` name them.
+SHARED_SETTINGS = ("x_tol", "f_tol", "max_iters", "max_fevals", "max_time", "seed")
+
+
 @dataclass(frozen=True)
 class Experiment:
     """An ``[[experiments]]`` entry; ``None`` takes the job's value."""
@@ -469,23 +474,13 @@ def _optimizer(t: Table | None) -> Optimizer:
             raise JobFileError(t.field(name), f"applies to {listed}, not {runs}{default}")
     options_type = OPTIONS_OF[runs]
     options = options_type(**{f.name: flat[f.name] for f in fields(options_type)})
-    return Optimizer(
-        algorithm=algorithm,
-        options=options,
-        x_tol=flat["x_tol"],
-        f_tol=flat["f_tol"],
-        max_iters=flat["max_iters"],
-        max_fevals=flat["max_fevals"],
-        max_time=flat["max_time"],
-        seed=flat["seed"],
-    )
+    return Optimizer(algorithm=algorithm, options=options, **{name: flat[name] for name in SHARED_SETTINGS})
 
 
 def optimizer_table(o: Optimizer) -> dict[str, Any]:
     """The flat ``[optimizer]`` table of ``o``, every field in the job file's order (unset
     options ``None``; ``parallel`` true for the algorithms without it), as the CLI writes it."""
-    values = {"algorithm": o.algorithm, "parallel": True, "x_tol": o.x_tol, "f_tol": o.f_tol,
-              "max_iters": o.max_iters, "max_fevals": o.max_fevals, "max_time": o.max_time, "seed": o.seed}
+    values = {"algorithm": o.algorithm, "parallel": True, **{name: getattr(o, name) for name in SHARED_SETTINGS}}
     values.update({f.name: getattr(o.options, f.name) for f in fields(o.options)})
     return {name: values.get(name) for name in OPTIMIZER_FIELDS}
 
