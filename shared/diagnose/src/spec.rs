@@ -165,6 +165,16 @@ impl DiagnoseSpec {
         Ok(spec)
     }
 
+    /// The `[diagnose]` section as a job file's text, every setting spelled out (defaults
+    /// included) in the settings' order, for a written job.
+    pub fn to_job_text(&self) -> String {
+        #[derive(Serialize)]
+        struct Section<'a> {
+            diagnose: &'a DiagnoseSpec,
+        }
+        toml::to_string(&Section { diagnose: self }).expect("a [diagnose] section is a TOML table")
+    }
+
     /// The section as a job carries it.
     pub fn to_table(&self) -> toml::Table {
         toml::Table::try_from(self).expect("a [diagnose] section is a TOML table")
@@ -270,6 +280,10 @@ mod tests {
         let s = DiagnoseSpec::from_job_text(job).unwrap();
         assert_eq!((s.top, s.exclude.clone()), (3, vec!["x".to_string()]));
         assert_eq!(DiagnoseSpec::from_table(Some(&s.to_table())).unwrap(), s);
+        // A written job spells out every setting, defaults included, and reads back the same.
+        let written = s.to_job_text();
+        assert!(written.starts_with("[diagnose]\n") && written.contains("confidence = 0.95"), "{written}");
+        assert_eq!(DiagnoseSpec::from_job_text(&format!("[model]\n{written}")).unwrap(), s);
         assert_eq!(DiagnoseSpec::from_table(None).unwrap(), DiagnoseSpec::default());
         assert_eq!(DiagnoseSpec::from_job_text("[model]\n").unwrap(), DiagnoseSpec::default());
         let e = DiagnoseSpec::from_job_text("[diagnose]\ntopp = 3\n").unwrap_err().to_string();

@@ -230,7 +230,14 @@ pub fn run(args: Args) -> Result<()> {
     if kept.optimizer.initial_step().is_none() {
         kept.optimizer.set_initial_step(local_step(&kept, &report.standard_errors));
     }
-    let toml = toml::to_string(&kept).context("cannot write the job with the effect")?;
+    // The job's own `[diagnose]` section as the diagnosis read it, every setting spelled out
+    // (defaults included), so that the written job diagnoses alike under a later version's
+    // defaults.
+    let section = kept.diagnose.take().map(|_| ctx.settings.to_job_text());
+    let mut toml = toml::to_string(&kept).context("cannot write the job with the effect")?;
+    if let Some(section) = section {
+        toml = format!("{toml}\n{section}");
+    }
     let header = "# Written by `fmucal diagnose`: the job with the effects it named added.\n";
     std::fs::write(args.out.join("job.toml"), format!("{header}{toml}"))?;
     plots::draw(&args.out, &outcome)?;
