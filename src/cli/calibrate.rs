@@ -10,7 +10,8 @@
 //! the job, writes its best point so far to `result.json` with termination `interrupted`, and
 //! exits with code 130. With `FMUCAL_PROGRESS=json` the progress bar gives way to one JSON
 //! object per completed batch on stderr (for a program running the CLI: the Python package's
-//! progress bar).
+//! progress bar). A local run evaluates its few follow-up points (the tolerance guard's
+//! first-order move, the identifiability analysis) in this process ([`FollowUp`]).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -102,13 +103,67 @@ pub(super) fn model_path(spec: &JobSpec) -> Result<PathBuf> {
     Ok(p.clone())
 }
 
+/// Where a calibration's follow-up points run (the guard's first-order move, the
+/// identifiability analysis): in this process for a local run, which has the model loaded for
+/// the guard's checks (on the workers the points would be a job of their own, whose round trips
+/// cost more than the points of a cheap model); on the coordinator's workers for a run on
+/// `--coordinator`. The values are the same either way: the same evaluations of the same job.
+enum FollowUp {
+    Here { fmu: Arc<fmucal_shared::fmu::Fmu>, threads: usize },
+    Workers,
+}
+
+impl FollowUp {
+    /// `points` of `job` ([`fmucal_shared::job::local::evaluate`], or a job of points on the
+    /// workers through `client`).
+    async fn evaluate(
+        &self,
+        client: &mut Client,
+        job: &Arc<PreparedJob>,
+        points: Vec<Vec<f64>>,
+        data: &[fmucal_shared::job::MeasurementTable],
+        model: &std::path::Path,
+    ) -> Result<Vec<fmucal_shared::job::EvaluatedPoint>> {
+        match self {
+            FollowUp::Workers => client.evaluate(&job.spec, points, data, model).await,
+            FollowUp::Here { fmu, threads } => {
+                let (fmu, job, threads) = (fmu.clone(), job.clone(), (*threads).clamp(1, points.len().max(1)));
+                tokio::task::spawn_blocking(move || {
+                    let pool = fmucal_shared::job::pool::EvaluatorPool::new(threads, "fmucal-points")
+                        .context("cannot start evaluation threads")?;
+                    Ok(fmucal_shared::job::local::evaluate(fmu, &job, points, &pool)?)
+                })
+                .await
+                .unwrap_or_else(|e| Err(anyhow::anyhow!("evaluating points in this process panicked: {e}")))
+            }
+        }
+    }
+
+    /// The standard errors and correlations at `result`'s optimum from the 2n + 1 difference
+    /// points.
+    async fn identify(
+        &self,
+        client: &mut Client,
+        job: &Arc<PreparedJob>,
+        result: &fmucal_shared::job::CalibrationResult,
+        data: &[fmucal_shared::job::MeasurementTable],
+        model: &std::path::Path,
+    ) -> Result<identifiability::Identifiability> {
+        let plan = identifiability::difference_points(job, &result.x_opt_in(&job.parameter_names));
+        let evaluated = self.evaluate(client, job, plan.points.clone(), data, model).await?;
+        let residuals = identifiability::residuals_of(&evaluated)?;
+        Ok(identifiability::from_residuals(&job.parameter_names, &plan, &residuals)?)
+    }
+}
+
 /// The first-order move of the estimates at `result`'s optimum when `job`'s tolerance tightens
 /// to `tight`'s ([`tolerance::LinearisedMove`]), with the standard errors at the tighter
-/// tolerance that come with it. Two batches on the workers: the difference points at the
-/// tighter tolerance, and the optimum at the first.
+/// tolerance that come with it. Two batches: the difference points at the tighter tolerance,
+/// and the optimum at the first.
 async fn first_order_move(
+    follow_up: &FollowUp,
     client: &mut Client,
-    job: &PreparedJob,
+    job: &Arc<PreparedJob>,
     tight: &tolerance::Tightened,
     result: &fmucal_shared::job::CalibrationResult,
     data: &[fmucal_shared::job::MeasurementTable],
@@ -118,8 +173,10 @@ async fn first_order_move(
     let names = &tight.job.parameter_names;
     let x = result.x_opt_in(names);
     let plan = identifiability::difference_points(&tight.job, &x);
-    let fine = identifiability::residuals_of(&client.evaluate(&tight.spec, plan.points.clone(), data, model).await?)?;
-    let coarse = identifiability::residuals_of(&client.evaluate(&job.spec, vec![x.clone()], data, model).await?)?;
+    let fine = identifiability::residuals_of(
+        &follow_up.evaluate(client, &tight.job, plan.points.clone(), data, model).await?,
+    )?;
+    let coarse = identifiability::residuals_of(&follow_up.evaluate(client, job, vec![x.clone()], data, model).await?)?;
     let change: Vec<f64> = fine[0].iter().zip(&coarse[0]).map(|(f, c)| f - c).collect();
     let (step, errors) = identifiability::linearised_step(names, &plan, &fine, &change)?;
     let (_, _, lower, upper) = tight.spec.parameter_vectors();
@@ -183,6 +240,10 @@ pub fn run(args: Args) -> Result<()> {
     // Ctrl-C or SIGTERM cancels the job and keeps its best point so far; a local cluster's
     // workers and temporary folder go with it.
     let max_time = spec.optimizer.max_time;
+    let follow_up = match args.remote.coordinator {
+        None => FollowUp::Here { fmu: fmu.clone(), threads },
+        Some(_) => FollowUp::Workers,
+    };
     let work = async |mut client: Client| {
         let mut stopper = client.clone();
         // `optimizer.max_time` stops the calibration (not the analysis after it) with its best
@@ -225,7 +286,7 @@ pub fn run(args: Args) -> Result<()> {
                 // How far the estimates move at the tighter tolerance, to first order: the
                 // check's bound is often loose, and a refit costs a local search.
                 let moved = tokio::select! {
-                    m = first_order_move(&mut client, &job, &t, &result, &data, &model) => m,
+                    m = first_order_move(&follow_up, &mut client, &job, &t, &result, &data, &model) => m,
                     () = super::servers::terminate_signal() => return Ok(Err(stopper.interrupt().await?)),
                 };
                 let moved = moved.map_err(|e| tracing::warn!("no first-order move at the optimum: {e:#}")).ok();
@@ -266,13 +327,12 @@ pub fn run(args: Args) -> Result<()> {
         if let Some(identified) = identified {
             return Ok(Ok((result, Ok(identified), job, guard)));
         }
-        tokio::select! {
-            identified = client.identify(&job, &result, &data, &model) => {
-                step(t0, "identifiability points evaluated");
-                Ok(Ok((result, identified, job, guard)))
-            }
-            () = super::servers::terminate_signal() => Ok(Err(stopper.interrupt().await?)),
-        }
+        let identified = tokio::select! {
+            r = follow_up.identify(&mut client, &job, &result, &data, &model) => r,
+            () = super::servers::terminate_signal() => return Ok(Err(stopper.interrupt().await?)),
+        };
+        step(t0, "identifiability points evaluated");
+        Ok(Ok((result, identified, job, guard)))
     };
     let (outcome, stopping) = rt.block_on(async {
         match args.remote.connect().await? {

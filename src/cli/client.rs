@@ -1,7 +1,7 @@
 //! The CLI's gRPC client of a coordinator: connects (retrying while a coordinator started a
 //! moment ago does not listen yet), uploads the model and submits jobs, follows a job's
-//! `WatchJob` stream (a calibration with a progress bar), and runs the identifiability points
-//! at the optimum on the workers as a job that evaluates them.
+//! `WatchJob` stream (a calibration with a progress bar), and runs given points on the workers
+//! as a job that evaluates them (a run's follow-up points on `--coordinator`).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -14,8 +14,7 @@ use fmucal_proto::convert::{job_to_proto, result_from_proto};
 use fmucal_proto::tls::ClientTls;
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::calibration_client::CalibrationClient;
-use fmucal_shared::job::identifiability::{self, Identifiability};
-use fmucal_shared::job::{CalibrationResult, EvaluatedPoint, HistoryPoint, JobSpec, MeasurementTable, PreparedJob};
+use fmucal_shared::job::{CalibrationResult, EvaluatedPoint, HistoryPoint, JobSpec, MeasurementTable};
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
 
@@ -181,21 +180,6 @@ impl Client {
             bail!("the job failed: {}", r.error);
         }
         Ok(r.result.map(|r| result_from_proto(r, vec![]).evaluated).unwrap_or_default())
-    }
-
-    /// Standard errors and correlations at the optimum: the finite-difference points run as one
-    /// batch on the workers (a job that evaluates them), then the statistics are derived here.
-    pub async fn identify(
-        &mut self,
-        job: &PreparedJob,
-        result: &CalibrationResult,
-        data: &[MeasurementTable],
-        model: &Path,
-    ) -> Result<Identifiability> {
-        let plan = identifiability::difference_points(job, &result.x_opt_in(&job.parameter_names));
-        let evaluated = self.evaluate(&job.spec, plan.points.clone(), data, model).await?;
-        let residuals = identifiability::residuals_of(&evaluated)?;
-        Ok(identifiability::from_residuals(&job.parameter_names, &plan, &residuals)?)
     }
 
     /// Names `model` on the coordinator by `id`, without uploading it: for a model the

@@ -10,11 +10,9 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use super::JobError;
-use super::executor::{PoolBackend, execute};
 use super::pool::EvaluatorPool;
 use super::prepared::PreparedJob;
 use super::result::EvaluatedPoint;
-use super::run::JobRun;
 use crate::fmu::Fmu;
 
 /// Standard errors and correlations of the calibrated parameters.
@@ -185,11 +183,7 @@ pub fn residuals_of(evaluated: &[EvaluatedPoint]) -> Result<Vec<Vec<f64>>, JobEr
 /// [`JobError::Invalid`] if an evaluation fails or JᵀJ is singular.
 pub fn analyze(fmu: Arc<Fmu>, job: &PreparedJob, x: &[f64], pool: &EvaluatorPool) -> Result<Identifiability, JobError> {
     let plan = difference_points(job, x);
-    let job = Arc::new(job.evaluating_points(plan.points.clone()));
-    let mut run = JobRun::new(&job)?;
-    let mut backend = PoolBackend { pool, fmu, job: job.clone(), job_key: "identifiability".into() };
-    execute(&mut run, &mut backend, |_| {})?;
-    let residuals = residuals_of(&run.take_result(&job.spec, 0.0, None).evaluated)?;
+    let residuals = residuals_of(&super::local::evaluate(fmu, job, plan.points.clone(), pool)?)?;
     from_residuals(&job.parameter_names, &plan, &residuals)
 }
 

@@ -1,5 +1,5 @@
 //! In-process calibration: the job's run ([`JobRun`]) executed on `threads` threads of a
-//! warm-evaluator pool. Results are told in candidate order once a round is complete, so the
+//! warm-evaluator pool; and [`evaluate`], a job's given points on such a pool. Results are told in candidate order once a round is complete, so the
 //! run is the same for any number of threads. This is the reference that the distributed run
 //! (coordinator and workers) reproduces.
 
@@ -10,7 +10,7 @@ use super::JobError;
 use super::executor::{PoolBackend, execute};
 use super::pool::EvaluatorPool;
 use super::prepared::PreparedJob;
-use super::result::{CalibrationResult, HistoryPoint};
+use super::result::{CalibrationResult, EvaluatedPoint, HistoryPoint};
 use super::run::JobRun;
 use crate::fmu::Fmu;
 
@@ -32,4 +32,23 @@ pub fn calibrate(
     let mut backend = PoolBackend { pool: &pool, fmu, job: job.clone(), job_key: "calibration".into() };
     execute(&mut run, &mut backend, on_round)?;
     Ok(run.take_result(&job.spec, started.elapsed().as_secs_f64(), None))
+}
+
+/// Evaluates `points` of `job` on `pool` (each point on every fitted experiment), as a job
+/// that evaluates points does on the workers: the same evaluations, so the same values and
+/// residuals.
+///
+/// # Errors
+/// [`JobError`] if the points do not fit the job (their length, the caps on a job's points).
+pub fn evaluate(
+    fmu: Arc<Fmu>,
+    job: &PreparedJob,
+    points: Vec<Vec<f64>>,
+    pool: &EvaluatorPool,
+) -> Result<Vec<EvaluatedPoint>, JobError> {
+    let job = Arc::new(job.evaluating_points(points));
+    let mut run = JobRun::new(&job)?;
+    let mut backend = PoolBackend { pool, fmu, job: job.clone(), job_key: "points".into() };
+    execute(&mut run, &mut backend, |_| {})?;
+    Ok(run.take_result(&job.spec, 0.0, None).evaluated)
 }
