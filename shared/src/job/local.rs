@@ -1,7 +1,8 @@
 //! In-process calibration: the job's run ([`JobRun`]) executed on `threads` threads of a
-//! warm-evaluator pool; and [`evaluate`], a job's given points on such a pool. Results are told in candidate order once a round is complete, so the
-//! run is the same for any number of threads. This is the reference that the distributed run
-//! (coordinator and workers) reproduces.
+//! warm-evaluator pool; and [`evaluate`], a job's given points on such a pool. Results are told
+//! in candidate order once a round is complete, so the run is the same for any number of
+//! threads. This is the reference that the distributed run (coordinator and workers)
+//! reproduces.
 
 use std::sync::Arc;
 use std::time::Instant;
