@@ -333,3 +333,69 @@ fn ctrl_c_keeps_the_best_point_and_leaves_no_worker_or_temporary_folder() {
     let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().flatten().map(|e| e.path()).collect();
     assert!(left.is_empty(), "left in the temporary folder: {left:?}");
 }
+
+#[test]
+fn a_once_per_process_fmu_gets_the_same_follow_up_points() {
+    // A local run evaluates its follow-up points (the tolerance guard's first-order move, the
+    // standard errors) in its own process: for an FMU that may be instantiated only once per
+    // process they share one thread, and none fails for it. The Furuta example takes the
+    // guard's move; without the guard, the standard errors come from points of their own.
+    let dir = tempfile::tempdir().unwrap();
+    let once = common::with_xml("furuta", dir.path(), "once.fmu", |xml| {
+        xml.replace(
+            "<ModelExchange modelIdentifier",
+            "<ModelExchange canBeInstantiatedOnlyOncePerProcess=\"true\" modelIdentifier",
+        )
+        .replace(
+            "<CoSimulation modelIdentifier",
+            "<CoSimulation canBeInstantiatedOnlyOncePerProcess=\"true\" modelIdentifier",
+        )
+    });
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta");
+    let text = std::fs::read_to_string(example.join("job.toml"))
+        .unwrap()
+        .replace("path = \"FurutaData.mat\"", &format!("path = \"{}\"", example.join("FurutaData.mat").display()));
+    for (name, extra) in [("guarded", ""), ("unguarded", "tolerance_guard = false\n")] {
+        let text = text.replace("[simulation]\n", &format!("[simulation]\n{extra}"));
+        let plain = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&plain, &text).unwrap();
+        let once_job = dir.path().join(format!("{name}_once.toml"));
+        std::fs::write(&once_job, text.replace("path = \"example:furuta\"", &format!("path = \"{}\"", once.display())))
+            .unwrap();
+        let mut results = vec![];
+        for job in [&plain, &once_job] {
+            let out_dir = dir.path().join(job.file_stem().unwrap());
+            let out = fmucal(
+                &["calibrate", job.to_str().unwrap(), "--workers", "2", "--out", out_dir.to_str().unwrap()],
+                dir.path(),
+            );
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            assert!(
+                !String::from_utf8_lossy(&out.stderr).contains("no identifiability"),
+                "{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            let mut r = result(&out_dir);
+            without_seconds(&mut r);
+            let kept: Vec<_> = ["x_opt", "f_opt", "evaluations", "identifiability", "tolerance_guard"]
+                .iter()
+                .map(|k| r[*k].clone())
+                .collect();
+            results.push(kept);
+        }
+        assert!(!results[0][3].is_null(), "{name}: no identifiability: {:?}", results[0]);
+        assert_eq!(results[0], results[1], "{name}");
+    }
+}
+
+/// `v` without its wall times (every `seconds` key).
+fn without_seconds(v: &mut serde_json::Value) {
+    match v {
+        serde_json::Value::Object(m) => {
+            m.remove("seconds");
+            m.values_mut().for_each(without_seconds);
+        }
+        serde_json::Value::Array(a) => a.iter_mut().for_each(without_seconds),
+        _ => {}
+    }
+}

@@ -128,13 +128,19 @@ impl FollowUp {
             FollowUp::Workers => client.evaluate(&job.spec, points, data, model).await,
             FollowUp::Here { fmu, threads } => {
                 let (fmu, job, threads) = (fmu.clone(), job.clone(), (*threads).clamp(1, points.len().max(1)));
-                tokio::task::spawn_blocking(move || {
-                    let pool = fmucal_shared::job::pool::EvaluatorPool::new(threads, "fmucal-points")
-                        .context("cannot start evaluation threads")?;
-                    Ok(fmucal_shared::job::local::evaluate(fmu, &job, points, &pool)?)
-                })
-                .await
-                .unwrap_or_else(|e| Err(anyhow::anyhow!("evaluating points in this process panicked: {e}")))
+                // A thread of its own, not the runtime's blocking pool: on Ctrl-C the command
+                // writes its result and ends without waiting for the points.
+                let (tx, rx) = tokio::sync::oneshot::channel();
+                std::thread::Builder::new()
+                    .name("fmucal-points".into())
+                    .spawn(move || {
+                        let evaluated = fmucal_shared::job::pool::EvaluatorPool::new(threads, "fmucal-points")
+                            .context("cannot start evaluation threads")
+                            .and_then(|pool| Ok(fmucal_shared::job::local::evaluate(fmu, &job, points, &pool)?));
+                        let _ = tx.send(evaluated);
+                    })
+                    .context("cannot start an evaluation thread")?;
+                rx.await.unwrap_or_else(|_| Err(anyhow::anyhow!("the evaluation thread stopped")))
             }
         }
     }
@@ -235,10 +241,11 @@ pub fn run(args: Args) -> Result<()> {
     };
     step(t0, "tolerance guard at the start point");
 
-    // One runtime thread: it only runs the client and a local run's coordinator (the
-    // simulations run in the worker processes and on blocking threads), and a second thread
-    // costs a wake-up across cores in every round trip with a worker, about 3 ms of a 55 ms
-    // local run of a cheap model (`bash bench/fmpy_scipy_local.sh`).
+    // One runtime thread: the client runs on this thread (`block_on`) and the runtime's thread
+    // only runs a local run's coordinator and the connections' tasks (the simulations run in
+    // the worker processes and on threads of their own); a second runtime thread costs
+    // wake-ups across cores in the round trips with the workers, about 3 ms of a 55 ms local
+    // run of a cheap model (`bash bench/fmpy_scipy_local.sh`).
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;
     let started = std::time::Instant::now();
     // Ctrl-C or SIGTERM cancels the job and keeps its best point so far; a local cluster's

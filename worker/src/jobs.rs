@@ -89,11 +89,7 @@ impl JobCache {
             .map_err(|e| e.to_string())?;
             let job = PreparedJob::new(&submitted.spec, &fmu.description, &fmu.interfaces(), &submitted.data)
                 .map_err(|e| e.to_string())?;
-            let info = match job.interface {
-                fmucal_shared::fmu::Interface::ModelExchange => fmu.description.model_exchange.as_ref(),
-                fmucal_shared::fmu::Interface::CoSimulation => fmu.description.co_simulation.as_ref(),
-            };
-            let exclusive = info.is_some_and(|i| i.can_be_instantiated_only_once_per_process);
+            let exclusive = fmu.once_per_process(job.interface);
             Ok(JobContext { fmu: Arc::new(fmu), job: Arc::new(job), exclusive })
         })
         .await

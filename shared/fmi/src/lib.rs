@@ -182,6 +182,16 @@ impl Fmu {
         Ok(Fmu { description, sha256: unpacked.sha256, dir: unpacked.dir, me, cs })
     }
 
+    /// Whether the description says `interface` can be instantiated only once per process
+    /// (`canBeInstantiatedOnlyOncePerProcess`): its evaluations then share one thread.
+    pub fn once_per_process(&self, interface: Interface) -> bool {
+        let info = match interface {
+            Interface::ModelExchange => self.description.model_exchange.as_ref(),
+            Interface::CoSimulation => self.description.co_simulation.as_ref(),
+        };
+        info.is_some_and(|i| i.can_be_instantiated_only_once_per_process)
+    }
+
     /// Interfaces this FMU offers, Model Exchange first.
     pub fn interfaces(&self) -> Vec<Interface> {
         let mut v = vec![];

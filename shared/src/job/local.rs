@@ -40,16 +40,21 @@ pub fn calibrate(
 /// residuals.
 ///
 /// # Errors
-/// [`JobError`] if the points do not fit the job (their length, the caps on a job's points).
+/// [`JobError`] if the points do not fit the job (their length, the caps on a job's points) or
+/// the run cannot complete.
 pub fn evaluate(
     fmu: Arc<Fmu>,
     job: &PreparedJob,
     points: Vec<Vec<f64>>,
     pool: &EvaluatorPool,
 ) -> Result<Vec<EvaluatedPoint>, JobError> {
+    // A key of its own per call: a pool thread keeps its evaluator warm by key, and another
+    // call may bring another job (another tolerance) to the same pool.
+    static CALLS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let key = format!("points-{}", CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed));
     let job = Arc::new(job.evaluating_points(points));
     let mut run = JobRun::new(&job)?;
-    let mut backend = PoolBackend { pool, fmu, job: job.clone(), job_key: "points".into() };
+    let mut backend = PoolBackend { pool, fmu, job: job.clone(), job_key: key };
     execute(&mut run, &mut backend, |_| {})?;
     Ok(run.take_result(&job.spec, 0.0, None).evaluated)
 }

@@ -159,8 +159,9 @@ impl EvaluatorPool {
         self.shared.ready.notify_all();
     }
 
-    /// Evaluates work `items` of one job, spread over the threads; the evaluations come back in
-    /// the order of `items`.
+    /// Evaluates work `items` of one job, spread over the threads (all on thread 0 for an FMU
+    /// that can be instantiated only once per process); the evaluations come back in the order
+    /// of `items`.
     pub fn evaluate_items(
         &self,
         job_key: &str,
@@ -170,6 +171,7 @@ impl EvaluatorPool {
         want_residuals: bool,
     ) -> Vec<Evaluation> {
         let (tx, rx) = std::sync::mpsc::channel();
+        let thread = fmu.once_per_process(job.interface).then_some(0);
         for (i, item) in items.iter().enumerate() {
             let tx = tx.clone();
             let request = EvalRequest {
@@ -181,7 +183,7 @@ impl EvaluatorPool {
                 want_residuals,
                 started: None,
             };
-            self.submit(None, request, move |e| {
+            self.submit(thread, request, move |e| {
                 let _ = tx.send((i, e));
             });
         }

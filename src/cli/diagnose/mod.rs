@@ -230,10 +230,11 @@ pub fn run(args: Args) -> Result<()> {
     if kept.optimizer.initial_step().is_none() {
         kept.optimizer.set_initial_step(local_step(&kept, &report.standard_errors));
     }
-    // The job's own `[diagnose]` section as the diagnosis read it, every setting spelled out
-    // (defaults included), so that the written job diagnoses alike under a later version's
-    // defaults.
-    let section = kept.diagnose.take().map(|_| ctx.settings.to_job_text());
+    // The `[diagnose]` settings the diagnosis used (the job's section, and `--top`), every
+    // setting spelled out (defaults included), so that the written job diagnoses alike under a
+    // later version's defaults; none where the job had no section and the defaults ran.
+    let section =
+        (kept.diagnose.take().is_some() || ctx.settings != DiagnoseSpec::default()).then(|| ctx.settings.to_job_text());
     let mut toml = toml::to_string(&kept).context("cannot write the job with the effect")?;
     if let Some(section) = section {
         toml = format!("{toml}\n{section}");
