@@ -341,16 +341,7 @@ fn a_once_per_process_fmu_gets_the_same_follow_up_points() {
     // process they share one thread, and none fails for it. The Furuta example takes the
     // guard's move; without the guard, the standard errors come from points of their own.
     let dir = tempfile::tempdir().unwrap();
-    let once = common::with_xml("furuta", dir.path(), "once.fmu", |xml| {
-        xml.replace(
-            "<ModelExchange modelIdentifier",
-            "<ModelExchange canBeInstantiatedOnlyOncePerProcess=\"true\" modelIdentifier",
-        )
-        .replace(
-            "<CoSimulation modelIdentifier",
-            "<CoSimulation canBeInstantiatedOnlyOncePerProcess=\"true\" modelIdentifier",
-        )
-    });
+    let once = common::once_per_process("furuta", dir.path());
     let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/furuta");
     let text = std::fs::read_to_string(example.join("job.toml"))
         .unwrap()

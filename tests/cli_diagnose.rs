@@ -156,19 +156,7 @@ fn a_once_per_process_fmu_loses_no_candidate() {
     // still run: an FMU that may be instantiated only once per process must be judged one fit
     // at a time, not have candidates fail for it.
     let dir = tempfile::tempdir().unwrap();
-    let once = common::with_xml("furuta", dir.path(), "once.fmu", |xml| {
-        let edited = xml
-            .replace(
-                "<ModelExchange modelIdentifier",
-                "<ModelExchange canBeInstantiatedOnlyOncePerProcess=\"true\" modelIdentifier",
-            )
-            .replace(
-                "<CoSimulation modelIdentifier",
-                "<CoSimulation canBeInstantiatedOnlyOncePerProcess=\"true\" modelIdentifier",
-            );
-        assert_eq!(edited.matches("canBeInstantiatedOnlyOncePerProcess=\"true\"").count(), 2, "{edited}");
-        edited
-    });
+    let once = common::once_per_process("furuta", dir.path());
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/diagnose/data.csv");
     let text = std::fs::read_to_string(example_job())
         .unwrap()

@@ -474,16 +474,7 @@ async fn calls_without_the_token_are_refused() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_once_per_process_fmu_runs_on_a_multi_slot_worker() {
     let dir = tempfile::tempdir().unwrap();
-    let once = common::with_xml("decay", dir.path(), "once.fmu", |xml| {
-        xml.replace(
-            "<CoSimulation modelIdentifier=\"Decay\"",
-            "<CoSimulation canBeInstantiatedOnlyOncePerProcess=\"true\" modelIdentifier=\"Decay\"",
-        )
-        .replace(
-            "<ModelExchange modelIdentifier=\"Decay\"",
-            "<ModelExchange canBeInstantiatedOnlyOncePerProcess=\"true\" modelIdentifier=\"Decay\"",
-        )
-    });
+    let once = common::once_per_process("decay", dir.path());
     let fmu = common::load(&once, &dir.path().join("cache"));
     let r = simulate(&fmu, &SimSpec { parameters: vec![("k".into(), "1.7".into())], ..Default::default() }).unwrap();
     let data = MeasurementTable { time: r.time.clone(), columns: vec![("x".into(), r.column("x").unwrap().to_vec())] };

@@ -106,12 +106,7 @@ fn fmu_error_mid_simulation_names_time_and_message_then_instance_recovers() {
 #[test]
 fn instantiate_only_once_per_process_is_honoured() {
     let tmp = tempfile::tempdir().unwrap();
-    let once = common::with_xml("furuta", tmp.path(), "once.fmu", |xml| {
-        xml.replace(
-            "canNotUseMemoryManagementFunctions=\"true\"",
-            "canNotUseMemoryManagementFunctions=\"true\" canBeInstantiatedOnlyOncePerProcess=\"true\"",
-        )
-    });
+    let once = common::once_per_process("furuta", tmp.path());
     let fmu = common::load(&once, &tmp.path().join("cache"));
     let first = Instance::new(&fmu, Interface::ModelExchange, "a").unwrap();
     match Instance::new(&fmu, Interface::CoSimulation, "b") {

@@ -71,6 +71,20 @@ pub fn with_xml(name: &str, dir: &Path, file: &str, f: impl Fn(String) -> String
     })
 }
 
+/// The fixture `name` repacked as `dir/once.fmu` with each interface declared
+/// `canBeInstantiatedOnlyOncePerProcess`; returns that path.
+pub fn once_per_process(name: &str, dir: &Path) -> PathBuf {
+    with_xml(name, dir, "once.fmu", |xml| {
+        let interfaces = xml.matches("<ModelExchange ").count() + xml.matches("<CoSimulation ").count();
+        let edited = xml
+            .replace("<ModelExchange ", "<ModelExchange canBeInstantiatedOnlyOncePerProcess=\"true\" ")
+            .replace("<CoSimulation ", "<CoSimulation canBeInstantiatedOnlyOncePerProcess=\"true\" ");
+        let marked = edited.matches("canBeInstantiatedOnlyOncePerProcess=\"true\"").count();
+        assert!(interfaces > 0 && marked == interfaces, "{edited}");
+        edited
+    })
+}
+
 /// Writes `contents` to `dir/name`; returns that path.
 pub fn write_file(dir: &Path, name: impl AsRef<Path>, contents: impl AsRef<[u8]>) -> PathBuf {
     let path = dir.join(name);
