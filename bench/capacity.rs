@@ -1,10 +1,11 @@
 //! Capacity benchmark, run with `bash bench/capacity.sh` (or `cargo bench --bench capacity --
 //! [RESULTS]`): what one `fmucal coordinator` process sustains with 1,000 worker slots. The
 //! slots are simulated in this process: tasks that speak the real worker protocol (Register,
-//! Heartbeat, FetchModel once per worker, FetchJob once per worker and job, PollWork asking for
-//! up to 4 points and returning their results with the next poll, as `worker/src/slot.rs`
-//! does) and answer each point after a set simulation time (a sleep; 0 answers at once) with a
-//! value computed from x alone, so every job is deterministic. The 1,000 slots are 250 workers
+//! Heartbeat, FetchModel once per worker, FetchJob once per worker and job, and PollWork
+//! through the real worker's poller, `worker/src/poller.rs`: one poll for all of a worker's
+//! slots, asking for up to 4 points per slot and returning results with the next poll) and
+//! answer each point after a set simulation time (a sleep; 0 answers at once) with a value
+//! computed from x alone, so every job is deterministic. The 1,000 slots are 250 workers
 //! of 4 slots, each worker on its own HTTP/2 connection (the coordinator's default cap is 512).
 //! A submitter keeps a set number of jobs running (DE on Decay's parameters by default, with
 //! x_tol = f_tol = 0 so each runs its whole budget); finished jobs are deleted by the
@@ -29,7 +30,7 @@
 #[path = "service_common.rs"]
 mod service_common;
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 use std::process::{Child, Command};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -41,14 +42,13 @@ use fmucal_proto::convert::job_to_proto;
 use fmucal_proto::v1 as pb;
 use fmucal_proto::v1::worker_pool_client::WorkerPoolClient;
 use fmucal_shared::job::{JobSpec, MeasurementTable};
+use fmucal_worker::poller::{self, Inbox, Observer, PollObservation, PollerContext};
 use redb::{ReadableDatabase, ReadableTable, ReadableTableMetadata, TableDefinition};
 use tokio::sync::RwLock;
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Channel;
 
 const TOKEN: &str = "capacity-bench-token-0123456789";
-/// Points a slot asks for per poll, as the real worker's slots.
-const PREFETCH: u32 = 4;
 /// The measured values per evaluation (the data's 21 samples of x): a least-squares result's
 /// residual count.
 const SAMPLES: usize = 21;
@@ -262,7 +262,9 @@ async fn register(w: &mut Worker, slots: usize, name: &str, counters: &Counters)
     w.register(req).await.unwrap_or_else(|e| panic!("registration refused: {e}")).into_inner().worker_id
 }
 
-/// One simulated worker: its connection, registration, heartbeats and `slots` slot tasks.
+/// One simulated worker: its connection, registration and heartbeats, the real worker's
+/// poller (`fmucal_worker::poller`: one long poll for all its slots) and `slots` slot tasks
+/// that "simulate" the points they take.
 async fn worker(url: String, index: usize, slots: usize, model_id: String, sim: Duration, counters: Arc<Counters>) {
     let mut w = WorkerPoolClient::with_interceptor(connect(&url).await, token())
         .max_decoding_message_size(fmucal_proto::MAX_MESSAGE_BYTES);
@@ -294,75 +296,85 @@ async fn worker(url: String, index: usize, slots: usize, model_id: String, sim: 
             }
         });
     }
+    // When each point held arrived, for its lease-to-result latency.
+    let leased: Arc<Mutex<HashMap<(String, u64), Instant>>> = Arc::default();
+    let observer: Observer = {
+        let (counters, leased) = (counters.clone(), leased.clone());
+        Arc::new(move |o: &PollObservation<'_>| {
+            let acked = Instant::now();
+            counters.polls.fetch_add(1, Ordering::Relaxed);
+            // Points handed back unevaluated are not results.
+            let back = pb::PointStatus::NotEvaluated as i32;
+            let evaluated = o.results.iter().filter(|r| r.status != back).count();
+            counters.results.fetch_add(evaluated as u64, Ordering::Relaxed);
+            if o.assignments == 0 {
+                counters.empty_polls.fetch_add(1, Ordering::Relaxed);
+            }
+            let mut leased = leased.lock().unwrap();
+            let lat: Vec<Duration> = o
+                .results
+                .iter()
+                .filter_map(|r| leased.remove(&(r.job_id.clone(), r.point_id)))
+                .map(|at| acked - at)
+                .collect();
+            if counters.recording.load(Ordering::Relaxed) {
+                record(&counters.lease_to_ack, &lat);
+                if !o.results.is_empty() && o.assignments > 0 {
+                    record(&counters.round_trip, &[o.round_trip]);
+                }
+            }
+        })
+    };
+    // Never stopped: the benchmark ends with the process.
+    let (_stop, stop) = tokio::sync::watch::channel(false);
+    let (_give_up, give_up) = tokio::sync::watch::channel(false);
+    let inbox = Arc::new(Inbox::default());
+    let poller = PollerContext {
+        client: w.clone(),
+        worker_id: id.clone(),
+        slots,
+        stop,
+        give_up,
+        deadline: None,
+        observer: Some(observer),
+    };
+    tasks.spawn(poller::run(poller, inbox.clone()));
     for _ in 0..slots {
-        let (w, id, counters, fetched) = (w.clone(), id.clone(), counters.clone(), fetched.clone());
-        tasks.spawn(slot(w, id, sim, counters, fetched));
+        let (w, inbox, counters, fetched, leased) =
+            (w.clone(), inbox.clone(), counters.clone(), fetched.clone(), leased.clone());
+        tasks.spawn(slot(w, inbox, sim, counters, fetched, leased));
     }
     while tasks.join_next().await.is_some() {}
 }
 
-/// One slot: long-polls for up to 4 points, "simulates" them one after the other, and returns
-/// their results with the next poll.
+/// One slot: takes the points the poller brought, "simulates" each, and hands its result to
+/// the poller for its next poll.
 async fn slot(
     mut w: Worker,
-    id: Arc<RwLock<String>>,
+    inbox: Arc<Inbox>,
     sim: Duration,
     counters: Arc<Counters>,
     fetched: Arc<Mutex<HashSet<String>>>,
+    leased: Arc<Mutex<HashMap<(String, u64), Instant>>>,
 ) {
-    let mut pending: Vec<(pb::PointResult, Instant)> = vec![];
-    loop {
-        let req = pb::PollWorkRequest {
-            worker_id: id.read().await.clone(),
-            results: pending.iter().map(|(r, _)| r.clone()).collect(),
-            max_points: PREFETCH,
-            wait_ms: 2000,
-        };
-        let sent = Instant::now();
-        let resp = match w.poll_work(req).await {
-            Ok(r) => r.into_inner(),
-            Err(e) => {
-                if counters.errors.fetch_add(1, Ordering::Relaxed) < 5 {
-                    eprintln!("a poll failed: {e}");
-                }
-                tokio::time::sleep(Duration::from_millis(200)).await;
-                continue;
-            }
-        };
-        let acked = Instant::now();
-        counters.polls.fetch_add(1, Ordering::Relaxed);
-        counters.results.fetch_add(pending.len() as u64, Ordering::Relaxed);
-        if counters.recording.load(Ordering::Relaxed) {
-            let lat: Vec<Duration> = pending.iter().map(|(_, leased)| acked - *leased).collect();
-            record(&counters.lease_to_ack, &lat);
-            if !pending.is_empty() && !resp.assignments.is_empty() {
-                record(&counters.round_trip, &[acked - sent]);
+    while let Some(taken) = inbox.next().await {
+        let a = &taken.point;
+        leased.lock().unwrap().insert((a.job_id.clone(), a.point_id), taken.received.into_std());
+        let first = fetched.lock().unwrap().insert(a.job_id.clone());
+        if first {
+            // As the worker's job cache: the spec and data once per job.
+            if w.fetch_job(pb::FetchJobRequest { job_id: a.job_id.clone() }).await.is_err() {
+                counters.errors.fetch_add(1, Ordering::Relaxed);
             }
         }
-        pending.clear();
-        if !resp.known {
-            tokio::time::sleep(Duration::from_millis(100)).await;
-            continue;
+        if !sim.is_zero() {
+            let start = Instant::now();
+            tokio::time::sleep(sim).await;
+            counters.simulated.fetch_add(1, Ordering::Relaxed);
+            counters.simulated_us.fetch_add(start.elapsed().as_micros() as u64, Ordering::Relaxed);
         }
-        if resp.assignments.is_empty() {
-            counters.empty_polls.fetch_add(1, Ordering::Relaxed);
-        }
-        for a in resp.assignments {
-            let first = fetched.lock().unwrap().insert(a.job_id.clone());
-            if first {
-                // As the worker's job cache: the spec and data once per job.
-                if w.fetch_job(pb::FetchJobRequest { job_id: a.job_id.clone() }).await.is_err() {
-                    counters.errors.fetch_add(1, Ordering::Relaxed);
-                }
-            }
-            if !sim.is_zero() {
-                let start = Instant::now();
-                tokio::time::sleep(sim).await;
-                counters.simulated.fetch_add(1, Ordering::Relaxed);
-                counters.simulated_us.fetch_add(start.elapsed().as_micros() as u64, Ordering::Relaxed);
-            }
-            pending.push((answer(&a), acked));
-        }
+        let result = answer(a);
+        taken.finish(result);
     }
 }
 
@@ -538,15 +550,20 @@ fn main() {
         }
         // The submitter: keeps `jobs` running, each with its own seed.
         let submitted = Arc::new(AtomicU64::new(0));
+        // Jobs the coordinator holds (running, and finished but not yet deleted), last seen.
+        let held = Arc::new(AtomicU64::new(0));
         let failed = Arc::new(Mutex::new(Vec::<String>::new()));
         {
-            let (mut c, k, model, submitted, failed) =
-                (c.clone(), k.clone(), model.clone(), submitted.clone(), failed.clone());
+            let (mut c, k, model, submitted, failed, held) =
+                (c.clone(), k.clone(), model.clone(), submitted.clone(), failed.clone(), held.clone());
             tokio::spawn(async move {
                 let mut seen_failed = HashSet::new();
                 loop {
                     let jobs = c.list_jobs(pb::ListJobsRequest {}).await.unwrap().into_inner().jobs;
-                    let running = jobs.iter().filter(|j| j.status == pb::JobStatus::Running as i32).count();
+                    held.store(jobs.len() as u64, Ordering::Relaxed);
+                    // Queued jobs count too: a job is queued until its first batch is asked.
+                    let live = [pb::JobStatus::Queued as i32, pb::JobStatus::Running as i32];
+                    let running = jobs.iter().filter(|j| live.contains(&j.status)).count();
                     for j in jobs.iter().filter(|j| j.status == pb::JobStatus::Failed as i32) {
                         if seen_failed.insert(j.job_id.clone()) {
                             failed.lock().unwrap().push(j.job_id.clone());
@@ -578,6 +595,8 @@ fn main() {
         let mut samples: Vec<(f64, f64)> = vec![(0.0, rss0)];
         let mut file_max = 0u64;
         let mut last_print = Instant::now();
+        // CPU seconds and results at the last print, for the cost since.
+        let mut at_print = (cc0, 0u64);
         loop {
             tokio::time::sleep(Duration::from_millis(500)).await;
             let done = counters.results.load(Ordering::Relaxed) - r0;
@@ -586,13 +605,18 @@ fn main() {
             if last_print.elapsed() > Duration::from_secs(30) {
                 last_print = Instant::now();
                 let s = t0.elapsed().as_secs_f64();
+                let cpu = cpu_s(&pid.to_string());
                 println!(
-                    "  {s:7.1} s: {done} results ({:.0}/s), coordinator RSS {:.1} MB, CPU {:.2} cores, store {:.1} MB",
+                    "  {s:7.1} s: {done} results ({:.0}/s), coordinator RSS {:.1} MB, CPU {:.2} cores ({:.1} µs per \
+                     result since the last line), store {:.1} MB, {} jobs held",
                     done as f64 / s,
                     samples.last().unwrap().1,
-                    (cpu_s(&pid.to_string()) - cc0) / s,
-                    file_max as f64 / 1e6
+                    (cpu - cc0) / s,
+                    (cpu - at_print.0) / (done - at_print.1).max(1) as f64 * 1e6,
+                    file_max as f64 / 1e6,
+                    held.load(Ordering::Relaxed)
                 );
+                at_print = (cpu, done);
             }
             assert!(failed.lock().unwrap().is_empty(), "jobs failed: {:?}", failed.lock().unwrap());
             if done >= k.results {

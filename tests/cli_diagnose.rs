@@ -253,7 +253,7 @@ fn without_wall_times(mut report: serde_json::Value) -> serde_json::Value {
 #[test]
 fn the_diagnosis_library_in_this_process_gives_the_command_line_report() {
     use fmucal_diagnose::driver::{self, Context, checks, in_process::InProcess};
-    // The command line, on a local cluster of two worker processes.
+    // The command line, on a local cluster of two workers.
     let dir = tempfile::tempdir().unwrap();
     let job = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/friction/job.toml");
     let run = fmucal(&["diagnose", job.to_str().unwrap(), "--workers", "2", "--out", "cli"], dir.path());

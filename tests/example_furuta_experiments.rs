@@ -1,7 +1,7 @@
 //! The multi-experiment example end to end: `fmucal calibrate
 //! examples/furuta_experiments/job.toml` fits one pair of frictions and one initial pendulum
 //! angle per fitted experiment to two experiments, reports the held-out third, and gives the
-//! same result with 1 and 3 worker processes. The data were generated with frictions 0.010 and
+//! same result with 1 and 3 workers. The data were generated with frictions 0.010 and
 //! 0.0010 and release angles 1.0 and 0.5 rad (`examples/furuta_experiments/generate.sh`).
 
 use std::path::Path;

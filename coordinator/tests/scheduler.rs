@@ -418,14 +418,20 @@ async fn a_poll_gets_at_most_its_fair_share_of_the_queue() {
     let mut left = queued;
     let mut seen = HashSet::new();
     let mut sizes = vec![];
-    for (w, max) in [(&a, 8), (&b, 8), (&c, 1), (&a, 8), (&b, 8), (&c, 8), (&a, 8), (&b, 8)] {
+    // A poll counts as one for k = ⌈max / 4⌉ of its worker's slots (at most the slots it has)
+    // and gets ⌈queued × k / 4⌉.
+    for (w, own, max) in
+        [(&a, 1, 8), (&b, 2, 8), (&c, 1, 1), (&a, 1, 8), (&b, 2, 8), (&c, 1, 8), (&a, 1, 8), (&b, 2, 8)]
+    {
         let got = s.take(w, max).await;
-        assert_eq!(got.len(), (max as usize).min(left.div_ceil(4)), "{left} queued, {max} asked: {got:?}");
+        let k = own.min((max as usize).div_ceil(4));
+        let share = (max as usize).min((left * k).div_ceil(4)).min(left);
+        assert_eq!(got.len(), share, "{left} queued, {max} asked by a worker of {own} slots: {got:?}");
         assert!(got.iter().all(|p| seen.insert(p.point_id)), "a point handed out twice: {got:?}");
         left -= got.len();
         sizes.push(got.len());
     }
-    assert_eq!(sizes, vec![3, 2, 1, 1, 1, 1, 1, 0]);
+    assert_eq!(sizes, vec![3, 4, 1, 1, 1, 0, 0, 0]);
     assert_eq!(seen.len(), queued);
 }
 

@@ -17,6 +17,11 @@ pub const PROTOCOL_VERSION: u32 = 4;
 /// a batch of points, a result): 256 MiB.
 pub const MAX_MESSAGE_BYTES: usize = 256 << 20;
 
+/// Points a worker asks for per slot when it polls for work. The coordinator reads a poll's
+/// `max_points` as a request for ⌈max_points / 4⌉ of the worker's slots, and grants at most
+/// their fair share of the queue.
+pub const POINTS_PER_SLOT: u32 = 4;
+
 /// Most evaluation slots a worker may announce at registration (`fmucal worker --slots`).
 pub const MAX_SLOTS: u32 = 256;
 

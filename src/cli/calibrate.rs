@@ -1,5 +1,5 @@
 //! `fmucal calibrate JOB.toml`: checks the job locally, then either calibrates on a local
-//! cluster ([`super::local_cluster`]: an in-process coordinator and N worker processes) or
+//! cluster ([`super::local_cluster`]: an in-process coordinator and a worker process of N slots) or
 //! submits to `--coordinator URL` ([`super::client`]). Then compares the start and optimized
 //! models with the measurements, prints a summary (the optimum, the weighted RMS errors per
 //! window, and a table of each output's RMS error in its unit with its fit %), and writes
@@ -26,7 +26,7 @@ use super::client::Client;
 pub struct Args {
     /// The job file (TOML).
     job: PathBuf,
-    /// Worker processes for a local run. Default: the job's [workers] count, else the number of cores.
+    /// Workers (simulations at once) for a local run. Default: the job's [workers] count, else the number of cores.
     #[arg(long)]
     workers: Option<usize>,
     /// Output folder for result.json, convergence.csv and fit.csv.
@@ -243,7 +243,7 @@ pub fn run(args: Args) -> Result<()> {
 
     // One runtime thread: the client runs on this thread (`block_on`) and the runtime's thread
     // only runs a local run's coordinator and the connections' tasks (the simulations run in
-    // the worker processes and on threads of their own); a second runtime thread costs
+    // the worker process and on threads of their own); a second runtime thread costs
     // wake-ups across cores in the round trips with the workers, about 3 ms of a 55 ms local
     // run of a cheap model (`bash bench/fmpy_scipy_local.sh`).
     let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build()?;

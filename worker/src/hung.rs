@@ -73,8 +73,8 @@ impl Hung {
 /// Waits for the slots to end; once `stop` turns true, waits at most `grace` more. Then the
 /// slots give up on the evaluations still running (`give_up`) and hand their points back, and
 /// every pool thread is abandoned so that dropping the pool does not wait for a model that does
-/// not return; a slot that cannot reach the coordinator within 5 s more is aborted (the
-/// coordinator re-sends its points when this worker's registration expires).
+/// not return; a poller that cannot reach the coordinator within 5 s more is aborted, with the
+/// slots (the coordinator re-sends their points when this worker's registration expires).
 pub async fn join_within_grace(
     slots: &mut JoinSet<()>,
     mut stop: watch::Receiver<bool>,

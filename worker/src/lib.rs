@@ -1,6 +1,7 @@
 //! fmucal's worker: registers with a coordinator (announcing the protocol version), heartbeats,
-//! and runs `slots` evaluation slots. Each slot long-polls the coordinator with the results of
-//! its previous points and evaluates them on its own thread of the warm-evaluator pool, which
+//! and runs `slots` evaluation slots. One task long-polls the coordinator for all the slots
+//! ([`poller`]: a poll returns the results of several slots and brings points for several),
+//! and each slot evaluates the points it takes on its own thread of the warm-evaluator pool, which
 //! keeps a warm FMU instance for each of its last 4 jobs (FMU instances are not `Send`). Points
 //! of an FMU that may be instantiated only once per process all go to thread 0. Models and job data are fetched
 //! once per job and cached; unpacked models are cached by hash, and a model the worker was
@@ -17,6 +18,7 @@
 mod hung;
 mod jobs;
 pub mod metrics;
+pub mod poller;
 mod slot;
 
 use std::future::Future;
@@ -165,21 +167,32 @@ pub async fn run(config: Config, shutdown: impl Future<Output = ()> + Send + 'st
     let pool = Arc::new(pool);
     let hung = Arc::new(hung::Hung::new(config.slots.max(1), stop_tx.clone()));
     let (give_up_tx, give_up_rx) = watch::channel(false);
+    let inbox = Arc::new(poller::Inbox::default());
     let mut slots = tokio::task::JoinSet::new();
+    slots.spawn(poller::run(
+        poller::PollerContext {
+            client: client.clone(),
+            worker_id: worker_id.clone(),
+            slots: config.slots.max(1),
+            stop: stop_rx.clone(),
+            give_up: give_up_rx.clone(),
+            deadline,
+            observer: None,
+        },
+        inbox.clone(),
+    ));
     for k in 0..config.slots.max(1) {
         let ctx = slot::SlotContext {
             pool: pool.clone(),
             client: client.clone(),
-            worker_id: worker_id.clone(),
             jobs: jobs.clone(),
-            stop: stop_rx.clone(),
             index: k,
             deadline,
             hung: hung.clone(),
             give_up: give_up_rx.clone(),
             metrics: config.metrics.clone(),
         };
-        slots.spawn(slot::run(ctx));
+        slots.spawn(slot::run(ctx, inbox.clone()));
     }
     hung::join_within_grace(&mut slots, stop_rx.clone(), config.stop_grace, &give_up_tx, &pool).await;
     let _ = slots_done_tx.send(true);

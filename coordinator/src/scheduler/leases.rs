@@ -243,8 +243,11 @@ impl Leases {
     /// Leases up to `max` queued points of `batches` (oldest job first) to worker `wid`,
     /// avoiding points that already failed on it while another worker is alive. A worker may
     /// ask for several points per poll (to amortise the round trip), but gets at most its fair
-    /// share of the queue, ⌈queued / live slots⌉, so expensive batches still spread over the
-    /// whole pool.
+    /// share of the queue, so expensive batches still spread over the whole pool. A worker
+    /// polls once for its idle slots, asking [`fmucal_proto::POINTS_PER_SLOT`] for each, so a
+    /// poll counts as a request for k = ⌈max / 4⌉ of its slots (at most the slots it has), and
+    /// its share is ⌈queued × k / live slots⌉ (an older worker that polls per slot asks for 4:
+    /// one slot's share).
     ///
     /// A point sent again after a worker died holding it beside others (a suspect: it may be
     /// the one that kills) goes only to an idle worker, alone, and that worker gets nothing
@@ -270,7 +273,9 @@ impl Leases {
         }
         let queued: usize = batches.iter().map(|b| b.batch.queue.len()).sum();
         let slots = self.slots().max(1);
-        let max = max.min(queued.div_ceil(slots).max(1));
+        let own = self.workers.get(wid).map_or(1, |w| w.slots.max(1));
+        let k = own.min(max.div_ceil(fmucal_proto::POINTS_PER_SLOT as usize)).max(1);
+        let max = max.min((queued * k).div_ceil(slots).max(1));
         let mut out = vec![];
         let mut took_suspect = false;
         for OpenBatch { id, batch, want_residuals } in batches {
@@ -357,9 +362,18 @@ mod tests {
         let mut leases = Leases::default();
         let mut b = batch(&[0, 1, 2, 3, 4, 5]);
         let a = leases.register("a", 1);
-        let _b = leases.register("b", 2);
-        // 6 queued over 3 slots: 2 each, however many are asked for.
+        let two = leases.register("b", 2);
+        // 6 queued over 3 slots: 2 for each slot, however many are asked for.
         assert_eq!(ids(&leases.assign(&a, 4, open("job", &mut b))), [0, 1]);
+        // Then 4 queued: a poll for both of a worker's slots gets ⌈4 × 2 / 3⌉.
+        assert_eq!(ids(&leases.assign(&two, 8, open("job", &mut b))), [2, 3, 4]);
+        // A poll for one slot (4 points asked, as a worker that polls per slot asks) gets one
+        // slot's share, whatever slots its worker has.
+        let mut leases = Leases::default();
+        let mut b = batch(&[0, 1, 2, 3, 4, 5]);
+        let _a = leases.register("a", 1);
+        let two = leases.register("b", 2);
+        assert_eq!(ids(&leases.assign(&two, 4, open("job", &mut b))), [0, 1]);
     }
 
     #[tokio::test]

@@ -31,7 +31,7 @@ use super::client::{Client, OnCoordinator};
 pub struct Args {
     /// The job file (TOML), with an optional [diagnose] section.
     job: PathBuf,
-    /// Worker processes for a local run. Default: the job's [workers] count, else the number of cores.
+    /// Workers (simulations at once) for a local run. Default: the job's [workers] count, else the number of cores.
     #[arg(long)]
     workers: Option<usize>,
     /// Output folder for report.json, job.toml and the plots.

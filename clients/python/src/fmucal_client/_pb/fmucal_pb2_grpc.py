@@ -502,7 +502,9 @@ class WorkerPoolServicer:
         raise NotImplementedError('Method not implemented!')
 
     def PollWork(self, request, context):
-        """Returns finished points and waits (long poll) for up to max_points new ones.
+        """Returns finished points and waits (long poll) for up to max_points new ones. A worker
+        polls once a slot is idle, asking 4 points per slot: a poll counts as one for
+        k = ceil(max_points / 4) of its slots and gets at most ceil(queued * k / live slots).
         """
         context.set_code(grpc.StatusCode.UNIMPLEMENTED)
         context.set_details('Method not implemented!')
