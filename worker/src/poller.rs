@@ -147,9 +147,8 @@ impl Inbox {
     /// Whether the coordinator may be waiting for a result held: one whose job has no other
     /// point here, running or waiting for a slot.
     fn urgent(st: &State) -> bool {
-        st.results
-            .iter()
-            .any(|r| !st.running_jobs.contains_key(&r.job_id) && !st.queued.iter().any(|(a, _)| a.job_id == r.job_id))
+        let queued: std::collections::HashSet<&str> = st.queued.iter().map(|(a, _)| a.job_id.as_str()).collect();
+        st.results.iter().any(|r| !st.running_jobs.contains_key(&r.job_id) && !queued.contains(r.job_id.as_str()))
     }
 
     fn close(&self) {
@@ -245,12 +244,7 @@ async fn poll_until_stopped(p: &mut PollerContext, inbox: &Inbox) {
         };
         if let Some((results, max_points)) = ask {
             asking_carries_results = !results.is_empty();
-            let req = pb::PollWorkRequest {
-                worker_id: p.worker_id.read().await.clone(),
-                results: results.clone(),
-                max_points,
-                wait_ms: LONG_POLL_MS,
-            };
+            let req = request(p, &results, max_points, LONG_POLL_MS).await;
             let mut client = p.client.clone();
             asking = Some(tokio::spawn(async move {
                 let started = Instant::now();
@@ -261,12 +255,7 @@ async fn poll_until_stopped(p: &mut PollerContext, inbox: &Inbox) {
         }
         if let Some(results) = deliver {
             let started = Instant::now();
-            let req = pb::PollWorkRequest {
-                worker_id: p.worker_id.read().await.clone(),
-                results: results.clone(),
-                max_points: 0,
-                wait_ms: 0,
-            };
+            let req = request(p, &results, 0, 0).await;
             let answer = p.client.poll_work(req).await.map(tonic::Response::into_inner);
             if !answered(p, inbox, (answer, results, started.elapsed()), &mut failures).await {
                 return;
@@ -301,6 +290,11 @@ async fn poll_until_stopped(p: &mut PollerContext, inbox: &Inbox) {
             }
         }
     }
+}
+
+/// A poll carrying `results`, asking for `max_points` and waiting up to `wait_ms` for them.
+async fn request(p: &PollerContext, results: &[pb::PointResult], max_points: u32, wait_ms: u32) -> pb::PollWorkRequest {
+    pb::PollWorkRequest { worker_id: p.worker_id.read().await.clone(), results: results.to_vec(), max_points, wait_ms }
 }
 
 /// Takes a poll's answer: queues the points it brought (handed back at once during a stop),

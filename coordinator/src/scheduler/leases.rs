@@ -244,8 +244,9 @@ impl Leases {
     /// avoiding points that already failed on it while another worker is alive. A worker may
     /// ask for several points per poll (to amortise the round trip), but gets at most its fair
     /// share of the queue, so expensive batches still spread over the whole pool. A worker
-    /// polls once for its idle slots, asking [`fmucal_proto::POINTS_PER_SLOT`] for each, so a
-    /// poll counts as a request for k = ⌈max / 4⌉ of its slots (at most the slots it has), and
+    /// polls once for all its slots, asking [`fmucal_proto::POINTS_PER_SLOT`] per slot less
+    /// the points it is evaluating, so a poll counts as a request for k = ⌈max / 4⌉ of its
+    /// slots (at most the slots it has), and
     /// its share is ⌈queued × k / live slots⌉ (an older worker that polls per slot asks for 4:
     /// one slot's share).
     ///
