@@ -12,7 +12,7 @@
 //! | `fmucal_worker_slots` | gauge | their evaluation slots |
 //! | `fmucal_evaluations_total` | counter | results received from workers (evaluations per second: `rate()`) |
 //! | `fmucal_failed_evaluations_total` | counter | those whose simulation failed |
-//! | `fmucal_ignored_results_total` | counter | results for points never leased to their worker (forged, or a worker's bug): not told |
+//! | `fmucal_ignored_results_total` | counter | results for points never leased to their worker (forged, or a worker's bug), and those past a poll's cap (one per point its worker holds): not told |
 //! | `fmucal_late_results_total` | counter | results for points taken back from their worker (its job ended, the point timed out, the worker expired) or sent again: normal, not told |
 //! | `fmucal_refused_results_total` | counter | results that cannot be true (a negative or NaN sum of squares, a wrong number of residuals): the point is tried again |
 //! | `fmucal_evaluation_latency_seconds` | histogram | from a point's lease to its result |
@@ -88,7 +88,11 @@ impl CoordinatorMetrics {
         let counters = [
             ("fmucal_evaluations", "Results received from workers", &m.evaluations),
             ("fmucal_failed_evaluations", "Results whose simulation failed", &m.failed_evaluations),
-            ("fmucal_ignored_results", "Results for points never leased to their worker, not told", &m.ignored_results),
+            (
+                "fmucal_ignored_results",
+                "Results for points never leased to their worker, or past a poll's cap, not told",
+                &m.ignored_results,
+            ),
             (
                 "fmucal_late_results",
                 "Results for points taken back from their worker (job ended, timed out, worker expired), not told",
@@ -125,7 +129,8 @@ impl CoordinatorMetrics {
         }
     }
 
-    /// A result for a point never leased to the worker that sent it, ignored.
+    /// A result for a point never leased to the worker that sent it, or past its poll's cap,
+    /// ignored.
     pub fn ignored_result(&self) {
         self.ignored_results.inc();
     }

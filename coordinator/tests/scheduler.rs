@@ -970,6 +970,30 @@ async fn late_results_are_counted_apart_from_results_never_leased() {
 }
 
 #[tokio::test(start_paused = true)]
+async fn a_poll_carrying_more_results_than_its_worker_holds_is_cut_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut registry = prometheus_client::registry::Registry::default();
+    let metrics = CoordinatorMetrics::register(&mut registry);
+    let s = Sched::start_full(dir.path(), Store::open(dir.path()).unwrap(), None, Some(metrics));
+    let a = s.register("a", 2).await;
+    let job = s.submit(points_job(dir.path(), 2)).await;
+    let held = s.take(&a, 8).await;
+    assert_eq!(held.len(), 2, "{held:?}");
+    // Two points leased and none answered yet: a poll's first two results are read, the rest
+    // (a point never leased twice, then a true result past the cut) are ignored unread.
+    let forged = Report { point_id: 99, ..ok(&held[0]) };
+    s.answer(&a, vec![ok(&held[0]), forged.clone(), forged, ok(&held[1])]).await;
+    assert_eq!(metric(&registry, "fmucal_ignored_results_total"), 3.0);
+    assert_eq!(s.get(&job).await.status, RUNNING);
+    // Within the cut every result is read: held[1] is still leased, held[0] is remembered as
+    // answered (late).
+    s.answer(&a, vec![ok(&held[1]), ok(&held[0])]).await;
+    assert_eq!(metric(&registry, "fmucal_ignored_results_total"), 3.0);
+    assert_eq!(metric(&registry, "fmucal_late_results_total"), 1.0);
+    assert_eq!(s.get(&job).await.status, SUCCEEDED);
+}
+
+#[tokio::test(start_paused = true)]
 async fn running_jobs_named_as_orphans_are_cancelled_at_start() {
     let dir = tempfile::tempdir().unwrap();
     let s = Sched::start(dir.path());

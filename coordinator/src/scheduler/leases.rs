@@ -6,8 +6,8 @@
 //!
 //! A worker's id carries a random part from its registration, so it cannot be guessed and used
 //! to answer another worker's points. A late result, for a point re-sent or taken back since,
-//! is told apart from a forged one by the points the worker remembers giving up
-//! ([`Released`]).
+//! is told apart from a forged one by the points the coordinator remembers the worker
+//! answering or giving up ([`Released`]).
 //!
 //! Workers and reports are domain values here ([`Lease`], [`Report`]); their protobuf forms
 //! are converted at the service edge ([`crate::edge`]).
@@ -79,12 +79,14 @@ pub(super) struct Worker {
 const MAX_RELEASED: usize = 4096;
 
 /// Points answered by a worker or taken back from it, the newest [`MAX_RELEASED`], as keyed
-/// 64-bit fingerprints of (job, point) in a ring of fixed size: 32 KiB a worker, whatever it
-/// has answered. A hash set here would hold the job ids too and, churned by one insert and one
+/// 64-bit fingerprints of (job, point) in a ring: at most 32 KiB a worker, whatever it has
+/// answered. A hash set here would hold the job ids too and, churned by one insert and one
 /// remove per result, doubled its table after about 40,000 results a worker (the capacity
 /// benchmark's late RSS step). Only a result for a point no longer leased to the worker (late,
-/// or forged) scans the ring. Two points sharing a fingerprint (odds about 2⁻⁵² per forged
-/// result) would have a forged result logged as late; either way it is ignored.
+/// or forged) scans the ring, and the coordinator takes at most [`Leases::max_reports`]
+/// results from one poll. A
+/// forged result whose fingerprint matches a remembered point's (odds at most 2⁻⁵²) is logged
+/// as late; either way it is ignored.
 struct Released {
     ring: VecDeque<u64>,
     keys: std::hash::RandomState,
@@ -92,7 +94,8 @@ struct Released {
 
 impl Default for Released {
     fn default() -> Self {
-        Self { ring: VecDeque::with_capacity(MAX_RELEASED), keys: std::hash::RandomState::new() }
+        // Empty until the worker answers: it grows by doubling to MAX_RELEASED, then stays.
+        Self { ring: VecDeque::new(), keys: std::hash::RandomState::new() }
     }
 }
 
@@ -213,6 +216,13 @@ impl Leases {
     /// Their slots in all.
     pub(super) fn slots(&self) -> usize {
         self.workers.values().map(|w| w.slots).sum()
+    }
+
+    /// The most results a poll from `wid` can carry that are not forged: one for each point
+    /// leased to it and one for each it answered or gave up and is remembered (a late result).
+    /// 0 if it is not registered.
+    pub(super) fn max_reports(&self, wid: &str) -> usize {
+        self.workers.get(wid).map_or(0, |w| w.inflight.len() + w.released.ring.len())
     }
 
     /// Whether `wid` may answer `point` (job, point id); if it is leased to it, the lease ends
@@ -381,9 +391,12 @@ mod tests {
     #[test]
     fn a_worker_remembers_its_newest_released_points_in_fixed_memory() {
         let mut r = Released::default();
-        let capacity = r.ring.capacity();
         let point = |i: u64| (format!("job-{}", i % 7), i);
-        for i in 0..100_000 {
+        for i in 0..MAX_RELEASED as u64 {
+            r.insert(&point(i));
+        }
+        let capacity = r.ring.capacity();
+        for i in MAX_RELEASED as u64..100_000 {
             r.insert(&point(i));
         }
         // The newest MAX_RELEASED are remembered, the older forgotten, and the ring never grew.

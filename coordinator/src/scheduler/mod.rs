@@ -365,9 +365,17 @@ impl Scheduler {
         Ok(())
     }
 
-    /// A worker's poll: takes its `reports`, then leases it up to `max` points, waiting up to
-    /// `wait` (at most [`MAX_POLL_WAIT`]) for some if none is queued.
-    fn serve_poll(&mut self, wid: String, reports: Vec<Report>, max: usize, wait: Duration, reply: Box<dyn PollReply>) {
+    /// A worker's poll: takes its `reports` (at most [`Leases::max_reports`] of them), then
+    /// leases it up to `max` points, waiting up to `wait` (at most [`MAX_POLL_WAIT`]) for some
+    /// if none is queued.
+    fn serve_poll(
+        &mut self,
+        wid: String,
+        mut reports: Vec<Report>,
+        max: usize,
+        wait: Duration,
+        reply: Box<dyn PollReply>,
+    ) {
         if !self.leases.heartbeat(&wid) {
             // An expired worker's results: their points were sent again to others. Late, not
             // alarming.
@@ -379,6 +387,17 @@ impl Scheduler {
             }
             reply.answer(vec![], false);
             return;
+        }
+        // More results than points leased to the worker and remembered as answered or given up
+        // cannot all be true: the excess is ignored unread, so a forging worker costs a bounded
+        // amount of work per poll (its true results past the cut are sent again on timeout).
+        let most = self.leases.max_reports(&wid);
+        if reports.len() > most {
+            tracing::warn!(worker = %wid, results = reports.len(), most, "a poll carried more results than its worker holds points: the excess ignored");
+            if let Some(m) = &self.metrics {
+                (most..reports.len()).for_each(|_| m.ignored_result());
+            }
+            reports.truncate(most);
         }
         for r in reports {
             if !self.take_report(&wid, r) {
