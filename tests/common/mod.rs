@@ -328,9 +328,9 @@ impl Servers {
             &[&["coordinator", "--listen", &listen, "--data-dir", data_dir.to_str().unwrap()], coordinator_args]
                 .concat(),
         );
-        // Clients (the Python client among them) retry their connection for a few seconds
-        // only: on a loaded machine the coordinator may take longer than that to listen.
-        wait_for_listener(&listen, &mut coord);
+        // Clients (the Python client among them) wait a few seconds only for an answer: on a
+        // loaded machine the coordinator may take longer than that to listen and open its store.
+        wait_until_serving(&url, &mut coord);
         let cache = dir.join("worker-cache");
         let worker = spawn(
             &["worker", "--coordinator", &url, "--slots", &slots.to_string(), "--cache-dir", cache.to_str().unwrap()]
@@ -358,12 +358,21 @@ impl Servers {
     }
 }
 
-/// Waits until something accepts connections at `address` (up to 2 minutes), or until `child`
-/// has exited (the test then fails on its own terms, with the child's error).
-pub fn wait_for_listener(address: &str, child: &mut std::process::Child) {
+/// Waits until the coordinator at `url` answers a health check SERVING (`fmucal health`, up to
+/// 2 minutes), or until `child` has exited (the test then fails on its own terms, with the
+/// child's error). Accepting connections is not enough: a coordinator listens before it opens
+/// its stores and serves, and the Python client waits 5 s for an answer (in a CI run of
+/// 2026-12-02 it gave up after those 5 s while another test built a wheel and wrote to the
+/// disk; opening the store syncs it to disk).
+pub fn wait_until_serving(url: &str, child: &mut std::process::Child) {
     let end = std::time::Instant::now() + std::time::Duration::from_secs(120);
-    while std::time::Instant::now() < end {
-        if std::net::TcpStream::connect(address).is_ok() || !matches!(child.try_wait(), Ok(None)) {
+    while std::time::Instant::now() < end && matches!(child.try_wait(), Ok(None)) {
+        let health = std::process::Command::new(env!("CARGO_BIN_EXE_fmucal"))
+            .args(["health", url, "--timeout", "2"])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .status();
+        if health.is_ok_and(|s| s.success()) {
             return;
         }
         std::thread::sleep(std::time::Duration::from_millis(20));

@@ -84,9 +84,8 @@ const MAX_RELEASED: usize = 4096;
 /// remove per result, doubled its table after about 40,000 results a worker (the capacity
 /// benchmark's late RSS step). Only a result for a point no longer leased to the worker (late,
 /// or forged) scans the ring, and the coordinator takes at most [`Leases::max_reports`]
-/// results from one poll. A
-/// forged result whose fingerprint matches a remembered point's (odds at most 2⁻⁵²) is logged
-/// as late; either way it is ignored.
+/// results from one poll. A forged result whose fingerprint matches a remembered point's (odds
+/// at most 2⁻⁵²) is logged as late; either way it is ignored.
 struct Released {
     ring: VecDeque<u64>,
     keys: std::hash::RandomState,
@@ -399,7 +398,8 @@ mod tests {
         for i in MAX_RELEASED as u64..100_000 {
             r.insert(&point(i));
         }
-        // The newest MAX_RELEASED are remembered, the older forgotten, and the ring never grew.
+        // The newest MAX_RELEASED are remembered, the older forgotten, and the full ring never
+        // grew.
         assert_eq!(r.ring.len(), MAX_RELEASED);
         assert_eq!(r.ring.capacity(), capacity);
         let oldest_kept = 100_000 - MAX_RELEASED as u64;
