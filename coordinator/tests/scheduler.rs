@@ -120,6 +120,13 @@ impl Sched {
         Sched::start_full(dir, store, keep, None)
     }
 
+    /// A scheduler on `dir` whose metrics are registered in the returned registry.
+    fn start_with_metrics(dir: &Path) -> (Sched, prometheus_client::registry::Registry) {
+        let mut registry = prometheus_client::registry::Registry::default();
+        let metrics = CoordinatorMetrics::register(&mut registry);
+        (Sched::start_full(dir, Store::open(dir).unwrap(), None, Some(metrics)), registry)
+    }
+
     /// [`Sched::start_with`], keeping `metrics` up to date.
     fn start_full(dir: &Path, store: Store, keep: Option<usize>, metrics: Option<CoordinatorMetrics>) -> Sched {
         let models = Arc::new(Mutex::new(ModelStore::open(dir, DEFAULT_MAX_STORE_BYTES).unwrap()));
@@ -891,9 +898,7 @@ async fn registration_refuses_nonsense_slot_counts_and_bounds_the_name() {
 #[tokio::test(start_paused = true)]
 async fn an_impossible_result_is_refused_and_its_point_tried_again() {
     let dir = tempfile::tempdir().unwrap();
-    let mut registry = prometheus_client::registry::Registry::default();
-    let metrics = CoordinatorMetrics::register(&mut registry);
-    let s = Sched::start_full(dir.path(), Store::open(dir.path()).unwrap(), None, Some(metrics));
+    let (s, registry) = Sched::start_with_metrics(dir.path());
     let (a, b) = (s.register("a", 1).await, s.register("b", 1).await);
     // A points job wants residuals: their count is checked too.
     let job = s.submit(points_job(dir.path(), 3)).await;
@@ -930,9 +935,7 @@ async fn an_impossible_result_is_refused_and_its_point_tried_again() {
 #[tokio::test(start_paused = true)]
 async fn late_results_are_counted_apart_from_results_never_leased() {
     let dir = tempfile::tempdir().unwrap();
-    let mut registry = prometheus_client::registry::Registry::default();
-    let metrics = CoordinatorMetrics::register(&mut registry);
-    let s = Sched::start_full(dir.path(), Store::open(dir.path()).unwrap(), None, Some(metrics));
+    let (s, registry) = Sched::start_with_metrics(dir.path());
     let (a, b) = (s.register("a", 1).await, s.register("b", 1).await);
     let job = s.submit(points_job(dir.path(), 2)).await;
     let slow = s.take(&a, 1).await;
@@ -972,9 +975,7 @@ async fn late_results_are_counted_apart_from_results_never_leased() {
 #[tokio::test(start_paused = true)]
 async fn a_poll_carrying_more_results_than_its_worker_holds_is_cut_there() {
     let dir = tempfile::tempdir().unwrap();
-    let mut registry = prometheus_client::registry::Registry::default();
-    let metrics = CoordinatorMetrics::register(&mut registry);
-    let s = Sched::start_full(dir.path(), Store::open(dir.path()).unwrap(), None, Some(metrics));
+    let (s, registry) = Sched::start_with_metrics(dir.path());
     let a = s.register("a", 2).await;
     let job = s.submit(points_job(dir.path(), 2)).await;
     let held = s.take(&a, 8).await;
